@@ -1,0 +1,1 @@
+"""Stable-Baselines3 baselines (the only package that imports torch)."""

@@ -1,0 +1,1 @@
+"""Swarm and reference optimisers behind one small interface (knows nothing about UAVs)."""
