@@ -8,3 +8,49 @@ the project's model specification.
 from __future__ import annotations
 
 __version__ = "0.1.0"
+
+from gymnasium.envs.registration import register, registry
+
+from uav_penetration_env.build import BuiltScenario, build_scenario
+from uav_penetration_env.catalogue import HELD_OUT_SEEDS, dem_scenario, generate_dem_scenario, random_scenario
+from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
+
+__all__ = [
+    "ENV_IDS",
+    "HELD_OUT_SEEDS",
+    "BuiltScenario",
+    "PenetrationModel",
+    "Scenario",
+    "ScenarioError",
+    "StepResult",
+    "build_scenario",
+    "dem_scenario",
+    "generate_dem_scenario",
+    "load_scenario",
+    "paper_scenario",
+    "random_scenario",
+]
+
+# model.md §7a: four ids, no TimeLimit wrapper (the envs truncate themselves at time.max_steps).
+_ENV = "uav_penetration_env.env:UAVPenetrationEnv"
+_VECTOR = "uav_penetration_env.vector_env:UAVPenetrationVectorEnv"
+ENV_IDS = {
+    "UAVPenetration-v0": (_ENV, _VECTOR, {"default_scenario": "paper", "id_profile": "benchmark"}),
+    "UAVPenetrationPaper-v0": (_ENV, _VECTOR, {"default_scenario": "paper", "id_profile": "paper"}),
+    "UAVPenetrationRandom-v0": (
+        "uav_penetration_env.env:UAVPenetrationRandomEnv",
+        "uav_penetration_env.vector_env:UAVPenetrationRandomVectorEnv",
+        {"id_profile": "benchmark"},
+    ),
+    "UAVPenetrationDEM-v0": (_ENV, _VECTOR, {"default_scenario": "dem", "id_profile": "benchmark"}),
+}
+for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point=_entry,
+            vector_entry_point=_vector_entry,
+            kwargs=_kwargs,
+            max_episode_steps=None,
+        )

@@ -1,0 +1,442 @@
+"""Gymnasium environments: a thin shell around :class:`PenetrationModel` (model.md §7a).
+
+``UAVPenetrationEnv`` validates the action, calls the model on a batch of one and packs the
+Gymnasium tuple; the native vector env (:mod:`uav_penetration_env.vector_env`) calls the same
+model on ``(num_envs, 6)``. Both share the scenario sources and the info builder below, so a
+vector env equals N single envs step by step.
+
+Version history:
+    v0 (0.1.0): first release (model.md as of 2026-11).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from uav_penetration_env.build import BuiltScenario, build_scenario
+from uav_penetration_env.catalogue import dem_scenario, random_scenario
+from uav_penetration_env.kinematics import UAVLimits
+from uav_penetration_env.model import OBSERVATION_LIMIT, OBSERVATION_SIZE, PenetrationModel, StepResult
+from uav_penetration_env.radar import fuse
+from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
+from uav_penetration_env.types import FloatArray
+
+ScenarioLike = Scenario | Mapping[str, Any] | str | Path | None
+DEFAULT_SCENARIOS = {"paper": paper_scenario, "dem": dem_scenario}
+RANDOM_RADAR_SLOTS = 8  # model.md §7a: radars padded to M_max = 8 in the Random id
+POOL_SEED_OFFSET = 2**32  # pool scenarios never collide with user seeds or the held-out set
+
+
+def resolve_scenario(
+    scenario: ScenarioLike, default: str, profile: str | None, id_profile: str | None
+) -> Scenario:
+    """The scenario an env runs: a path, dict or Scenario (else the id's default), with its profile.
+
+    Profile precedence (model.md §7a): the ``profile=`` keyword, else the id's profile, else the
+    file's.
+    """
+    if scenario is None:
+        resolved = DEFAULT_SCENARIOS[default]()
+    elif isinstance(scenario, str) and scenario in DEFAULT_SCENARIOS and not Path(scenario).exists():
+        resolved = DEFAULT_SCENARIOS[scenario]()
+    else:
+        resolved = load_scenario(scenario)
+    return resolved.with_profile(profile or id_profile)
+
+
+class FixedScenarioSource:
+    """One scenario for every episode (its natural terrain redrawn per reset if it says so)."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.radar_slots: int | None = None
+
+    def choose(self, seed: int | None, rng: np.random.Generator) -> Scenario:
+        """The scenario of the next episode; draws from ``rng`` only for ``randomize_terrain``."""
+        del seed
+        return redraw_terrain(self.scenario, rng)
+
+
+class RandomScenarioSource:
+    """Procedural scenarios (model.md §7c): the scenario of seed s, or a pick from a shared pool.
+
+    ``choose(seed=s)`` returns ``random_scenario(default_rng(s), difficulty)``; ``choose(None)``
+    draws uniformly, with the env's generator, among ``pool_size`` scenarios whose seeds derive
+    from ``pool_seed`` (by default the first reset's seed).
+    """
+
+    def __init__(
+        self,
+        difficulty: float = 0.5,
+        pool_size: int = 32,
+        pool_seed: int | None = None,
+        profile: str | None = None,
+    ) -> None:
+        if not 0.0 <= difficulty <= 1.0:
+            raise ScenarioError("difficulty", difficulty, "a number in [0, 1]")
+        if pool_size < 1:
+            raise ScenarioError("pool_size", pool_size, "an integer >= 1")
+        self.difficulty = difficulty
+        self.pool_size = pool_size
+        self.pool_seed = pool_seed
+        self.profile = profile
+        self.radar_slots = RANDOM_RADAR_SLOTS
+        self._cache: dict[int, Scenario] = {}
+
+    def scenario_of_seed(self, seed: int) -> Scenario:
+        """The scenario of seed ``seed`` (memoised)."""
+        if seed not in self._cache:
+            scenario = random_scenario(np.random.default_rng(seed), self.difficulty, name=f"random-{seed}")
+            self._cache[seed] = scenario.with_profile(self.profile)
+        return self._cache[seed]
+
+    def pool_seeds(self) -> list[int]:
+        """The seeds of the pool scenarios (requires ``pool_seed``)."""
+        state = np.random.SeedSequence(self.pool_seed).generate_state(self.pool_size, dtype=np.uint32)
+        return [POOL_SEED_OFFSET + int(s) for s in state]
+
+    def choose(self, seed: int | None, rng: np.random.Generator) -> Scenario:
+        """The scenario of the next episode."""
+        if self.pool_seed is None:
+            self.pool_seed = seed if seed is not None else int(rng.integers(2**63 - 1))
+        if seed is not None:
+            return redraw_terrain(self.scenario_of_seed(seed), rng)
+        pick = self.pool_seeds()[int(rng.integers(self.pool_size))]
+        return redraw_terrain(self.scenario_of_seed(pick), rng)
+
+
+def redraw_terrain(scenario: Scenario, rng: np.random.Generator) -> Scenario:
+    """With ``terrain.randomize_terrain``, a new natural-terrain seed drawn from the env generator."""
+    if not scenario.terrain.randomize_terrain:
+        return scenario
+    return replace(scenario, terrain=replace(scenario.terrain, seed=int(rng.integers(2**31))))
+
+
+class BuiltCache:
+    """Built scenarios by content hash, shared by the episodes of one env."""
+
+    def __init__(self, limit: int = 256) -> None:
+        self._built: dict[str, BuiltScenario] = {}
+        self._limit = limit
+
+    def get(self, scenario: Scenario) -> BuiltScenario:
+        """Build (or fetch) the arrays of ``scenario``."""
+        key = scenario.hash
+        if key not in self._built:
+            if len(self._built) >= self._limit:
+                self._built.pop(next(iter(self._built)))
+            self._built[key] = build_scenario(scenario)
+        return self._built[key]
+
+
+def observation_space() -> spaces.Box:
+    """The 67-slot observation box of model.md §7a."""
+    return spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (OBSERVATION_SIZE,), dtype=np.float32)
+
+
+def action_space(limits: UAVLimits) -> spaces.Box:
+    """Physical-unit action box [dv (m/s), dphi (rad), dtheta (rad)] from the scenario's limits."""
+    high = limits.action_high.astype(np.float32)
+    return spaces.Box(-high, high, dtype=np.float32)
+
+
+def validate_action(action: Any, high: FloatArray, shape: tuple[int, ...] = (3,)) -> FloatArray:
+    """Convert to float64 once, reject NaN/inf and wrong shapes, clip to the action box.
+
+    Raises:
+        ValueError: the action has the wrong shape or a non-finite value.
+    """
+    try:
+        array = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(
+            f"action: got {action!r}, expected a float array of shape {shape} [dv, dphi, dtheta]"
+        ) from error
+    if array.shape != shape:
+        raise ValueError(
+            f"action: got shape {array.shape}, expected {shape} [dv (m/s), dphi (rad), dtheta (rad)]"
+        )
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"action: got {array.tolist()}, expected finite values (no NaN or inf)")
+    return np.clip(array, -high, high)
+
+
+def batched_info(
+    model: PenetrationModel, result: StepResult, scenario_index: np.ndarray | None
+) -> dict[str, np.ndarray]:
+    """The ``info`` entries of api.md for a batch of transitions, as arrays with a leading batch axis."""
+    state = result.state
+    return {
+        "J": result.J,
+        "penalty": result.penalty,
+        "terrain_threat": result.terrain_threat,
+        "radar_threat": result.radar_threat,
+        "third_term": result.third_term,
+        "fuel_kg": result.fuel_kg,
+        "progress": result.progress_km,
+        "terrain_threat_n": result.terrain_threat_n,
+        "radar_threat_n": result.radar_threat_n,
+        "third_term_n": result.third_term_n,
+        "radar_threat_per_radar": result.radar_threat_per_radar,
+        "detection_prob": result.detection_prob,
+        "detected": result.detection_prob > 0.5,
+        "position": np.column_stack((state[:, 0] / 1000.0, state[:, 1] / 1000.0, state[:, 2])),
+        "altitude_agl": result.altitude_agl,
+        "distance_to_goal": result.goal_distance / 1000.0,
+        "reached_goal": result.reached_goal,
+        "collided": result.collided,
+        "out_of_area": result.out_of_area,
+        "step": result.step_index.astype(np.int64),
+        "state": state,
+    }
+
+
+def reset_result(
+    model: PenetrationModel, states: FloatArray, scenario_index: np.ndarray | None
+) -> StepResult:
+    """A :class:`StepResult` describing states at reset, before any transition.
+
+    Quantities of the state alone (terrain and radar threats, visibility, detection probability,
+    altitude, goal distance) describe the start state; those of a transition (J, penalty, the
+    third term, fuel, progress and the normalised terms) are 0.
+    """
+    batch = len(states)
+    zeros = np.zeros(batch)
+    false = np.zeros(batch, dtype=bool)
+    terrain, per_radar, visibility, detection = model.state_threats(states, scenario_index)
+    return StepResult(
+        state=states,
+        step_index=np.zeros(batch, dtype=np.int64),
+        J=zeros,
+        penalty=zeros,
+        terrain_threat=terrain,
+        radar_threat=fuse(per_radar, model.scenario.radar_model.fusion),
+        third_term=zeros,
+        terrain_threat_n=zeros,
+        radar_threat_n=zeros,
+        third_term_n=zeros,
+        fuel_kg=zeros,
+        progress_km=zeros,
+        radar_threat_per_radar=per_radar,
+        visibility=visibility,
+        detection_prob=detection,
+        altitude_agl=states[:, 2] - model.height(states[:, 0], states[:, 1], scenario_index),
+        goal_distance=model.goal_distance(states, scenario_index),
+        reached_goal=false,
+        collided=false,
+        out_of_area=false,
+        terminated=false,
+        truncated=false,
+    )
+
+
+def unbatch(info: dict[str, np.ndarray], row: int) -> dict[str, Any]:
+    """One row of a batched info as Python scalars and small arrays."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        item = value[row]
+        out[key] = item.copy() if isinstance(item, np.ndarray) else item.item()
+    return out
+
+
+class UAVPenetrationEnv(gym.Env):
+    """UAV low-altitude penetration over terrain past a radar network (Luo, Liang & Li 2022).
+
+    Observation: ``Box(-10, 10, (67,), float32)`` (model.md §7a). Action: ``Box(3,)`` float32 in
+    physical units ``[dv (m/s), dphi (rad), dtheta (rad)]``, bounded by the scenario's per-step
+    limits; the env converts it to float64 once, **clips it to the box**, and raises
+    ``ValueError`` for NaN/inf or a wrong shape. Reward: ``-(J(k) + penalty)`` on every step.
+    The episode terminates at the goal, on a collision, or out of the map/above the ceiling, and
+    truncates itself at ``time.max_steps``.
+
+    Args:
+        scenario: a YAML path, a mapping, a :class:`Scenario`, or ``None`` for the id's default.
+        profile: ``"benchmark"`` or ``"paper"``; overrides the id's and the file's profile.
+        render_mode: ``"rgb_array"`` or ``"human"``.
+        default_scenario: the id's scenario when ``scenario`` is None (``"paper"`` or ``"dem"``).
+        id_profile: the id's profile (set at registration).
+
+    Version history:
+        v0: first release.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+
+    def __init__(
+        self,
+        scenario: ScenarioLike = None,
+        profile: str | None = None,
+        render_mode: str | None = None,
+        *,
+        default_scenario: str = "paper",
+        id_profile: str | None = None,
+    ) -> None:
+        self._init_source(
+            FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile)),
+            render_mode,
+        )
+
+    def _init_source(
+        self, source: FixedScenarioSource | RandomScenarioSource, render_mode: str | None
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode: got {render_mode!r}, expected one of {self.metadata['render_modes']} or None"
+            )
+        self.render_mode = render_mode
+        self.source = source
+        self._built = BuiltCache()
+        self._models: dict[str, PenetrationModel] = {}
+        self.model: PenetrationModel | None = None
+        self.scenario: Scenario | None = None
+        if isinstance(source, FixedScenarioSource):
+            self._use(source.scenario)
+            limits = self.model.limits
+            self.state = self.model.initial_state()
+        else:
+            # Procedural scenarios keep the default airframe, so the action box is known before
+            # the first (expensive) scenario build at reset.
+            limits = UAVLimits.from_scenario(Scenario())
+            self.state = np.zeros(6)
+        self.observation_space = observation_space()
+        self.action_space = action_space(limits)
+        self.step_index = 0
+        self._done = True
+        self._track: list[FloatArray] = []
+        self._last_result: StepResult | None = None
+        self._renderer = None
+
+    def _use(self, scenario: Scenario) -> None:
+        key = scenario.hash
+        if key not in self._models:
+            if len(self._models) >= 64:
+                self._models.pop(next(iter(self._models)))
+            self._models[key] = PenetrationModel(
+                self._built.get(scenario), radar_slots=self.source.radar_slots
+            )
+        self.model = self._models[key]
+        self.scenario = scenario
+
+    # --- Gymnasium API ---------------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode; ``seed`` seeds the env generator (and picks the Random id's scenario)."""
+        super().reset(seed=seed)
+        self._use(self.source.choose(seed, self.np_random))
+        self.state = self.model.initial_state(self.np_random)
+        self.step_index = 0
+        self._done = False
+        self._track = [self.state.copy()]
+        result = reset_result(self.model, self.state[None], None)
+        self._last_result = result
+        return self._observe(result), unbatch(batched_info(self.model, result, None), 0)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Fly one planning period with ``action``; see the class docstring for the reward."""
+        if self._done or self.model is None:
+            raise RuntimeError("step() called without a running episode: call reset() first")
+        control = validate_action(action, self.model.limits.action_high)
+        result = self.model.step(self.state[None], control[None], self.step_index)
+        self.state = result.state[0].copy()
+        self.step_index += 1
+        terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
+        self._done = terminated or truncated
+        self._track.append(self.state.copy())
+        self._last_result = result
+        info = unbatch(batched_info(self.model, result, None), 0)
+        if self.render_mode == "human":
+            self.render()
+        return self._observe(result), float(result.reward[0]), terminated, truncated, info
+
+    def _observe(self, result: StepResult) -> np.ndarray:
+        return self.model.observe(result.state, result.step_index, result)[0]
+
+    def set_state(self, state: Any, step_index: int = 0) -> tuple[np.ndarray, dict[str, Any]]:
+        """Continue the episode from any exact state and step index (planners, tests).
+
+        Returns:
+            The observation and info of that state (zero costs, as at reset).
+
+        Raises:
+            ValueError: the state is not 6 finite numbers or the step index is outside [0, K_max).
+        """
+        if self.model is None:
+            raise RuntimeError("set_state() needs a scenario: call reset() first")
+        array = np.asarray(state, dtype=np.float64)
+        if array.shape != (6,) or not np.all(np.isfinite(array)):
+            raise ValueError(
+                f"state: got {np.asarray(state).tolist()}, expected 6 finite numbers [x, y, z, v, phi, theta]"
+            )
+        if not (isinstance(step_index, (int, np.integer)) and 0 <= step_index < self.model.max_steps):
+            raise ValueError(
+                f"step_index: got {step_index!r}, expected an integer in [0, {self.model.max_steps})"
+            )
+        self.state = array.copy()
+        self.step_index = int(step_index)
+        self._done = False
+        self._track = [self.state.copy()]
+        result = replace(
+            reset_result(self.model, self.state[None], None), step_index=np.array([self.step_index])
+        )
+        self._last_result = result
+        return self._observe(result), unbatch(batched_info(self.model, result, None), 0)
+
+    def render(self) -> np.ndarray | None:
+        """Draw terrain, radars with their coverage at the UAV's altitude, start, goal and the track."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from uav_penetration_env.render import SceneRenderer
+
+        if self._renderer is None or self._renderer.model is not self.model:
+            if self._renderer is not None:
+                self._renderer.close()
+            self._renderer = SceneRenderer(self.model, human=self.render_mode == "human")
+        frame = self._renderer.draw(np.array(self._track), self.state)
+        return frame if self.render_mode == "rgb_array" else None
+
+    def close(self) -> None:
+        """Release the renderer's figure."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class UAVPenetrationRandomEnv(UAVPenetrationEnv):
+    """Procedurally generated scenarios (model.md §7c), ``UAVPenetrationRandom-v0``.
+
+    ``reset(seed=s)`` flies the scenario of seed s; ``reset()`` picks one of ``pool_size`` pool
+    scenarios with the env generator. Radars are padded to 8 slots, so ``radar_threat_per_radar``
+    has shape (8,).
+
+    Args:
+        difficulty: d in [0, 1] (model.md §7c).
+        pool_size: number of pool scenarios for seedless resets.
+        pool_seed: seed of the pool (default: the first reset's seed).
+        profile: ``"benchmark"`` or ``"paper"`` (the paper profile needs payoff constants).
+        render_mode: ``"rgb_array"`` or ``"human"``.
+        id_profile: the id's profile (set at registration).
+    """
+
+    def __init__(
+        self,
+        difficulty: float = 0.5,
+        pool_size: int = 32,
+        pool_seed: int | None = None,
+        profile: str | None = None,
+        render_mode: str | None = None,
+        *,
+        id_profile: str | None = None,
+    ) -> None:
+        self._init_source(
+            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile), render_mode
+        )

@@ -1,0 +1,358 @@
+"""Native numpy-batched vector env: the same ``PenetrationModel`` on ``(num_envs, 6)`` (model.md §7a).
+
+Supports Gymnasium's ``NEXT_STEP`` (default), ``SAME_STEP`` and ``DISABLED`` autoreset modes and
+returns infos in ``SyncVectorEnv``'s layout (every key batched, with a ``_key`` mask), so it can
+replace ``gym.make_vec(..., vectorization_mode="sync")`` exactly: sub-env i equals a single env
+reset with seed ``s + i`` (or ``seeds[i]``), step for step.
+
+For the Random id every sub-env draws its scenarios from one shared pool; the model then holds
+the scenarios in use as one pool with radars padded to 8 slots, and each row carries its pool
+index.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from uav_penetration_env.env import (
+    BuiltCache,
+    FixedScenarioSource,
+    RandomScenarioSource,
+    ScenarioLike,
+    action_space,
+    batched_info,
+    observation_space,
+    reset_result,
+    resolve_scenario,
+    validate_action,
+)
+from uav_penetration_env.kinematics import UAVLimits
+from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.scenario import Scenario
+
+
+def _autoreset_mode(value: AutoresetMode | str) -> AutoresetMode:
+    if isinstance(value, AutoresetMode):
+        return value
+    names = {mode.name.lower(): mode for mode in AutoresetMode} | {
+        mode.value.lower(): mode for mode in AutoresetMode
+    }
+    key = str(value).lower().replace("-", "_")
+    if key not in names:
+        raise ValueError(f"autoreset_mode: got {value!r}, expected one of {[m.name for m in AutoresetMode]}")
+    return names[key]
+
+
+def _vector_info(
+    info: dict[str, np.ndarray], rows: np.ndarray | None = None, num_envs: int | None = None
+) -> dict[str, Any]:
+    """Batched info in SyncVectorEnv's layout: each key plus a ``_key`` mask.
+
+    With ``rows``, ``info`` holds only those rows and is scattered into ``num_envs``-sized arrays.
+    """
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        if rows is None:
+            out[key] = value
+            out[f"_{key}"] = np.ones(len(value), dtype=bool)
+        else:
+            full = np.zeros((num_envs, *value.shape[1:]), dtype=value.dtype)
+            full[rows] = value
+            mask = np.zeros(num_envs, dtype=bool)
+            mask[rows] = True
+            out[key], out[f"_{key}"] = full, mask
+    return out
+
+
+class UAVPenetrationVectorEnv(VectorEnv):
+    """``num_envs`` penetration episodes stepped as one numpy batch.
+
+    Args:
+        num_envs: number of sub-envs.
+        scenario: a YAML path, mapping or :class:`Scenario` (``None``: the id's default).
+        profile: ``"benchmark"`` or ``"paper"`` (overrides the id's and the file's profile).
+        render_mode: ``"rgb_array"`` (a tuple of frames, one per sub-env) or ``None``.
+        autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED``.
+        default_scenario: the id's scenario (set at registration).
+        id_profile: the id's profile (set at registration).
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        scenario: ScenarioLike = None,
+        profile: str | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        *,
+        default_scenario: str = "paper",
+        id_profile: str | None = None,
+    ) -> None:
+        source = FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile))
+        self._setup(num_envs, source, render_mode, autoreset_mode)
+
+    def _setup(
+        self,
+        num_envs: int,
+        source: FixedScenarioSource | RandomScenarioSource,
+        render_mode: str | None,
+        autoreset_mode: AutoresetMode | str,
+    ) -> None:
+        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs: got {num_envs!r}, expected an integer >= 1")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode: got {render_mode!r}, expected 'rgb_array' or None")
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+        self.metadata = {"render_modes": ["rgb_array"], "autoreset_mode": self.autoreset_mode}
+        self.source = source
+        self._built = BuiltCache()
+        self._model: PenetrationModel | None = None
+        self._model_keys: list[str] = []
+        if isinstance(source, FixedScenarioSource):
+            self._load([source.scenario])
+            limits = self._model.limits
+        else:
+            limits = UAVLimits.from_scenario(Scenario())
+        self.single_observation_space = observation_space()
+        self.single_action_space = action_space(limits)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._high = limits.action_high
+        n = self.num_envs
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        self._scenarios: list[Scenario | None] = [None] * n
+        self._states = np.zeros((n, 6))
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._index = np.zeros(n, dtype=np.intp)
+        self._autoreset = np.zeros(n, dtype=bool)
+        self._started = False
+        self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
+
+    # --- the scenario pool held by the model ---------------------------------------------------------
+
+    @property
+    def model(self) -> PenetrationModel:
+        """The batched model currently serving the sub-envs."""
+        if self._model is None:
+            raise RuntimeError("no scenario loaded yet: call reset() first")
+        return self._model
+
+    def _load(self, needed: Sequence[Scenario]) -> None:
+        """Make sure the model's pool holds ``needed`` (rebuilding it only when something is missing)."""
+        missing = [s for s in needed if s.hash not in self._model_keys]
+        if not missing:
+            return
+        in_use = {s.hash for s in self._scenarios if s is not None} | {s.hash for s in needed}
+        cap = self.num_envs + getattr(self.source, "pool_size", 1)
+        keep = [k for k in self._model_keys if k in in_use or len(self._model_keys) + len(missing) <= cap]
+        scenarios = {s.hash: s for s in (*needed, *[s for s in self._scenarios if s is not None])}
+        keys = keep + [s.hash for s in dict.fromkeys(missing, None)]
+        keys = list(dict.fromkeys(keys))
+        built = [
+            self._built.get(scenarios[k]) if k in scenarios else self._model.built[self._model_keys.index(k)]
+            for k in keys
+        ]
+        self._model = PenetrationModel(built, radar_slots=self.source.radar_slots)
+        self._model_keys = keys
+        position = {k: i for i, k in enumerate(keys)}
+        for i, s in enumerate(self._scenarios):
+            if s is not None:
+                self._index[i] = position[s.hash]
+
+    def _rows_index(self, rows: np.ndarray) -> np.ndarray | None:
+        return None if self._model.pool_size == 1 else self._index[rows]
+
+    # --- Gymnasium API ---------------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | Sequence[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset all sub-envs (or those in ``options["reset_mask"]``); int seed s gives sub-env i seed s + i."""
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed: got {len(seeds)} seeds, expected {n} (one per sub-env)")
+        mask = np.ones(n, dtype=bool)
+        if options is not None and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"])
+            if mask.shape != (n,) or mask.dtype != np.bool_ or not mask.any():
+                raise ValueError(
+                    f"options['reset_mask']: expected a bool array of shape ({n},) with a True value"
+                )
+        rows = np.flatnonzero(mask)
+        self._reset_rows(rows, [seeds[i] for i in rows])
+        self._started = True
+        result = reset_result(self._model, self._states[rows], self._rows_index(rows))
+        # observe() without a result re-evaluates the radars at each state: the same numbers a step
+        # into that state reported, so rows that were not reset keep their observation.
+        obs = self._model.observe(
+            self._states, self._steps, None, None if self._model.pool_size == 1 else self._index
+        )
+        info = batched_info(self._model, result, None)
+        if len(rows) == n:
+            return obs, _vector_info(info)
+        return obs, _vector_info(info, rows, n)
+
+    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        chosen = []
+        for i, s in zip(rows, seeds, strict=True):
+            if s is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(s)
+            chosen.append(self.source.choose(s, self._rngs[i]))
+        self._load(chosen)
+        position = {k: j for j, k in enumerate(self._model_keys)}
+        for i, scenario in zip(rows, chosen, strict=True):
+            self._scenarios[i] = scenario
+            self._index[i] = position[scenario.hash]
+        for i in rows:
+            self._states[i] = self._model.initial_state(self._rngs[i], int(self._index[i]))
+            self._steps[i] = 0
+            self._autoreset[i] = False
+            if self.render_mode is not None:
+                self._tracks[i] = [self._states[i].copy()]
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every sub-env; finished ones reset as ``autoreset_mode`` prescribes."""
+        if not self._started:
+            raise RuntimeError("step() called before reset()")
+        n = self.num_envs
+        controls = validate_action(actions, self._high, shape=(n, 3))
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=bool)
+        truncated = np.zeros(n, dtype=bool)
+
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            resetting = np.flatnonzero(self._autoreset)
+            stepping = np.flatnonzero(~self._autoreset)
+        else:
+            if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
+                raise RuntimeError(
+                    "sub-envs finished: reset them with options={'reset_mask': ...} (autoreset DISABLED)"
+                )
+            resetting = np.zeros(0, dtype=np.intp)
+            stepping = np.arange(n)
+
+        if len(resetting):
+            self._reset_rows(resetting, [None] * len(resetting))
+        index = None if self._model.pool_size == 1 else self._index
+        result = self._model.step(
+            self._states[stepping],
+            controls[stepping],
+            self._steps[stepping],
+            None if index is None else index[stepping],
+        )
+        self._states[stepping] = result.state
+        self._steps[stepping] = result.step_index
+        rewards[stepping] = result.reward
+        terminated[stepping] = result.terminated
+        truncated[stepping] = result.truncated
+        done = terminated | truncated
+        if self.render_mode is not None:
+            for i in stepping:
+                self._tracks[i].append(self._states[i].copy())
+
+        full = self._full_result(stepping, result, resetting)
+        obs = self._model.observe(self._states, self._steps, full, index)
+        info = _vector_info(batched_info(self._model, full, None))
+
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
+            finished = np.flatnonzero(done)
+            final_obs = np.full(n, None, dtype=object)
+            for i in finished:
+                final_obs[i] = obs[i].copy()
+            final_info = _vector_info(
+                {k: v[finished] for k, v in batched_info(self._model, full, None).items()}, finished, n
+            )
+            self._reset_rows(finished, [None] * len(finished))
+            index = None if self._model.pool_size == 1 else self._index
+            fresh = reset_result(
+                self._model, self._states[finished], None if index is None else index[finished]
+            )
+            obs = self._model.observe(self._states, self._steps, None, index)
+            reset_info = batched_info(self._model, fresh, None)
+            for key, value in reset_info.items():
+                info[key] = info[key].copy()
+                info[key][finished] = value
+            info["final_obs"], info["_final_obs"] = final_obs, done.copy()
+            info["final_info"], info["_final_info"] = final_info, done.copy()
+        else:
+            self._autoreset = done
+        return obs, rewards, terminated, truncated, info
+
+    def _full_result(self, stepping: np.ndarray, result: StepResult, resetting: np.ndarray) -> StepResult:
+        """Merge the stepped rows with the rows that were reset this step (NEXT_STEP mode)."""
+        if not len(resetting):
+            return result
+        n = self.num_envs
+        index = None if self._model.pool_size == 1 else self._index
+        fresh = reset_result(
+            self._model, self._states[resetting], None if index is None else index[resetting]
+        )
+        merged = {}
+        for name in StepResult.__dataclass_fields__:
+            a, b = getattr(result, name), getattr(fresh, name)
+            out = np.zeros((n, *a.shape[1:]), dtype=a.dtype)
+            out[stepping], out[resetting] = a, b
+            merged[name] = out
+        return StepResult(**merged)
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One frame per sub-env (``rgb_array``)."""
+        if self.render_mode is None:
+            return None
+        from uav_penetration_env.render import SceneRenderer
+
+        frames = []
+        for i in range(self.num_envs):
+            model = PenetrationModel(self._model.built[self._index[i]])
+            renderer = SceneRenderer(model, human=False)
+            frames.append(renderer.draw(np.array(self._tracks[i]), self._states[i]))
+            renderer.close()
+        return tuple(frames)
+
+
+class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
+    """Vector env of ``UAVPenetrationRandom-v0``: sub-envs share one scenario pool (model.md §7c).
+
+    Args:
+        num_envs: number of sub-envs.
+        difficulty: d in [0, 1].
+        pool_size: pool scenarios for seedless resets.
+        pool_seed: seed of the shared pool (default: the first reset's seed for sub-env 0).
+        profile: ``"benchmark"`` or ``"paper"``.
+        render_mode: ``"rgb_array"`` or ``None``.
+        autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED``.
+        id_profile: the id's profile (set at registration).
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        difficulty: float = 0.5,
+        pool_size: int = 32,
+        pool_seed: int | None = None,
+        profile: str | None = None,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        *,
+        id_profile: str | None = None,
+    ) -> None:
+        self._setup(
+            num_envs,
+            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile),
+            render_mode,
+            autoreset_mode,
+        )
