@@ -188,7 +188,8 @@ def normalize_bounds(bounds: BoundsLike) -> tuple[FloatArray, FloatArray]:
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise ValueError(
-            f"bounds[{i}]: got lower={lo[i]!r}, upper={hi[i]!r}, expected finite values with lower < upper"
+            f"bounds[{i}]: got lower={float(lo[i])!r}, upper={float(hi[i])!r}, "
+            "expected finite values with lower < upper"
         )
     return lo, hi
 
@@ -217,7 +218,7 @@ def check_x0(x0: ArrayLike | None, lo: FloatArray, hi: FloatArray) -> FloatArray
         raise ValueError(f"x0: got shape {arr.shape}, expected {lo.shape} (one value per bound)")
     if not np.all(np.isfinite(arr)):
         i = int(np.flatnonzero(~np.isfinite(arr))[0])
-        raise ValueError(f"x0[{i}]: got {arr[i]!r}, expected a finite value")
+        raise ValueError(f"x0[{i}]: got {float(arr[i])!r}, expected a finite value")
     return np.minimum(np.maximum(arr, lo), hi)
 
 
