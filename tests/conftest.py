@@ -17,3 +17,44 @@ settings.register_profile(
 )
 settings.register_profile("dev", deadline=None, max_examples=300)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+# --- a tiny, fast scenario: a 75 km map on a 1 km grid, one mountain, two radars ----------------
+
+import pytest  # noqa: E402
+
+from uav_penetration_env.scenario import Scenario  # noqa: E402
+
+TINY_SCENARIO = {
+    "name": "tiny",
+    "map": {"x_km": [-25, 50], "y_km": [-25, 50], "grid_m": 1000, "ceiling_m": 3000},
+    "start": {"x_km": 0, "y_km": 0, "z_agl_m": 100},
+    "goal": {"x_km": 25, "y_km": 25, "radius_km": 3},
+    "time": {"dt_s": 300, "max_steps": 30},
+    "terrain": {
+        "seed": 3,
+        "natural": {"method": "gaussian_field", "height_m": 150, "correlation_km": 5},
+        "mountains": [{"x_km": 12, "y_km": 14, "height_m": 400}],
+    },
+    "radars": [
+        {"name": "A", "x_km": 5, "y_km": 25, "z_m": 300},
+        {"name": "B", "x_km": 25, "y_km": 5, "mast_m": 15},
+    ],
+    # Used only under the paper profile (eq. 39); round numbers of the right orders of magnitude.
+    "normalisation": {
+        "payoff": {
+            "constants": {"terrain": [0, 1], "radar": [0, 50], "third": [-0.01, 0.035], "crash_penalty_per_step": 1.0},
+            "provenance": {"method": "test fixture"},
+        }
+    },
+}
+
+
+def tiny_scenario(**changes: object) -> Scenario:
+    """The tiny scenario, with nested ``changes`` (file units) merged in."""
+    return Scenario.from_dict(TINY_SCENARIO).updated(changes)
+
+
+@pytest.fixture(scope="session")
+def tiny() -> Scenario:
+    return tiny_scenario()

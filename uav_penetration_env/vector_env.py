@@ -116,6 +116,15 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self._built = BuiltCache()
         self._model: PenetrationModel | None = None
         self._model_keys: list[str] = []
+        n = self.num_envs
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        self._scenarios: list[Scenario | None] = [None] * n
+        self._states = np.zeros((n, 6))
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._index = np.zeros(n, dtype=np.intp)
+        self._autoreset = np.zeros(n, dtype=bool)
+        self._started = False
+        self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
         if isinstance(source, FixedScenarioSource):
             self._load([source.scenario])
             limits = self._model.limits
@@ -126,15 +135,6 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._high = limits.action_high
-        n = self.num_envs
-        self._rngs: list[np.random.Generator | None] = [None] * n
-        self._scenarios: list[Scenario | None] = [None] * n
-        self._states = np.zeros((n, 6))
-        self._steps = np.zeros(n, dtype=np.int64)
-        self._index = np.zeros(n, dtype=np.intp)
-        self._autoreset = np.zeros(n, dtype=bool)
-        self._started = False
-        self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
 
     # --- the scenario pool held by the model ---------------------------------------------------------
 
@@ -146,26 +146,24 @@ class UAVPenetrationVectorEnv(VectorEnv):
         return self._model
 
     def _load(self, needed: Sequence[Scenario]) -> None:
-        """Make sure the model's pool holds ``needed`` (rebuilding it only when something is missing)."""
-        missing = [s for s in needed if s.hash not in self._model_keys]
-        if not missing:
+        """Make sure the model's pool holds ``needed``, rebuilding it only when something is missing.
+
+        The pool keeps every scenario loaded so far while it stays under ``num_envs + pool_size``
+        entries (so the Random id stops rebuilding once its pool is loaded), else only those in use.
+        """
+        if all(s.hash in self._model_keys for s in needed):
             return
-        in_use = {s.hash for s in self._scenarios if s is not None} | {s.hash for s in needed}
+        loaded = [b.scenario for b in self._model.built] if self._model is not None else []
+        in_use = [s for s in self._scenarios if s is not None]
         cap = self.num_envs + getattr(self.source, "pool_size", 1)
-        keep = [k for k in self._model_keys if k in in_use or len(self._model_keys) + len(missing) <= cap]
-        scenarios = {s.hash: s for s in (*needed, *[s for s in self._scenarios if s is not None])}
-        keys = keep + [s.hash for s in dict.fromkeys(missing, None)]
-        keys = list(dict.fromkeys(keys))
-        built = [
-            self._built.get(scenarios[k]) if k in scenarios else self._model.built[self._model_keys.index(k)]
-            for k in keys
-        ]
-        self._model = PenetrationModel(built, radar_slots=self.source.radar_slots)
-        self._model_keys = keys
-        position = {k: i for i, k in enumerate(keys)}
-        for i, s in enumerate(self._scenarios):
-            if s is not None:
-                self._index[i] = position[s.hash]
+        candidates = [*loaded, *needed] if len(loaded) + len(needed) <= cap else [*in_use, *needed]
+        pool = list({s.hash: s for s in candidates}.values())
+        self._model = PenetrationModel([self._built.get(s) for s in pool], radar_slots=self.source.radar_slots)
+        self._model_keys = [s.hash for s in pool]
+        position = {k: i for i, k in enumerate(self._model_keys)}
+        for i, scenario in enumerate(self._scenarios):
+            if scenario is not None and scenario.hash in position:
+                self._index[i] = position[scenario.hash]
 
     def _rows_index(self, rows: np.ndarray) -> np.ndarray | None:
         return None if self._model.pool_size == 1 else self._index[rows]
