@@ -217,23 +217,31 @@ class PenetrationModel:
 
     def initial_state(self, rng: np.random.Generator | None = None, scenario_index: int = 0) -> FloatArray:
         """The scenario's start state (6,), with the start jitter drawn from ``rng`` when configured."""
-        s = self.built[scenario_index].scenario
-        x, y = self.start[scenario_index]
-        gx, gy = self.goal[scenario_index, :2]
-        heading = (
-            math.atan2(gy - y, gx - x) if s.start.heading_deg is None else math.radians(s.start.heading_deg)
-        )
-        jitter = s.start.jitter
-        if rng is not None and (jitter.xy_km > 0 or jitter.heading_deg > 0):
-            dx, dy, dh = rng.uniform(-1.0, 1.0, size=3)
-            x += dx * jitter.xy_km * 1000.0
-            y += dy * jitter.xy_km * 1000.0
-            heading += math.radians(dh * jitter.heading_deg)
-        index = None if self.pool_size == 1 else np.array([scenario_index])
-        z = float(self.height(np.array([x]), np.array([y]), index)[0]) + s.start.z_agl_m
-        return np.array(
-            [x, y, z, s.start.speed_m_s, float(wrap_angle(heading)), math.radians(s.start.pitch_deg)]
-        )
+        return self.initial_states([rng], [scenario_index])[0]
+
+    def initial_states(
+        self, rngs: Sequence[np.random.Generator | None], scenario_index: Sequence[int]
+    ) -> FloatArray:
+        """Start states (n, 6) for several episodes, each drawing its jitter from its own generator."""
+        poses = np.zeros((len(rngs), 6))
+        for row, (rng, p) in enumerate(zip(rngs, scenario_index, strict=True)):
+            start = self.built[p].scenario.start
+            x, y = self.start[p]
+            gx, gy = self.goal[p, :2]
+            heading = (
+                math.atan2(gy - y, gx - x) if start.heading_deg is None else math.radians(start.heading_deg)
+            )
+            jitter = start.jitter
+            if rng is not None and (jitter.xy_km > 0 or jitter.heading_deg > 0):
+                dx, dy, dh = rng.uniform(-1.0, 1.0, size=3)
+                x += dx * jitter.xy_km * 1000.0
+                y += dy * jitter.xy_km * 1000.0
+                heading += math.radians(dh * jitter.heading_deg)
+            poses[row] = (x, y, start.z_agl_m, start.speed_m_s, heading, math.radians(start.pitch_deg))
+        index = None if self.pool_size == 1 else np.asarray(scenario_index, dtype=np.intp)
+        poses[:, 2] += self.height(poses[:, 0], poses[:, 1], index)
+        poses[:, 4] = wrap_angle(poses[:, 4])
+        return poses
 
     def goal_distance(self, states: FloatArray, scenario_index: IntArray | None = None) -> FloatArray:
         """Horizontal distance to the goal [m]."""

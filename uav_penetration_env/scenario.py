@@ -20,7 +20,7 @@ import types
 import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from functools import cache
+from functools import cache, cached_property
 from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar, Union, get_args, get_origin
@@ -680,9 +680,12 @@ class Scenario:
         """Build and validate a scenario from plain data (file units)."""
         return _from_mapping(cls, data, "")
 
-    @property
+    @cached_property
     def hash(self) -> str:
-        """A 16-hex-digit content hash of every field (weights and normalisation included)."""
+        """A 16-hex-digit content hash of every field (weights and normalisation included).
+
+        Computed once per (immutable) instance: envs look scenarios up by hash at every reset.
+        """
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -158,7 +158,9 @@ class UAVPenetrationVectorEnv(VectorEnv):
         cap = self.num_envs + getattr(self.source, "pool_size", 1)
         candidates = [*loaded, *needed] if len(loaded) + len(needed) <= cap else [*in_use, *needed]
         pool = list({s.hash: s for s in candidates}.values())
-        self._model = PenetrationModel([self._built.get(s) for s in pool], radar_slots=self.source.radar_slots)
+        self._model = PenetrationModel(
+            [self._built.get(s) for s in pool], radar_slots=self.source.radar_slots
+        )
         self._model_keys = [s.hash for s in pool]
         position = {k: i for i, k in enumerate(self._model_keys)}
         for i, scenario in enumerate(self._scenarios):
@@ -215,11 +217,11 @@ class UAVPenetrationVectorEnv(VectorEnv):
         for i, scenario in zip(rows, chosen, strict=True):
             self._scenarios[i] = scenario
             self._index[i] = position[scenario.hash]
-        for i in rows:
-            self._states[i] = self._model.initial_state(self._rngs[i], int(self._index[i]))
-            self._steps[i] = 0
-            self._autoreset[i] = False
-            if self.render_mode is not None:
+        self._states[rows] = self._model.initial_states([self._rngs[i] for i in rows], self._index[rows])
+        self._steps[rows] = 0
+        self._autoreset[rows] = False
+        if self.render_mode is not None:
+            for i in rows:
                 self._tracks[i] = [self._states[i].copy()]
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

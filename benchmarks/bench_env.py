@@ -1,0 +1,155 @@
+"""Environment speed, measured in one run on the paper scenario (issue 3's targets as ratios).
+
+Prints:
+* single-env steps per second (``gym.make``, and the unwrapped env);
+* native vector-env env-steps per second at 1, 16, 256 and 1024 envs, and the ratio to the
+  single env (target: >= 30x at 256 envs);
+* ``rollout_cost`` particle-steps per second for 100 particles x 5 steps, and the ratio of one
+  call to 500 single-env steps (target: >= 50x) and to 500 ``model.step`` calls on a batch of one;
+* scenario build time, cold (fresh cache folder) and cached, for the paper, DEM and random
+  scenarios with 4 and 8 radars (target: <= 2 s per 4 radars on one core).
+
+Usage: ``python benchmarks/bench_env.py [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import uav_penetration_env  # noqa: F401  (registers the ids)
+from uav_penetration_env import PenetrationModel, cache, dem_scenario, paper_scenario, random_scenario
+from uav_penetration_env.build import build_scenario
+
+
+def timed(function, repeat: int) -> float:
+    """Best-of-3 seconds per call of ``function`` over ``repeat`` calls."""
+    best = np.inf
+    for _ in range(3):
+        start = time.perf_counter()
+        for _ in range(repeat):
+            function()
+        best = min(best, (time.perf_counter() - start) / repeat)
+    return best
+
+
+def single_env_rate(env, steps: int) -> float:
+    rng = np.random.default_rng(0)
+    high = env.action_space.high.astype(np.float64)
+    actions = rng.uniform(-high, high, size=(steps, 3)) * [0.2, 0.3, 0.05]
+    env.reset(seed=0)
+    start = time.perf_counter()
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - start)
+
+
+def vector_env_rate(num_envs: int, steps: int) -> float:
+    envs = gym.make_vec("UAVPenetration-v0", num_envs=num_envs, vectorization_mode="vector_entry_point")
+    rng = np.random.default_rng(0)
+    high = envs.single_action_space.high.astype(np.float64)
+    actions = rng.uniform(-high, high, size=(steps, num_envs, 3)) * [0.2, 0.3, 0.05]
+    envs.reset(seed=0)
+    envs.step(actions[0])  # warm-up
+    start = time.perf_counter()
+    for action in actions:
+        envs.step(action)
+    return steps * num_envs / (time.perf_counter() - start)
+
+
+def build_times(name: str, scenario) -> tuple[float, float, float]:
+    """(cold incl. RCS table, cold with the RCS table cached, cached) seconds."""
+    with tempfile.TemporaryDirectory() as folder:
+        os.environ[cache.ENV_VAR] = folder
+        cache.clear_memory()
+        start = time.perf_counter()
+        build_scenario(scenario)
+        cold_all = time.perf_counter() - start
+        for path in os.listdir(folder):
+            if not path.startswith("rcs-"):
+                os.remove(os.path.join(folder, path))
+        cache.clear_memory()
+        start = time.perf_counter()
+        build_scenario(scenario)
+        cold = time.perf_counter() - start
+        cache.clear_memory()
+        start = time.perf_counter()
+        build_scenario(scenario)
+        cached = time.perf_counter() - start
+    return cold_all, cold, cached
+
+
+def main(argv: list[str] | None = None) -> dict[str, float]:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--quick", action="store_true", help="few repetitions (a smoke run, not a measurement)"
+    )
+    args = parser.parse_args(argv)
+    steps = 200 if args.quick else 3000
+    results: dict[str, float] = {}
+
+    print("== build times (one process, numpy single-threaded) ==")
+    print(f"{'scenario':<28}{'radars':>7}{'cold+RCS [s]':>14}{'cold [s]':>10}{'cached [s]':>12}")
+    builds = [
+        ("paper", paper_scenario()),
+        ("dem", dem_scenario()),
+        ("random d=0.33 (4 radars)", random_scenario(np.random.default_rng(1), 1 / 3)),
+        ("random d=1.0 (8 radars)", random_scenario(np.random.default_rng(1), 1.0)),
+    ]
+    saved = os.environ.get(cache.ENV_VAR)
+    try:
+        for name, scenario in builds:
+            cold_all, cold, cached = build_times(name, scenario)
+            results[f"build_cold_{name}"] = cold
+            print(f"{name:<28}{len(scenario.radars):>7}{cold_all:>14.3f}{cold:>10.3f}{cached:>12.4f}")
+    finally:
+        if saved is None:
+            os.environ.pop(cache.ENV_VAR, None)
+        else:
+            os.environ[cache.ENV_VAR] = saved
+        cache.clear_memory()
+
+    print("\n== single env (paper scenario) ==")
+    wrapped = single_env_rate(gym.make("UAVPenetration-v0"), steps)
+    bare = single_env_rate(gym.make("UAVPenetration-v0").unwrapped, steps)
+    results["single_env_steps_per_s"] = wrapped
+    print(f"gym.make env      {wrapped:10.0f} steps/s  ({1e6 / wrapped:6.1f} us/step)")
+    print(f"unwrapped env     {bare:10.0f} steps/s  ({1e6 / bare:6.1f} us/step)")
+
+    print("\n== native vector env ==")
+    print(f"{'num_envs':>9}{'env-steps/s':>14}{'x single env':>14}")
+    for num_envs in (1, 16, 256, 1024):
+        rate = vector_env_rate(num_envs, max(5, steps // max(1, num_envs // 16)) if not args.quick else 5)
+        results[f"vector_{num_envs}"] = rate
+        print(f"{num_envs:>9}{rate:>14.0f}{rate / wrapped:>14.1f}")
+
+    print("\n== rollout_cost (100 particles x 5 steps) ==")
+    model = PenetrationModel(paper_scenario())
+    state = model.initial_state()
+    rng = np.random.default_rng(0)
+    high = model.limits.action_high
+    controls = rng.uniform(-high, high, size=(100, 5, 3)) * [1.0, 1.0, 0.3]
+    rollout = timed(
+        lambda: model.rollout_cost(state, controls, step=0, terminal_cost=0.06), 20 if args.quick else 300
+    )
+    env = gym.make("UAVPenetration-v0")
+    env_500 = 500 / single_env_rate(env, 500)
+    one = controls[:1, 0]
+    step_500 = 500 * timed(lambda: model.step(state[None], one, 0), 50 if args.quick else 1000)
+    results["rollout_ms"] = rollout * 1e3
+    results["rollout_vs_env"] = env_500 / rollout
+    print(f"one call          {rollout * 1e3:8.3f} ms  ({500 / rollout:,.0f} particle-steps/s)")
+    print(f"500 env steps     {env_500 * 1e3:8.3f} ms  -> rollout_cost is {env_500 / rollout:6.1f}x faster")
+    print(f"500 model.step(1) {step_500 * 1e3:8.3f} ms  -> rollout_cost is {step_500 / rollout:6.1f}x faster")
+    return results
+
+
+if __name__ == "__main__":
+    main()
