@@ -91,6 +91,106 @@ def provisional_payoff(scenario: Scenario, seeds: Iterable[int] = range(10)) -> 
     return PayoffNormalisation(constants=constants, provenance=provenance)
 
 
+CALIBRATION_CRASH_PENALTY = 1.0e6  # per remaining step: a single-objective MPC must never prefer a crash
+SINGLE_OBJECTIVE_WEIGHTS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def payoff_table(
+    scenario: Scenario,
+    optimizer: str,
+    *,
+    max_evals: int = 10_000,
+    runs: int = 20,
+    horizon: int = 10,
+    n_jobs: int | None = 1,
+    imports: tuple[str, ...] = (),
+    progress: bool = True,
+    command: str | None = None,
+) -> PayoffNormalisation:
+    """The paper's payoff-table normalisation constants (§4.2 steps 2-3; model.md §7, A29).
+
+    For each single-objective weight vector (1,0,0), (0,1,0), (0,0,1): ``runs`` MPC episodes with
+    horizon ``horizon`` and the reference ``optimizer``, whose window cost is that raw per-step
+    term alone (analytic normalisation is affine, so it does not change the optimum). Raw terms
+    are recorded at executed track points; x_min^j is the minimum over the runs optimising j and
+    x_max^j the maximum over the runs optimising the other two. The paper profile's crash
+    penalty per step is the largest J(k) (paper weights, these constants) seen in any run.
+
+    DECISION (model.md §7): the calibration MPC has no cost-to-go (``terminal_cost=0``: the
+    objective is the raw term alone, as §4.2 says) and a prohibitive crash penalty, so a
+    single-objective planner never ends an episode on purpose; constants are calibrated once
+    per scenario and frozen in its file (A29).
+    """
+    import tempfile
+    from pathlib import Path
+
+    from optimizers import get_optimizer
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.policies import MPCPolicy
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    base = raw_term_scenario(scenario)
+    policy = MPCPolicy(
+        get_optimizer(optimizer), horizon=horizon, max_evals=max_evals, terminal_cost=0.0, name=optimizer
+    )
+    per_objective: list[dict[str, np.ndarray]] = []
+    with tempfile.TemporaryDirectory() as folder:
+        store_path = Path(folder) / "calibration.sqlite"
+        for index, weights in enumerate(SINGLE_OBJECTIVE_WEIGHTS):
+            single = base.updated(
+                {
+                    "name": f"{scenario.name}-calibrate-{RAW_TERMS[index]}",
+                    "cost": {"weights": list(weights), "crash_penalty_per_step": CALIBRATION_CRASH_PENALTY},
+                }
+            )
+            evaluate(
+                {f"calibrate-{RAW_TERMS[index]}": policy},
+                [single],
+                range(runs),
+                n_jobs=n_jobs,
+                store=store_path,
+                imports=imports,
+                progress=progress,
+                command=command,
+            )
+            with ResultsStore(store_path) as store:
+                episodes = store.episodes()
+                ids = episodes.loc[episodes["scenario_hash"] == single.hash, "episode_id"]
+                errors = episodes.loc[episodes["scenario_hash"] == single.hash, "error"]
+                if (errors != "").any():
+                    raise RuntimeError(f"calibration run failed: {errors[errors != ''].iloc[0]}")
+                steps = store.steps(ids)
+            per_objective.append({term: steps[term].to_numpy() for term in RAW_TERMS})
+    bounds = []
+    for j, term in enumerate(RAW_TERMS):
+        low = float(per_objective[j][term].min())
+        high = float(max(per_objective[i][term].max() for i in range(3) if i != j))
+        if high <= low:
+            high = low + max(abs(low), 1.0) * 1e-6  # degenerate table: keep eq. 39 finite
+        bounds.append((low, high))
+    everything = {term: np.concatenate([p[term] for p in per_objective]) for term in RAW_TERMS}
+    normalised = [(everything[t] - lo) / (hi - lo) for t, (lo, hi) in zip(RAW_TERMS, bounds, strict=True)]
+    largest = float(np.max(sum(w * n for w, n in zip(scenario.cost.weights, normalised, strict=True))))
+    from uav_penetration_env.benchmark.provenance import git_commit
+
+    provenance = (
+        ("method", "payoff table, paper section 4.2 steps 2-3 (model.md section 7)"),
+        ("optimizer", optimizer),
+        ("max_evals", int(max_evals)),
+        ("runs", int(runs)),
+        ("horizon", int(horizon)),
+        ("seeds", f"0-{runs - 1}"),
+        ("track_points", int(sum(len(p["terrain_threat"]) for p in per_objective))),
+        ("commit", git_commit()),
+        ("package_version", __version__),
+        ("date", dt.date.today().isoformat()),
+    )
+    constants = PayoffConstants(
+        terrain=bounds[0], radar=bounds[1], third=bounds[2], crash_penalty_per_step=largest
+    )
+    return PayoffNormalisation(constants=constants, provenance=provenance)
+
+
 def with_payoff(scenario: Scenario, payoff: PayoffNormalisation) -> Scenario:
     """The scenario with ``payoff`` stored in its normalisation block."""
     return replace(scenario, normalisation=replace(scenario.normalisation, payoff=payoff))

@@ -7,7 +7,11 @@ they never parse the observation.
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
+import inspect
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -96,3 +100,179 @@ class RandomPolicy:
             raise RuntimeError("RandomPolicy.act() before reset(model, seed)")
         high = self.model.limits.action_high
         return self.rng.uniform(-high, high)
+
+
+@dataclass
+class MPCPolicy:
+    """Model-predictive control with any optimiser (paper §4.1, eq. 37; model.md §7).
+
+    At each step the optimiser minimises ``model.rollout_cost`` over the flattened (H, 3) control
+    sequence, starting from ``info["state"]`` at step ``info["step"]``; the first control is
+    applied. The next step is warm-started from this plan shifted by one step (last step zeros)
+    through ``x0``, when the optimiser's ``minimize`` accepts it. If no finite plan is found the
+    policy applies zeros (hold course).
+
+    Args:
+        optimizer: anything with ``minimize(fun, bounds, *, rng, max_evals[, x0])``.
+        horizon: H, control steps per plan.
+        discount: gamma of eq. 37.
+        max_evals: objective evaluations (control sequences) per planning step.
+        terminal_cost: c_T of the cost-to-go (DECISION, model.md §7); 0 is the paper's literal eq. 37.
+        warm_start: pass the shifted previous plan as ``x0``.
+        name: a label for tables (the registry name when built by :func:`make_policy`).
+
+    Attributes:
+        last_record: per-step diagnostics of the last ``act`` (evaluations, planning seconds,
+            seconds inside ``rollout_cost``, the optimiser's ``history``/``history_nfev``).
+    """
+
+    optimizer: Any
+    horizon: int = 5
+    discount: float = 1.0
+    max_evals: int = 10_000
+    terminal_cost: float = 0.06
+    warm_start: bool = True
+    name: str | None = None
+    model: PenetrationModel | None = field(default=None, repr=False)
+    rng: np.random.Generator | None = field(default=None, repr=False)
+    last_record: dict[str, Any] = field(default_factory=dict, repr=False)
+    _plan: FloatArray | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        if not hasattr(self.optimizer, "minimize"):
+            raise TypeError(
+                f"optimizer: got {self.optimizer!r}, expected an object with a minimize(fun, bounds, ...) method"
+            )
+        if not (isinstance(self.horizon, int) and self.horizon >= 1):
+            raise ValueError(f"horizon: got {self.horizon!r}, expected an integer >= 1")
+        if not 0.0 < self.discount <= 1.0:
+            raise ValueError(f"discount: got {self.discount!r}, expected a number in (0, 1]")
+        if not (isinstance(self.max_evals, int) and self.max_evals >= 1):
+            raise ValueError(f"max_evals: got {self.max_evals!r}, expected an integer >= 1")
+        if not self.terminal_cost >= 0.0:
+            raise ValueError(f"terminal_cost: got {self.terminal_cost!r}, expected a number >= 0")
+        self._accepts_x0 = "x0" in inspect.signature(self.optimizer.minimize).parameters
+
+    def config(self) -> dict[str, Any]:
+        """Everything that determines this policy's behaviour (hashed into the results store key)."""
+        optimizer = self.optimizer
+        params = dataclasses.asdict(optimizer) if dataclasses.is_dataclass(optimizer) else repr(optimizer)
+        return {
+            "kind": "mpc",
+            "optimizer": f"{type(optimizer).__module__}.{type(optimizer).__qualname__}",
+            "optimizer_params": params,
+            "horizon": self.horizon,
+            "discount": self.discount,
+            "max_evals": self.max_evals,
+            "terminal_cost": self.terminal_cost,
+            "warm_start": self.warm_start,
+        }
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Bind the scenario's model and seed the optimiser's generator for the episode."""
+        self.model = model
+        self.rng = np.random.default_rng(seed)
+        self._plan = None
+        self.last_record = {}
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """Plan on ``rollout_cost`` from the exact state and apply the plan's first control."""
+        if self.model is None or self.rng is None:
+            raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
+        model, horizon = self.model, self.horizon
+        state = np.asarray(info["state"], dtype=np.float64)
+        step = int(info["step"])
+        high = np.tile(model.limits.action_high, horizon)
+        inside = [0.0]
+
+        def objective(flat: FloatArray) -> FloatArray:
+            start = time.perf_counter()
+            costs = model.rollout_cost(
+                state,
+                flat.reshape(len(flat), horizon, 3),
+                step=step,
+                discount=self.discount,
+                terminal_cost=self.terminal_cost,
+            )
+            inside[0] += time.perf_counter() - start
+            return costs
+
+        kwargs: dict[str, Any] = {"rng": self.rng, "max_evals": self.max_evals}
+        if self.warm_start and self._accepts_x0 and self._plan is not None:
+            kwargs["x0"] = self._plan.reshape(-1)
+        start = time.perf_counter()
+        result = self.optimizer.minimize(objective, (-high, high), **kwargs)
+        planning = time.perf_counter() - start
+        found = bool(np.isfinite(result.fun))
+        plan = np.asarray(result.x, dtype=np.float64).reshape(horizon, 3) if found else np.zeros((horizon, 3))
+        self._plan = np.vstack([plan[1:], np.zeros((1, 3))]) if found else None
+        self.last_record = {
+            "nfev": int(result.nfev),
+            "planning_seconds": planning,
+            "objective_seconds": inside[0],
+            "plan_cost": float(result.fun),
+            "history": np.asarray(getattr(result, "history", []), dtype=np.float64).tolist(),
+            "history_nfev": np.asarray(getattr(result, "history_nfev", []), dtype=np.int64).tolist(),
+        }
+        return plan[0].copy()
+
+
+FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}
+EQ37_SUFFIX = "-eq37"
+
+
+def policy_names() -> list[str]:
+    """Every name :func:`make_policy` accepts (besides ``sb3:PATH``)."""
+    from optimizers import available_optimizers
+
+    names = available_optimizers()
+    return sorted([*FLOOR_POLICIES, *names, *(f"{n}{EQ37_SUFFIX}" for n in names)])
+
+
+def make_policy(
+    spec: str,
+    *,
+    horizon: int = 5,
+    max_evals: int = 10_000,
+    discount: float = 1.0,
+    terminal_cost: float = 0.06,
+) -> Any:
+    """A policy from its CLI name (api.md).
+
+    Names: an optimiser name (an MPC planner), ``NAME-eq37`` (the same with ``terminal_cost=0``,
+    the paper's literal eq. 37), ``greedy``, ``random`` or ``sb3:PATH.zip`` (a Stable-Baselines3
+    agent, extra ``rl``).
+
+    Raises:
+        KeyError: an unknown name, with suggestions and the list of known names.
+    """
+    from optimizers import available_optimizers, get_optimizer
+
+    if spec in FLOOR_POLICIES:
+        return FLOOR_POLICIES[spec]()
+    if spec.startswith("sb3:"):
+        try:
+            from baselines import load_policy
+        except ImportError as error:  # pragma: no cover - depends on the installed extras
+            raise ImportError(
+                f"policy {spec!r} needs the RL extra: pip install -e '.[rl]' ({error})"
+            ) from error
+        return load_policy(spec[4:])
+    names = available_optimizers()
+    literal = spec not in names and spec.endswith(EQ37_SUFFIX) and spec[: -len(EQ37_SUFFIX)] in names
+    base = spec[: -len(EQ37_SUFFIX)] if literal else spec
+    if base not in names:
+        known = policy_names()
+        close = difflib.get_close_matches(spec, known, n=3, cutoff=0.6)
+        hint = f" — did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        raise KeyError(
+            f"unknown policy {spec!r}{hint} known: greedy, random, sb3:PATH.zip, NAME-eq37 and the optimisers {', '.join(names)}"
+        )
+    return MPCPolicy(
+        get_optimizer(base),
+        horizon=horizon,
+        discount=discount,
+        max_evals=max_evals,
+        terminal_cost=0.0 if literal else terminal_cost,
+        name=spec,
+    )

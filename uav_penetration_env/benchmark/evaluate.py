@@ -1,0 +1,404 @@
+"""One evaluator for every planner: paired seeds, parallel episodes, a store that loses nothing.
+
+``evaluate(policies, scenarios, seeds, ...)`` flies each (policy, scenario, seed) episode in the
+single env and returns one row per episode. Seeds are paired across policies (api.md): for seed
+``s`` on a scenario, ``env_seed, policy_seed = SeedSequence([s, int(scenario_hash, 16)]).spawn(2)``,
+so every policy meets the same start (and jitter) and paired statistics are valid.
+
+Episodes run in worker processes (joblib's loky, or a dask.distributed cluster) and come back to
+the parent, which alone writes the store: one transaction per finished episode. A rerun skips
+finished episodes and retries ``error`` rows; an episode whose planner raises becomes an ``error``
+row and the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import hashlib
+import importlib
+import json
+import time
+import traceback
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env import __version__
+from uav_penetration_env.benchmark.provenance import provenance as run_provenance
+from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
+from uav_penetration_env.build import build_scenario
+from uav_penetration_env.env import UAVPenetrationEnv
+from uav_penetration_env.scenario import Scenario, load_scenario
+
+BACKENDS = ("loky", "dask", "sequential")
+
+
+def policy_config(policy: Any) -> dict[str, Any]:
+    """A policy's configuration: its ``config()`` when it has one, else its class and repr."""
+    if hasattr(policy, "config"):
+        config = dict(policy.config())
+    else:
+        config = {"class": f"{type(policy).__module__}.{type(policy).__qualname__}", "repr": repr(policy)}
+    config["package_version"] = __version__
+    return config
+
+
+def policy_hash(policy: Any) -> str:
+    """16 hex digits of the policy configuration (the store key's first part)."""
+    text = json.dumps(policy_config(policy), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def episode_seeds(seed: int, scenario_hash: str) -> tuple[int, np.random.SeedSequence]:
+    """Paired seeding (api.md): the env's reset seed and the policy's SeedSequence for (seed, scenario)."""
+    env_sequence, policy_sequence = np.random.SeedSequence([int(seed), int(scenario_hash, 16)]).spawn(2)
+    return int(env_sequence.generate_state(1, dtype=np.uint32)[0]), policy_sequence
+
+
+@dataclass(frozen=True)
+class EpisodeTask:
+    """Everything a worker needs to fly one episode."""
+
+    policy_name: str
+    policy: Any
+    policy_hash: str
+    scenario: Scenario
+    seed: int
+    imports: tuple[str, ...] = ()
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        """The store key (policy hash, scenario hash, seed)."""
+        return (self.policy_hash, self.scenario.hash, self.seed)
+
+
+def import_plugins(modules: Iterable[str]) -> None:
+    """Import plug-in modules (``--import``) so their registrations exist in this process."""
+    for module in modules:
+        importlib.import_module(module)
+
+
+def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Fly one episode and summarise it; a raising planner yields an ``error`` row (never an exception).
+
+    Returns:
+        The episode row (the ``episodes`` columns) and one dict per step.
+    """
+    started = time.perf_counter()
+    scenario = task.scenario
+    row: dict[str, Any] = {
+        "policy": task.policy_name,
+        "policy_hash": task.policy_hash,
+        "scenario": scenario.name,
+        "scenario_hash": scenario.hash,
+        "seed": int(task.seed),
+        "weights": ",".join(f"{w:g}" for w in scenario.cost.weights),
+        "profile": scenario.profile,
+        **{k: v for k, v in task.extra.items() if k in EPISODE_COLUMNS},
+    }
+    steps: list[dict[str, Any]] = []
+    try:
+        import_plugins(task.imports)
+        policy = copy.deepcopy(task.policy)  # every episode starts from the same policy state
+        env = UAVPenetrationEnv(scenario)
+        env_seed, policy_seed = episode_seeds(task.seed, scenario.hash)
+        observation, info = env.reset(seed=env_seed)
+        policy.reset(env.model, policy_seed)
+        previous = info["state"]
+        done = False
+        while not done:
+            tick = time.perf_counter()
+            action = np.asarray(policy.act(observation, info), dtype=np.float64)
+            planning = time.perf_counter() - tick
+            record = dict(getattr(policy, "last_record", None) or {})
+            observation, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+            steps.append(_step_row(info, action, record, planning, previous))
+            previous = info["state"]
+        row.update(_summary(steps, info, terminated, truncated))
+        metadata = getattr(policy, "metadata", None)
+        if isinstance(metadata, Mapping):
+            row.update({k: v for k, v in metadata.items() if k in ("train_timesteps", "train_seconds")})
+    except Exception as error:
+        row.update(
+            {"outcome": "error", "error": f"{type(error).__name__}: {error}\n{traceback.format_exc(limit=6)}"}
+        )
+        steps = []
+    row["episode_seconds"] = time.perf_counter() - started
+    row["finished"] = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
+    return row, steps
+
+
+def _step_row(
+    info: Mapping[str, Any],
+    action: np.ndarray,
+    record: Mapping[str, Any],
+    planning: float,
+    previous: np.ndarray,
+) -> dict[str, Any]:
+    state = info["state"]
+    position = info["position"]
+    return {
+        "step": int(info["step"]),
+        "x_km": float(position[0]),
+        "y_km": float(position[1]),
+        "z_m": float(position[2]),
+        "altitude_agl": float(info["altitude_agl"]),
+        "distance_to_goal": float(info["distance_to_goal"]),
+        "speed": float(state[3]),
+        "heading": float(state[4]),
+        "pitch": float(state[5]),
+        **{k: float(info[k]) for k in ("J", "penalty", "terrain_threat", "radar_threat", "third_term")},
+        **{
+            k: float(info[k])
+            for k in ("terrain_threat_n", "radar_threat_n", "third_term_n", "fuel_kg", "detection_prob")
+        },
+        "detected": bool(info["detected"]),
+        "action_dv": float(action[0]),
+        "action_dphi": float(action[1]),
+        "action_dtheta": float(action[2]),
+        "nfev": int(record.get("nfev", 0)),
+        "planning_seconds": float(record.get("planning_seconds", planning)),
+        "objective_seconds": float(record.get("objective_seconds", 0.0)),
+        "plan_cost": record.get("plan_cost"),
+        "history": record.get("history"),
+        "history_nfev": record.get("history_nfev"),
+        "segment_m": float(np.linalg.norm(np.asarray(state[:3]) - np.asarray(previous[:3]))),
+    }
+
+
+def _summary(
+    steps: Sequence[Mapping[str, Any]], info: Mapping[str, Any], terminated: bool, truncated: bool
+) -> dict[str, Any]:
+    def column(name: str) -> np.ndarray:
+        return np.array([s[name] for s in steps], dtype=np.float64)
+
+    if info["reached_goal"]:
+        outcome = "success"
+    elif info["collided"]:
+        outcome = "collided"
+    elif info["out_of_area"]:
+        outcome = "out_of_area"
+    else:
+        outcome = "truncated" if truncated else "unfinished"
+    total_j = float(column("J").sum())
+    penalty = float(column("penalty").sum())
+    detection = column("detection_prob")
+    nfev = column("nfev")
+    return {
+        "outcome": outcome,
+        "total_J": total_j,
+        "total_penalty": penalty,
+        "total_cost": total_j + penalty,
+        "mean_J": total_j / len(steps),
+        "terrain_total": float(column("terrain_threat").sum()),
+        "radar_total": float(column("radar_threat").sum()),
+        "third_total": float(column("third_term").sum()),
+        "fuel_kg": float(column("fuel_kg").sum()),
+        "p_detected": float(1.0 - np.prod(1.0 - detection)),
+        "detected_steps": int(column("detected").sum()),
+        "max_detection_prob": float(detection.max()),
+        "path_length_km": float(column("segment_m").sum() / 1000.0),
+        "steps": len(steps),
+        "nfev": int(nfev.sum()),
+        "nfev_per_step": float(nfev.mean()),
+        "planning_seconds": float(column("planning_seconds").mean()),
+        "objective_seconds": float(column("objective_seconds").mean()),
+        "error": "",
+    }
+
+
+# --- the sweep ----------------------------------------------------------------------------------------
+
+
+def _iterate(
+    tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None
+) -> Iterator[tuple[dict, list]]:
+    """Episode results as they finish, from the chosen backend."""
+    if backend == "sequential" or (n_jobs == 1 and backend == "loky"):
+        for task in tasks:
+            yield run_episode(task)
+    elif backend == "loky":
+        from joblib import Parallel, delayed
+
+        parallel = Parallel(
+            n_jobs=n_jobs,
+            backend="loky",
+            return_as="generator_unordered",
+            batch_size=1,
+            pre_dispatch="2*n_jobs",
+        )
+        yield from parallel(delayed(run_episode)(task) for task in tasks)
+    elif backend == "dask":
+        try:
+            from dask.distributed import Client, LocalCluster, as_completed
+        except ImportError as error:  # pragma: no cover - depends on the installed extras
+            raise ImportError("backend='dask' needs the dist extra: pip install -e '.[dist]'") from error
+        cluster = None
+        if scheduler is None:
+            cluster = LocalCluster(
+                n_workers=max(1, n_jobs), threads_per_worker=1, processes=True, dashboard_address=None
+            )
+        client = Client(scheduler or cluster)
+        try:
+            futures = client.map(run_episode, list(tasks), pure=False)
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    else:
+        raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
+
+
+def _resolve_jobs(n_jobs: int | None) -> int:
+    import os
+
+    cores = os.cpu_count() or 1
+    if n_jobs is None or n_jobs == 0:
+        return cores
+    if n_jobs < 0:
+        return max(1, cores + 1 + n_jobs)
+    return int(n_jobs)
+
+
+def evaluate(
+    policies: Mapping[str, Any],
+    scenarios: Sequence[Scenario | str | Path | Mapping[str, Any]],
+    seeds: Iterable[int],
+    n_jobs: int | None = 1,
+    backend: str = "loky",
+    store: str | Path | ResultsStore | None = None,
+    *,
+    scheduler: str | None = None,
+    imports: Sequence[str] = (),
+    progress: bool = True,
+    command: str | None = None,
+    stop_after: int | None = None,
+) -> pd.DataFrame:
+    """Score every policy on every scenario and seed; one row per episode (api.md).
+
+    Args:
+        policies: display name -> policy (anything with ``reset(model, seed)`` and ``act``).
+        scenarios: scenarios (objects, YAML paths or mappings).
+        seeds: episode seeds; paired across policies.
+        n_jobs: worker processes (``None``/0 = all cores, negative = all but ``-n_jobs - 1``).
+        backend: ``"loky"`` (joblib, one machine), ``"dask"`` (dask.distributed; ``scheduler`` is the
+            cluster address, none starts a local cluster) or ``"sequential"``.
+        store: SQLite results file (or an open :class:`ResultsStore`); ``None`` returns results only.
+        scheduler: dask scheduler address, e.g. ``"tcp://host:8786"``.
+        imports: plug-in modules to import in every worker before the policies are used.
+        progress: show a progress bar (episodes done, ETA, failures).
+        command: the command line recorded in the run's provenance.
+        stop_after: testing hook: raise ``KeyboardInterrupt`` after this many episodes were stored,
+            as a user's Ctrl-C would.
+
+    Returns:
+        One row per requested episode (stored ones included when a store is given).
+
+    Raises:
+        KeyboardInterrupt: propagated after the store is left consistent.
+    """
+    import_plugins(imports)
+    scenario_list = [load_scenario(s) for s in scenarios]
+    seed_list = [int(s) for s in seeds]
+    hashes = {name: policy_hash(policy) for name, policy in policies.items()}
+    if len(set(hashes.values())) < len(hashes):
+        raise ValueError(
+            f"policies: two names share one configuration ({hashes}); give each configuration one name"
+        )
+    tasks = []
+    for scenario in scenario_list:
+        for seed in seed_list:
+            for name, policy in policies.items():
+                extra = {
+                    k: getattr(policy, k)
+                    for k in ("horizon", "max_evals")
+                    if isinstance(getattr(policy, k, None), int)
+                }
+                tasks.append(EpisodeTask(name, policy, hashes[name], scenario, seed, tuple(imports), extra))
+
+    own_store = store is not None and not isinstance(store, ResultsStore)
+    results = ResultsStore(store) if own_store else store
+    rows: list[dict[str, Any]] = []
+    try:
+        pending = tasks
+        if results is not None:
+            done = results.done_keys()
+            pending = [t for t in tasks if t.key not in done]
+            results.register(
+                {hashes[n]: (n, policy_config(p)) for n, p in policies.items()},
+                {s.hash: (s.name, _yaml(s)) for s in scenario_list},
+            )
+            run_id = results.start_run(
+                run_provenance(command),
+                {
+                    "policies": list(policies),
+                    "scenarios": [s.name for s in scenario_list],
+                    "seeds": seed_list,
+                    "n_jobs": n_jobs,
+                    "backend": backend,
+                },
+            )
+        for scenario in {s.hash: s for s in scenario_list}.values():
+            build_scenario(scenario)  # warm the disk cache once, so workers only load it
+        jobs = _resolve_jobs(n_jobs)
+        bar = _progress_bar(len(pending), len(tasks) - len(pending), progress)
+        failures = 0
+        try:
+            for row, steps in _iterate(pending, jobs, backend, scheduler):
+                if results is not None:
+                    row["run_id"] = run_id
+                    results.write_episode(row, steps)
+                rows.append(row)
+                failures += row.get("outcome") == "error"
+                bar.update(1)
+                bar.set_postfix(failures=failures, refresh=False)
+                if stop_after is not None and len(rows) >= stop_after:
+                    raise KeyboardInterrupt(f"stop_after={stop_after} episodes (testing hook)")
+        finally:
+            bar.close()
+        if results is None:
+            return _frame(rows)
+        wanted = {t.key for t in tasks}
+        stored = results.episodes()
+        keys = list(
+            zip(stored["policy_hash"], stored["scenario_hash"], stored["seed"].astype(int), strict=True)
+        )
+        return stored[[k in wanted for k in keys]].reset_index(drop=True)
+    finally:
+        if own_store and results is not None:
+            results.close()
+
+
+def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    frame = pd.DataFrame(rows)
+    for column in EPISODE_COLUMNS:
+        if column not in frame:
+            frame[column] = None
+    return frame[list(EPISODE_COLUMNS)]
+
+
+def _yaml(scenario: Scenario) -> str:
+    import yaml
+
+    return yaml.safe_dump(scenario.to_dict(), sort_keys=False)
+
+
+def _progress_bar(total: int, already: int, enabled: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(
+        total=total,
+        desc=f"episodes ({already} already stored)" if already else "episodes",
+        unit="ep",
+        disable=not enabled,
+        smoothing=0.1,
+    )
