@@ -89,7 +89,7 @@ PROBLEM_BY_NAME = {p.name: p for p in PROBLEMS}
 def run_one(optimizer: str, problem: str, dim: int, seed: int, max_evals: int) -> dict:
     """One optimiser run; returns a flat result row."""
     spec = PROBLEM_BY_NAME[problem]
-    bounds = (np.full(dim, spec.lower), np.full(dim, spec.upper))
+    bounds = [(spec.lower, spec.upper)] * dim  # (d, 2) pairs: a (lower, upper) pair is ambiguous for d = 2
     start = time.perf_counter()
     res = get_optimizer(optimizer).minimize(spec.fun, bounds, rng=seed, max_evals=max_evals)
     seconds = time.perf_counter() - start
@@ -117,7 +117,7 @@ class TimedObjective:
 
 def overhead_per_iteration(optimizer: str, dim: int, max_evals: int, repeats: int) -> float:
     """Median over ``repeats`` seeds of (total time - objective time) / iterations, in seconds."""
-    bounds = (np.full(dim, -5.0), np.full(dim, 5.0))
+    bounds = [(-5.0, 5.0)] * dim
     get_optimizer(optimizer).minimize(sphere, bounds, rng=0, max_evals=1_000)  # warm-up, untimed
     samples = []
     for seed in range(repeats):

@@ -34,9 +34,12 @@ MESSAGE_INIT_EXHAUSTED = "budget exhausted during initialisation"
 NO_FINITE_SUFFIX = "; no finite cost found"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class OptimizeResult:
     """What an optimiser returns (scipy's names; optimizers.md §1).
+
+    Compare results field by field (``np.array_equal`` for the arrays); ``==`` is identity, because
+    element-wise array comparison has no single truth value.
 
     Attributes:
         x: (d,) best point ever evaluated (the first evaluated point if no cost was finite).

@@ -238,7 +238,9 @@ class PS2O:
             partner = partner_best_index(adjacency, f_species)
             s_k = pbest[best_index][species_of]
             q_k = pbest[best_index[partner]][species_of]
-            # Step 3: extinction (D23), decided before the velocity update.
+            # Step 3: extinction (D23), decided before the velocity update. The attractors above were
+            # computed first (the spec's step order), so a species that dies this iteration may still
+            # be some survivor's partner best for this one move: its best is an evaluated point.
             dead = species_to_reseed(counters, self.extinction_patience, int(np.argmin(f_pbest)) // size)
             # Step 4: velocity, clamp and move (re-seeded particles' moves are replaced below).
             r = rng.random((3, n, d))

@@ -34,7 +34,8 @@ def test_benchmark_functions_have_their_minimum_at_zero(bench):
 
 def test_quick_run_prints_both_tables(bench, capsys, tmp_path):
     out_csv = tmp_path / "runs.csv"
-    status = bench.main(["--quick", "--optimizers", "ihpso", "pso", "cem", "--n-jobs", "1", "--csv", str(out_csv)])
+    status = bench.main(["--quick", "--dims", "2", "--optimizers", "ihpso", "pso", "cem", "--n-jobs", "1",
+                         "--csv", str(out_csv)])  # d = 2: bounds must not be read as (lower, upper) pairs
     assert status == 0
     text = capsys.readouterr().out
     assert "median final error" in text and "ms/iteration" in text
