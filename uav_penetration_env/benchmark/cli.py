@@ -327,9 +327,9 @@ def _excerpt(path: Path, rows: int = 14) -> str:
 
 def command_leaderboard(args: argparse.Namespace) -> int:
     """`uav-bench leaderboard`: Markdown + CSV tables per scenario group."""
+    store = _existing_store(args.store)
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
 
-    store = _existing_store(args.store)
     _check_writable_folder(Path(args.out), "--out")
     for path in write_leaderboards(
         store,
@@ -343,9 +343,9 @@ def command_leaderboard(args: argparse.Namespace) -> int:
 
 def command_plot(args: argparse.Namespace) -> int:
     """`uav-bench plot`: the figures (PNG + PDF) per scenario group."""
+    store = _existing_store(args.store)
     from uav_penetration_env.benchmark.figures import write_figures
 
-    store = _existing_store(args.store)
     _check_writable_folder(Path(args.out), "--out")
     for path in write_figures(store, Path(args.out)):
         print(path)

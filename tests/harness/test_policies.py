@@ -1,0 +1,231 @@
+"""MPCPolicy, the floors and the policy-name resolver."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from conftest import tiny_scenario
+
+from optimizers import OptimizeResult, get_optimizer
+from uav_penetration_env import PenetrationModel
+from uav_penetration_env.benchmark.policies import (
+    GreedyPolicy,
+    MPCPolicy,
+    RandomPolicy,
+    make_policy,
+    policy_names,
+)
+from uav_penetration_env.env import UAVPenetrationEnv
+
+
+@dataclass
+class SpyOptimizer:
+    """Records what minimize receives and returns a fixed plan (or no finite plan)."""
+
+    plan_value: float = 0.1
+    finite: bool = True
+
+    def __post_init__(self) -> None:
+        self.calls: list[dict] = []
+
+    def minimize(self, fun, bounds, *, rng=None, max_evals=10_000, x0=None):
+        lo, hi = bounds
+        plan = np.clip(np.full(lo.shape, self.plan_value) * np.arange(1, lo.size + 1), lo, hi)
+        cost = fun(plan[None])[0]
+        self.calls.append(
+            {
+                "x0": None if x0 is None else np.array(x0),
+                "bounds": (lo.copy(), hi.copy()),
+                "max_evals": max_evals,
+            }
+        )
+        fun_value = cost if self.finite else math.inf
+        return OptimizeResult(
+            x=plan,
+            fun=fun_value,
+            nfev=1,
+            nit=0,
+            history=np.array([fun_value]),
+            history_nfev=np.array([1]),
+            message="spy",
+        )
+
+
+@dataclass
+class NoWarmStart:
+    """A plug-in optimiser whose minimize has no x0 parameter."""
+
+    def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
+        lo, _ = bounds
+        x = np.zeros_like(lo)
+        value = float(fun(x[None])[0])
+        return OptimizeResult(
+            x=x,
+            fun=value,
+            nfev=1,
+            nit=0,
+            history=np.array([value]),
+            history_nfev=np.array([1]),
+            message="zero",
+        )
+
+
+@pytest.fixture(scope="module")
+def env():
+    return UAVPenetrationEnv(tiny_scenario())
+
+
+def test_mpc_plans_on_the_box_and_warm_starts_from_the_shifted_plan(env):
+    spy = SpyOptimizer()
+    policy = MPCPolicy(spy, horizon=3, max_evals=77)
+    obs, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    first = policy.act(obs, info)
+    lo, hi = spy.calls[0]["bounds"]
+    np.testing.assert_array_equal(hi, np.tile(env.model.limits.action_high, 3))
+    np.testing.assert_array_equal(lo, -hi)
+    assert spy.calls[0]["x0"] is None and spy.calls[0]["max_evals"] == 77
+    plan = np.clip(0.1 * np.arange(1, 10), lo, hi).reshape(3, 3)
+    np.testing.assert_array_equal(first, plan[0])
+    obs, _, _, _, info = env.step(first)
+    policy.act(obs, info)
+    expected_x0 = np.vstack([plan[1:], np.zeros((1, 3))]).reshape(-1)
+    np.testing.assert_array_equal(spy.calls[1]["x0"], expected_x0)
+    record = policy.last_record
+    assert record["nfev"] == 1 and record["planning_seconds"] >= record["objective_seconds"] > 0
+
+
+def test_mpc_applies_zeros_without_a_finite_plan(env):
+    policy = MPCPolicy(SpyOptimizer(finite=False), horizon=2)
+    obs, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    np.testing.assert_array_equal(policy.act(obs, info), np.zeros(3))
+    obs, _, _, _, info = env.step(np.zeros(3))
+    policy.act(obs, info)
+    assert policy.optimizer.calls[1]["x0"] is None  # no plan to warm-start from
+
+
+def test_optimizer_without_x0_is_never_given_one(env):
+    policy = MPCPolicy(NoWarmStart(), horizon=2)
+    obs, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    for _ in range(2):
+        action = policy.act(obs, info)
+        obs, _, _, _, info = env.step(action)
+    np.testing.assert_array_equal(action, np.zeros(3))
+
+
+def test_mpc_objective_is_the_model_rollout_cost(env):
+    """The cost the optimiser sees for a plan is rollout_cost with the policy's settings."""
+    seen = []
+
+    @dataclass
+    class Probe:
+        def minimize(self, fun, bounds, *, rng=None, max_evals=10_000, x0=None):
+            plans = np.random.default_rng(0).uniform(bounds[0], bounds[1], size=(7, bounds[0].size))
+            seen.append((plans, fun(plans)))
+            return OptimizeResult(
+                x=plans[0],
+                fun=float(seen[-1][1][0]),
+                nfev=7,
+                nit=0,
+                history=np.zeros(1),
+                history_nfev=np.ones(1, int),
+                message="",
+            )
+
+    policy = MPCPolicy(Probe(), horizon=4, discount=0.9, terminal_cost=0.2)
+    obs, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    policy.act(obs, info)
+    plans, costs = seen[0]
+    expected = env.model.rollout_cost(
+        info["state"], plans.reshape(7, 4, 3), step=0, discount=0.9, terminal_cost=0.2
+    )
+    np.testing.assert_array_equal(costs, expected)
+
+
+def test_mpc_is_reproducible_for_a_seed(env):
+    def actions(seed):
+        policy = MPCPolicy(get_optimizer("pso"), max_evals=300)
+        obs, info = env.reset(seed=0)
+        policy.reset(env.model, seed)
+        out = []
+        for _ in range(3):
+            action = policy.act(obs, info)
+            out.append(action)
+            obs, _, _, _, info = env.step(action)
+        return np.array(out)
+
+    np.testing.assert_array_equal(actions(1), actions(1))
+    assert not np.array_equal(actions(1), actions(2))
+
+
+def test_mpc_validates_its_settings():
+    with pytest.raises(ValueError, match="horizon"):
+        MPCPolicy(get_optimizer("pso"), horizon=0)
+    with pytest.raises(ValueError, match="discount"):
+        MPCPolicy(get_optimizer("pso"), discount=1.5)
+    with pytest.raises(ValueError, match="max_evals"):
+        MPCPolicy(get_optimizer("pso"), max_evals=0)
+    with pytest.raises(TypeError, match="minimize"):
+        MPCPolicy(object())
+
+
+def test_make_policy_names():
+    assert isinstance(make_policy("greedy"), GreedyPolicy)
+    assert isinstance(make_policy("random"), RandomPolicy)
+    ihpso = make_policy("ihpso", horizon=4, max_evals=123)
+    assert (
+        isinstance(ihpso, MPCPolicy)
+        and ihpso.terminal_cost == 0.06
+        and ihpso.horizon == 4
+        and ihpso.max_evals == 123
+    )
+    literal = make_policy("ihpso-eq37")
+    assert literal.terminal_cost == 0.0 and type(literal.optimizer) is type(ihpso.optimizer)
+    assert ihpso.config() != literal.config()
+    assert {"ihpso", "ihpso-eq37", "greedy", "random", "cem-eq37"} <= set(policy_names())
+    with pytest.raises(KeyError, match="did you mean 'ihpso'"):
+        make_policy("ihspo")
+
+
+def test_greedy_turns_at_the_maximum_rate_and_holds_100_m_over_terrain():
+    model = PenetrationModel(
+        tiny_scenario(terrain={"natural": {"method": "flat", "height_m": 50}, "mountains": []})
+    )
+    policy = GreedyPolicy()
+    policy.reset(model)
+    # Heading east while the goal is north-east at 45 degrees: turn left by the full 15 degrees.
+    state = np.array([0.0, 0.0, 150.0, 8.0, 0.0, 0.0])
+    action = policy.act(None, {"state": state})
+    assert action[0] == pytest.approx(2.0)  # toward v_max = 10 m/s at the 2 m/s step limit
+    assert action[1] == pytest.approx(math.radians(15))
+    assert action[2] == pytest.approx(0.0, abs=1e-12)  # already 100 m above flat 50 m terrain
+    # 1000 m too low: the needed climb asin(1000 / 3000) = 19.5 deg exceeds the 15 deg pitch change.
+    low = state.copy()
+    low[2] = -850.0
+    assert policy.act(None, {"state": low})[2] == pytest.approx(math.radians(15))
+    # 300 m too low: exactly the pitch asin(300 / 3000) that reaches the target in one step.
+    low[2] = -150.0
+    assert policy.act(None, {"state": low})[2] == pytest.approx(math.asin(0.1))
+    # Slightly high: the pitch that descends to the target in one step, asin(dz / (v dt)).
+    high = state.copy()
+    high[2] = 250.0
+    expected = math.asin(-100.0 / (10.0 * 300.0))
+    assert policy.act(None, {"state": high})[2] == pytest.approx(expected)
+
+
+def test_random_policy_is_uniform_in_the_box_and_seeded():
+    model = PenetrationModel(tiny_scenario())
+    a, b = RandomPolicy(), RandomPolicy()
+    a.reset(model, 3)
+    b.reset(model, 3)
+    draws = np.array([a.act(None, {}) for _ in range(2000)])
+    np.testing.assert_array_equal(draws[0], b.act(None, {}))
+    high = model.limits.action_high
+    assert np.all(np.abs(draws) <= high)
+    assert np.all(draws.max(axis=0) > 0.95 * high) and np.all(draws.min(axis=0) < -0.95 * high)
