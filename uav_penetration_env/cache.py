@@ -13,6 +13,7 @@ import json
 import os
 import tempfile
 import warnings
+import zipfile
 from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
@@ -95,8 +96,8 @@ def _load(key: str) -> dict[str, np.ndarray] | None:
     try:
         with np.load(path, allow_pickle=False) as data:
             return {name: data[name] for name in data.files}
-    except (OSError, ValueError, EOFError):
-        return None  # a corrupt or foreign file: rebuild and overwrite it
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):
+        return None  # a corrupt, truncated or foreign file: rebuild and overwrite it
 
 
 def _store(key: str, arrays: dict[str, np.ndarray]) -> None:

@@ -23,6 +23,7 @@ from uav_penetration_env.scenario import (
     GoalConfig,
     MapConfig,
     Mountain,
+    NormalisationConfig,
     Radar,
     Scenario,
     ScenarioError,
@@ -236,6 +237,8 @@ def generate_dem_scenario() -> Scenario:
     return replace(
         draft,
         name="dem-topobathy",
+        # The paper scenario's payoff constants were calibrated on its own terrain; they do not carry over.
+        normalisation=NormalisationConfig(),
         terrain=replace(paper.terrain, natural=natural, mountains=tuple(mountains)),
         radars=tuple(radars),
     )

@@ -348,10 +348,10 @@ class FlatTerrain:
 class DEMTerrain:
     """A real elevation raster (model.md §2.5, §7d): a matplotlib sample file or an ``.npz`` path.
 
-    The file holds ``array`` (heights, m) with ``latitude``/``longitude`` vectors, or a
-    geographic extent given by ``lat_deg``/``lon_deg`` covering the whole raster when the file has
-    no coordinate vectors. The window ``lat_deg`` x ``lon_deg`` is projected to local metres
-    (equirectangular about its centre) with the map origin at its south-west corner.
+    The file holds ``array`` (heights, m) with ``latitude``/``longitude`` coordinate vectors, or the
+    scalar extent ``xmin, xmax, ymin, ymax`` in degrees (matplotlib's ``jacksboro_fault_dem.npz``
+    layout). The window ``lat_deg`` x ``lon_deg`` is projected to local metres (equirectangular
+    about its centre) with the map origin at its south-west corner.
     """
 
     TAG: ClassVar[str] = "dem"
@@ -370,6 +370,12 @@ class DEMTerrain:
             "lat_deg",
             list(self.lat_deg),
             "latitudes in [-90, 90]",
+        )
+        _require(
+            -180 <= self.lon_deg[0] and self.lon_deg[1] <= 360,
+            "lon_deg",
+            list(self.lon_deg),
+            "longitudes in [-180, 360]",
         )
 
 
@@ -551,23 +557,23 @@ class Scenario:
         _one_of("profile", self.profile, PROFILES)
         (x_lo, x_hi), (y_lo, y_hi) = self.map.x_km, self.map.y_km
 
-        def inside(x: float, y: float) -> bool:
-            return x_lo <= x <= x_hi and y_lo <= y <= y_hi
+        def require_inside(prefix: str, x: float, y: float) -> None:
+            # Name the coordinate that is out of range; the value shows the point.
+            field = f"{prefix}.x_km" if not x_lo <= x <= x_hi else f"{prefix}.y_km"
+            bounds = f"inside the map x in [{x_lo:g}, {x_hi:g}] km, y in [{y_lo:g}, {y_hi:g}] km"
+            _require(x_lo <= x <= x_hi and y_lo <= y <= y_hi, field, (x, y), bounds)
 
-        bounds = f"inside the map x in [{x_lo:g}, {x_hi:g}] km, y in [{y_lo:g}, {y_hi:g}] km"
-        _require(
-            inside(self.start.x_km, self.start.y_km), "start.x_km", (self.start.x_km, self.start.y_km), bounds
-        )
-        _require(
-            inside(self.goal.x_km, self.goal.y_km), "goal.x_km", (self.goal.x_km, self.goal.y_km), bounds
-        )
+        require_inside("start", self.start.x_km, self.start.y_km)
+        require_inside("goal", self.goal.x_km, self.goal.y_km)
         # The goal must leave room for two turn radii to every edge, so a planner can always turn
         # toward it without leaving the map (model.md §1).
         margin = self.goal_edge_margin_km
-        edge = min(self.goal.x_km - x_lo, x_hi - self.goal.x_km, self.goal.y_km - y_lo, y_hi - self.goal.y_km)
+        x_edge = min(self.goal.x_km - x_lo, x_hi - self.goal.x_km)
+        y_edge = min(self.goal.y_km - y_lo, y_hi - self.goal.y_km)
+        edge = min(x_edge, y_edge)
         _require(
             edge >= margin - 1e-9,
-            "goal.x_km",
+            "goal.x_km" if x_edge <= y_edge else "goal.y_km",
             (self.goal.x_km, self.goal.y_km),
             f"a goal at least {margin:.1f} km (two turn radii) inside every map edge; it is {edge:.1f} km from one",
         )
@@ -598,7 +604,7 @@ class Scenario:
             f"below the ceiling {self.map.ceiling_m:g} m",
         )
         for i, radar in enumerate(self.radars):
-            _require(inside(radar.x_km, radar.y_km), f"radars[{i}].x_km", (radar.x_km, radar.y_km), bounds)
+            require_inside(f"radars[{i}]", radar.x_km, radar.y_km)
         names = [r.name for r in self.radars]
         _require(len(set(names)) == len(names), "radars", names, "unique radar names")
         if self.normalisation_mode == "payoff":
@@ -754,7 +760,12 @@ def _convert(tp: Any, value: Any, path: str, owner: type, name: str) -> Any:
             raise ScenarioError(path, value, "a finite number")
         return float(value)
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or float(value) != int(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+            or float(value) != int(value)
+        ):
             raise ScenarioError(path, value, "an integer")
         return int(value)
     if tp is bool:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import zipfile
-
 import numpy as np
 import pytest
 
@@ -74,15 +72,6 @@ def test_a_corrupt_file_is_rebuilt(cache_folder):
     assert build.calls == 2
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=zipfile.BadZipFile,
-    reason=(
-        "BUG: cache._load catches (OSError, ValueError, EOFError) but a truncated .npz (zip magic, "
-        "cut-off archive) makes np.load raise zipfile.BadZipFile, which is none of them: "
-        "cached_arrays crashes instead of rebuilding"
-    ),
-)
 def test_a_truncated_file_is_rebuilt(cache_folder):
     # The first 40 bytes of a real archive: a zip header without its central directory.
     build = CountingBuild()

@@ -194,15 +194,6 @@ def test_straight_climb_blocked_by_the_ceiling():
 # --- the DEM scenario (§7d) ------------------------------------------------------------------------------
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason=(
-        "BUG: generate_dem_scenario() copies paper.yaml's normalisation.payoff (the paper scenario's "
-        "provisional calibration constants) into the DEM scenario; the shipped dem.yaml has payoff: null, "
-        "so the shipped file is not the rule's output"
-    ),
-)
 def test_shipped_dem_yaml_is_the_rule_output():
     assert generate_dem_scenario() == dem_scenario()
 

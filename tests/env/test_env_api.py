@@ -51,12 +51,16 @@ def test_stable_baselines3_check_env(env_id):
 def test_ids_are_registered_without_a_time_limit_wrapper():
     for env_id in ENV_IDS:
         assert gym.spec(env_id).max_episode_steps is None
-        assert "TimeLimit" not in repr(gym.make(env_id, **({} if "Random" in env_id else {"scenario": tiny_scenario()})))
+        assert "TimeLimit" not in repr(
+            gym.make(env_id, **({} if "Random" in env_id else {"scenario": tiny_scenario()}))
+        )
 
 
 def test_profile_precedence():
     # The id's profile overrides the file's; the keyword overrides both.
-    paper_file = tiny_scenario(profile="paper", normalisation={"mode": "analytic"}, cost={"crash_penalty_per_step": 1.0})
+    paper_file = tiny_scenario(
+        profile="paper", normalisation={"mode": "analytic"}, cost={"crash_penalty_per_step": 1.0}
+    )
     assert gym.make("UAVPenetration-v0", scenario=paper_file).unwrapped.scenario.profile == "benchmark"
     assert gym.make("UAVPenetrationPaper-v0").unwrapped.scenario.profile == "paper"
     env = gym.make("UAVPenetration-v0", scenario=paper_file, profile="paper")
@@ -117,7 +121,9 @@ def test_random_id_seeds_give_different_scenarios():
     env.reset(seed=1)
     assert env.unwrapped.scenario == first
     # Seedless resets draw from the pool (seeds derived from the first reset's seed).
-    pool = {s.hash for s in (env.unwrapped.source.scenario_of_seed(p) for p in env.unwrapped.source.pool_seeds())}
+    pool = {
+        s.hash for s in (env.unwrapped.source.scenario_of_seed(p) for p in env.unwrapped.source.pool_seeds())
+    }
     for _ in range(4):
         env.reset()
         assert env.unwrapped.scenario.hash in pool
@@ -157,7 +163,15 @@ def test_truncates_itself_at_max_steps():
 
 @pytest.mark.parametrize(
     "action",
-    [np.array([np.nan, 0, 0]), np.array([0, np.inf, 0]), np.zeros(2), np.zeros((1, 3)), np.zeros(4), "fast", [[0, 0, 0]]],
+    [
+        np.array([np.nan, 0, 0]),
+        np.array([0, np.inf, 0]),
+        np.zeros(2),
+        np.zeros((1, 3)),
+        np.zeros(4),
+        "fast",
+        [[0, 0, 0]],
+    ],
 )
 def test_bad_actions_raise_value_error(action):
     env = UAVPenetrationEnv(tiny_scenario())

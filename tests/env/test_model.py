@@ -47,7 +47,11 @@ def flying_state(model, x_km, y_km, agl=150.0, heading_deg=45.0, speed=10.0, pit
 
 CASES = {
     # name: (state builder args, step k, control sequence)
-    "cruise": ((0.0, 0.0), 0, [[0.0, 0.1, 0.0], [1.0, -0.2, 0.1], [-2.0, 0.0, -0.1], [0.0, 0.0, 0.0], [0.5, 0.26, 0.0]]),
+    "cruise": (
+        (0.0, 0.0),
+        0,
+        [[0.0, 0.1, 0.0], [1.0, -0.2, 0.1], [-2.0, 0.0, -0.1], [0.0, 0.0, 0.0], [0.5, 0.26, 0.0]],
+    ),
     "reaches goal": ((20.0, 20.0), 3, [[0.0, 0.0, 0.0]] * 5),
     "crashes": ((5.0, 5.0), 2, [[0.0, 0.0, -0.26]] * 5),
     "leaves map": ((45.0, 10.0), 1, [[2.0, 0.0, 0.0]] * 5),
@@ -95,7 +99,9 @@ def test_rollout_batch_equals_loop_of_single_rollouts(model):
     controls = rng.uniform(-high, high, size=(64, 5, 3))
     state = flying_state(model, 3.0, 1.0, agl=80.0)
     batch = model.rollout_cost(state, controls, step=4, discount=0.9, terminal_cost=0.06)
-    loop = np.array([model.rollout_cost(state, c[None], step=4, discount=0.9, terminal_cost=0.06)[0] for c in controls])
+    loop = np.array(
+        [model.rollout_cost(state, c[None], step=4, discount=0.9, terminal_cost=0.06)[0] for c in controls]
+    )
     np.testing.assert_array_equal(batch, loop)
 
 
@@ -103,7 +109,9 @@ def test_discount_weights_each_step(model, env):
     state = flying_state(model, 0.0, 0.0)
     controls = np.zeros((5, 3))
     expected = env_window_cost(env, state, 0, controls, discount=0.5)
-    assert model.rollout_cost(state, controls[None], step=0, discount=0.5)[0] == pytest.approx(expected, rel=1e-12)
+    assert model.rollout_cost(state, controls[None], step=0, discount=0.5)[0] == pytest.approx(
+        expected, rel=1e-12
+    )
 
 
 def test_terminal_cost_added_only_to_flying_rows_before_k_max(model):
@@ -117,10 +125,16 @@ def test_terminal_cost_added_only_to_flying_rows_before_k_max(model):
     # A crashed row gets no cost-to-go.
     crash_state = flying_state(model, 5.0, 5.0, agl=60.0)
     dive = np.tile([0.0, 0.0, -0.26], (1, 5, 1))
-    assert model.rollout_cost(crash_state, dive, step=0, terminal_cost=0.06)[0] == model.rollout_cost(crash_state, dive, step=0)[0]
+    assert (
+        model.rollout_cost(crash_state, dive, step=0, terminal_cost=0.06)[0]
+        == model.rollout_cost(crash_state, dive, step=0)[0]
+    )
     # The window reaching K_max ends the episode: no cost-to-go either.
     late = model.max_steps - 5
-    assert model.rollout_cost(state, controls, step=late, terminal_cost=0.06)[0] == model.rollout_cost(state, controls, step=late)[0]
+    assert (
+        model.rollout_cost(state, controls, step=late, terminal_cost=0.06)[0]
+        == model.rollout_cost(state, controls, step=late)[0]
+    )
 
 
 def test_rollout_rejects_bad_shapes(model):
@@ -143,13 +157,18 @@ def test_pool_model_equals_one_scenario_models(tiny):
         radars=[{"name": "C", "x_km": 10, "y_km": 10, "mast_m": 20}],
         terrain={"seed": 9, "mountains": []},
     )
-    third = tiny_scenario(name="tiny-three", radars=[*tiny.to_dict()["radars"], {"name": "D", "x_km": 0, "y_km": 30, "z_m": 400}])
+    third = tiny_scenario(
+        name="tiny-three",
+        radars=[*tiny.to_dict()["radars"], {"name": "D", "x_km": 0, "y_km": 30, "z_m": 400}],
+    )
     scenarios = [tiny, other, third]
     pool = PenetrationModel(scenarios)
     singles = [PenetrationModel(s, radar_slots=3) for s in scenarios]
     rng = np.random.default_rng(0)
     index = np.array([0, 1, 2, 2, 1, 0])
-    states = np.stack([flying_state(singles[i], *rng.uniform(-5, 20, 2), agl=rng.uniform(40, 600)) for i in index])
+    states = np.stack(
+        [flying_state(singles[i], *rng.uniform(-5, 20, 2), agl=rng.uniform(40, 600)) for i in index]
+    )
     controls = rng.uniform(-pool.limits.action_high, pool.limits.action_high, size=(len(index), 3))
     pooled = pool.step(states, controls, 3, index)
     obs = pool.observe(pooled.state, pooled.step_index, pooled, index)
@@ -158,10 +177,15 @@ def test_pool_model_equals_one_scenario_models(tiny):
         assert pooled.J[row] == single.J[0]
         assert pooled.penalty[row] == single.penalty[0]
         np.testing.assert_array_equal(pooled.radar_threat_per_radar[row], single.radar_threat_per_radar[0])
-        np.testing.assert_array_equal(obs[row], singles[i].observe(single.state, single.step_index, single)[0])
+        np.testing.assert_array_equal(
+            obs[row], singles[i].observe(single.state, single.step_index, single)[0]
+        )
     # Rollouts of a pool member equal the member's own model.
     plan = rng.uniform(-pool.limits.action_high, pool.limits.action_high, size=(8, 5, 3))
-    np.testing.assert_array_equal(pool.rollout_cost(states[1], plan, step=0, scenario_index=1), singles[1].rollout_cost(states[1], plan, step=0))
+    np.testing.assert_array_equal(
+        pool.rollout_cost(states[1], plan, step=0, scenario_index=1),
+        singles[1].rollout_cost(states[1], plan, step=0),
+    )
 
 
 def test_pool_rejects_incompatible_scenarios(tiny):
@@ -183,12 +207,18 @@ def test_observation_slots_are_what_the_spec_says(model):
     assert obs[2] == pytest.approx((z - ground) / 1000.0, abs=1e-6)
     assert obs[3] == pytest.approx(z / 3000.0, abs=1e-6)
     assert obs[4] == pytest.approx((v - 5.0) / 5.0, abs=1e-6)
-    assert obs[5] == pytest.approx(math.cos(phi), abs=1e-6) and obs[6] == pytest.approx(math.sin(phi), abs=1e-6)
+    assert obs[5] == pytest.approx(math.cos(phi), abs=1e-6) and obs[6] == pytest.approx(
+        math.sin(phi), abs=1e-6
+    )
     assert obs[7] == pytest.approx(theta / math.radians(15), abs=1e-6)
     gx, gy = 25e3 - x, 25e3 - y
-    assert obs[8] == pytest.approx(gx / 75e3, abs=1e-6) and obs[10] == pytest.approx(math.hypot(gx, gy) / 75e3, abs=1e-6)
+    assert obs[8] == pytest.approx(gx / 75e3, abs=1e-6) and obs[10] == pytest.approx(
+        math.hypot(gx, gy) / 75e3, abs=1e-6
+    )
     rel = math.atan2(gy, gx) - phi
-    assert obs[11] == pytest.approx(math.cos(rel), abs=1e-6) and obs[12] == pytest.approx(math.sin(rel), abs=1e-6)
+    assert obs[11] == pytest.approx(math.cos(rel), abs=1e-6) and obs[12] == pytest.approx(
+        math.sin(rel), abs=1e-6
+    )
     # Terrain ahead: slot 13 + 5 * a + c is ahead TERRAIN_AHEAD_M[a], across TERRAIN_ACROSS_M[c] (left positive).
     for a, c in [(0, 2), (4, 0), (2, 4)]:
         px = x + TERRAIN_AHEAD_M[a] * math.cos(phi) - TERRAIN_ACROSS_M[c] * math.sin(phi)
@@ -231,7 +261,10 @@ scenario_variants = st.fixed_dictionaries(
         ),
         "cost": st.fixed_dictionaries({"third_term": st.sampled_from(["fuel", "length"])}),
         "terrain": st.fixed_dictionaries(
-            {"threat_altitude_scale_m": st.one_of(st.none(), st.floats(10.0, 1000.0)), "seed": st.integers(0, 3)}
+            {
+                "threat_altitude_scale_m": st.one_of(st.none(), st.floats(10.0, 1000.0)),
+                "seed": st.integers(0, 3),
+            }
         ),
         "radars": st.lists(
             st.fixed_dictionaries(
@@ -278,7 +311,16 @@ def test_model_terms_stay_within_documented_bounds(variant, xy, agl, speed, head
     control = np.clip(np.array([control]), -1e6, 1e6)
     result = model.step(state, control, step)
     obs = model.observe(result.state, result.step_index, result)
-    for name in ("J", "penalty", "terrain_threat", "radar_threat", "third_term", "fuel_kg", "detection_prob", "altitude_agl"):
+    for name in (
+        "J",
+        "penalty",
+        "terrain_threat",
+        "radar_threat",
+        "third_term",
+        "fuel_kg",
+        "detection_prob",
+        "altitude_agl",
+    ):
         assert np.all(np.isfinite(getattr(result, name))), name
     assert np.all(np.isfinite(obs)) and np.all(np.abs(obs) <= 10.0)
     assert 0.0 <= result.terrain_threat[0] <= 1.0
@@ -299,7 +341,9 @@ def test_model_terms_stay_within_documented_bounds(variant, xy, agl, speed, head
 
 @given(
     variant=scenario_variants,
-    plan=st.lists(st.tuples(st.floats(-2, 2), st.floats(-0.3, 0.3), st.floats(-0.3, 0.3)), min_size=1, max_size=6),
+    plan=st.lists(
+        st.tuples(st.floats(-2, 2), st.floats(-0.3, 0.3), st.floats(-0.3, 0.3)), min_size=1, max_size=6
+    ),
     step=st.integers(0, 30),
     terminal=st.floats(0.0, 1.0),
 )

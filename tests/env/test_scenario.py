@@ -318,7 +318,7 @@ BROKEN = [
     (
         "radar-outside-y",
         _with(PAPER, (("radars", 1, "y_km"), -30.0)),
-        "radars[1].x_km",
+        "radars[1].y_km",
         "-30.0",
         "inside the map",
     ),
@@ -360,7 +360,7 @@ BROKEN = [
     ),
     ("goal-outside", _with(PAPER, (("goal", "x_km"), 130.0)), "goal.x_km", "130.0", "inside the map"),
     ("goal-near-edge", _with(PAPER, (("goal", "x_km"), 110.0)), "goal.x_km", "110.0", "two turn radii"),
-    ("goal-near-edge-y", _with(PAPER, (("goal", "y_km"), 103.0)), "goal.x_km", "103.0", "22.9 km"),
+    ("goal-near-edge-y", _with(PAPER, (("goal", "y_km"), 103.0)), "goal.y_km", "103.0", "22.9 km"),
     ("goal-radius", _with(PAPER, (("goal", "radius_km"), 0.0)), "goal.radius_km", "0.0", "positive"),
     ("start-outside", _with(PAPER, (("start", "x_km"), -26.0)), "start.x_km", "-26.0", "inside the map"),
     (
@@ -562,14 +562,6 @@ def test_broken_input_names_field_value_and_expectation(data, field, value_text,
     assert expected_text in message
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=(OverflowError, ValueError),
-    reason=(
-        "BUG: scenario._convert for int fields evaluates int(value) on a non-finite float: "
-        "inf raises OverflowError and nan a plain ValueError instead of ScenarioError naming the field"
-    ),
-)
 @pytest.mark.parametrize("path", [("time", "max_steps"), ("terrain", "seed")])
 @pytest.mark.parametrize("value", [float("inf"), float("nan")], ids=["inf", "nan"])
 def test_non_finite_integer_field_raises_scenario_error(path, value):

@@ -12,7 +12,17 @@ import uav_penetration_env  # noqa: F401  (registers the ids)
 from uav_penetration_env.env import UAVPenetrationEnv, UAVPenetrationRandomEnv
 from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv, UAVPenetrationVectorEnv
 
-COMPARED_INFO = ("J", "penalty", "radar_threat_per_radar", "state", "step", "reached_goal", "collided", "out_of_area", "detection_prob")
+COMPARED_INFO = (
+    "J",
+    "penalty",
+    "radar_threat_per_radar",
+    "state",
+    "step",
+    "reached_goal",
+    "collided",
+    "out_of_area",
+    "detection_prob",
+)
 
 
 def action_schedule(num_envs, steps, seed=0):
@@ -33,7 +43,9 @@ def assert_same(native, reference, mode, steps_checked):
     np.testing.assert_array_equal(native[3], reference[3])  # truncated
     info_native, info_ref = native[4], reference[4]
     for key in COMPARED_INFO:
-        np.testing.assert_array_equal(info_native[key], info_ref[key], err_msg=f"info[{key!r}] ({mode}, step {steps_checked})")
+        np.testing.assert_array_equal(
+            info_native[key], info_ref[key], err_msg=f"info[{key!r}] ({mode}, step {steps_checked})"
+        )
         np.testing.assert_array_equal(info_native[f"_{key}"], info_ref[f"_{key}"])
     if mode == AutoresetMode.SAME_STEP and "final_obs" in info_ref:
         np.testing.assert_array_equal(info_native["_final_obs"], info_ref["_final_obs"])
@@ -42,7 +54,9 @@ def assert_same(native, reference, mode, steps_checked):
         for key in COMPARED_INFO:
             finished = info_ref["final_info"][f"_{key}"]
             np.testing.assert_array_equal(info_native["final_info"][f"_{key}"], finished)
-            np.testing.assert_array_equal(info_native["final_info"][key][finished], info_ref["final_info"][key][finished])
+            np.testing.assert_array_equal(
+                info_native["final_info"][key][finished], info_ref["final_info"][key][finished]
+            )
 
 
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
@@ -68,9 +82,12 @@ def test_vector_env_equals_single_envs(mode):
 def test_random_vector_env_shares_one_pool_and_equals_single_envs():
     n, pool_seed = 3, 21
     kwargs = {"difficulty": 0.0, "pool_size": 2}
-    native = UAVPenetrationRandomVectorEnv(n, pool_seed=pool_seed, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    native = UAVPenetrationRandomVectorEnv(
+        n, pool_seed=pool_seed, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs
+    )
     reference = SyncVectorEnv(
-        [lambda: UAVPenetrationRandomEnv(pool_seed=pool_seed, **kwargs) for _ in range(n)], autoreset_mode=AutoresetMode.SAME_STEP
+        [lambda: UAVPenetrationRandomEnv(pool_seed=pool_seed, **kwargs) for _ in range(n)],
+        autoreset_mode=AutoresetMode.SAME_STEP,
     )
     np.testing.assert_array_equal(native.reset(seed=pool_seed)[0], reference.reset(seed=pool_seed)[0])
     assert native.model.radar_slots == 8
@@ -86,7 +103,9 @@ def test_random_vector_env_shares_one_pool_and_equals_single_envs():
 
 
 def test_make_vec_uses_the_native_vector_env():
-    envs = gym.make_vec("UAVPenetration-v0", num_envs=4, vectorization_mode="vector_entry_point", scenario=tiny_scenario())
+    envs = gym.make_vec(
+        "UAVPenetration-v0", num_envs=4, vectorization_mode="vector_entry_point", scenario=tiny_scenario()
+    )
     assert isinstance(envs.unwrapped, UAVPenetrationVectorEnv)
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     obs, _ = envs.reset(seed=0)
@@ -94,7 +113,11 @@ def test_make_vec_uses_the_native_vector_env():
     obs, rewards, *_ = envs.step(envs.action_space.sample())
     assert rewards.shape == (4,)
     same = gym.make_vec(
-        "UAVPenetration-v0", num_envs=2, vectorization_mode="vector_entry_point", scenario=tiny_scenario(), autoreset_mode="SAME_STEP"
+        "UAVPenetration-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        scenario=tiny_scenario(),
+        autoreset_mode="SAME_STEP",
     )
     assert same.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
 
