@@ -18,7 +18,7 @@ class RandomSearch:
 
     def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
         rng = np.random.default_rng(rng)
-        lo, hi = np.asarray(bounds[0], float), np.asarray(bounds[1], float)
+        lo, hi = np.asarray(bounds.lb, float), np.asarray(bounds.ub, float)
         best_x, best_f, used, history, history_nfev = lo.copy(), np.inf, 0, [], []
         while used < max_evals:
             n = min(self.batch, max_evals - used)

@@ -32,7 +32,7 @@ class SpyOptimizer:
         self.calls: list[dict] = []
 
     def minimize(self, fun, bounds, *, rng=None, max_evals=10_000, x0=None):
-        lo, hi = bounds
+        lo, hi = bounds.lb, bounds.ub
         plan = np.clip(np.full(lo.shape, self.plan_value) * np.arange(1, lo.size + 1), lo, hi)
         cost = fun(plan[None])[0]
         self.calls.append(
@@ -59,8 +59,7 @@ class NoWarmStart:
     """A plug-in optimiser whose minimize has no x0 parameter."""
 
     def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
-        lo, _ = bounds
-        x = np.zeros_like(lo)
+        x = np.zeros_like(bounds.lb)
         value = float(fun(x[None])[0])
         return OptimizeResult(
             x=x,
@@ -125,7 +124,7 @@ def test_mpc_objective_is_the_model_rollout_cost(env):
     @dataclass
     class Probe:
         def minimize(self, fun, bounds, *, rng=None, max_evals=10_000, x0=None):
-            plans = np.random.default_rng(0).uniform(bounds[0], bounds[1], size=(7, bounds[0].size))
+            plans = np.random.default_rng(0).uniform(bounds.lb, bounds.ub, size=(7, bounds.lb.size))
             seen.append((plans, fun(plans)))
             return OptimizeResult(
                 x=plans[0],

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+from scipy.optimize import Bounds
 
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
@@ -201,7 +202,9 @@ class MPCPolicy:
         if self.warm_start and self._accepts_x0 and self._plan is not None:
             kwargs["x0"] = self._plan.reshape(-1)
         start = time.perf_counter()
-        result = self.optimizer.minimize(objective, (-high, high), **kwargs)
+        # scipy Bounds: unambiguous for every dimension (a (lower, upper) pair of length-2 arrays would
+        # read as two (lo, hi) pairs, optimizers.md D29).
+        result = self.optimizer.minimize(objective, Bounds(-high, high), **kwargs)
         planning = time.perf_counter() - start
         found = bool(np.isfinite(result.fun))
         plan = np.asarray(result.x, dtype=np.float64).reshape(horizon, 3) if found else np.zeros((horizon, 3))
