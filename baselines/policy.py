@@ -1,0 +1,236 @@
+"""A trained SB3 agent as a harness Policy (``reset(model, seed)``, ``act(observation, info)``; api.md).
+
+``load_policy("leaderboards/models/ppo-paper-s0.zip")`` reads the model's sidecar and hashes its
+files, but loads nothing heavy: the evaluator pickles policies into worker processes, so the SB3
+model (and torch) are loaded lazily in the process that acts, once per process and model file.
+Loading runs pickle-based code from the model and statistics files (SB3's and VecNormalize's
+formats): load only models you trust.
+"""
+
+from __future__ import annotations
+
+import io
+import pickle
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium.wrappers.utils import rescale_box
+
+from baselines.artifacts import ModelFiles, read_sidecar, sha256_file
+from uav_penetration_env.env import action_space
+from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
+from uav_penetration_env.types import FloatArray
+
+# Per-process cache of loaded models: (model sha256, statistics sha256) -> (SB3 model, VecNormalize).
+# Loky workers are reused across episodes, so each worker loads a model once.
+_LOADED: dict[tuple[str, str | None], tuple[Any, Any]] = {}
+# Placeholders for lr schedules when loading for inference only: avoids unpickling training-time
+# closures, which can fail across Python/SB3 versions (rl-baselines3-zoo's enjoy.py does the same).
+_INFERENCE_OBJECTS = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
+
+
+class SB3Policy:
+    """A Stable-Baselines3 model acting deterministically in physical units.
+
+    Built by :func:`load_policy`. Pickles to its paths, hashes and sidecar only; the model is
+    loaded on first use in each process (with torch on one thread there).
+
+    Args:
+        files: the model's files.
+        sidecar: its parsed ``.json`` sidecar.
+        model_sha256: SHA-256 of the ``.zip`` bytes.
+        vecnormalize_sha256: SHA-256 of the ``.vecnormalize.pkl`` bytes (``None``: not normalised).
+        sidecar_sha256: SHA-256 of the ``.json`` bytes.
+    """
+
+    def __init__(
+        self,
+        files: ModelFiles,
+        sidecar: dict[str, Any],
+        model_sha256: str,
+        vecnormalize_sha256: str | None,
+        sidecar_sha256: str,
+    ) -> None:
+        self.files = files
+        self.sidecar = sidecar
+        self.model_sha256 = model_sha256
+        self.vecnormalize_sha256 = vecnormalize_sha256
+        self.sidecar_sha256 = sidecar_sha256
+        self._agent: Any = None
+        self._normalizer: Any = None
+        self._to_physical: Any = None
+
+    def __repr__(self) -> str:
+        return f"SB3Policy({str(self.files.model)!r}, algorithm={self.sidecar['algorithm']!r})"
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Torch modules stay out of the pickle: workers load the model themselves (and cache it).
+        state = self.__dict__.copy()
+        state.update(_agent=None, _normalizer=None, _to_physical=None)
+        return state
+
+    # --- what the harness reads ---------------------------------------------------------------------
+
+    def config(self) -> dict[str, Any]:
+        """Everything that determines behaviour (the store key): file hashes, not paths.
+
+        A retrained model has new bytes, hence a new key; a moved or renamed file keeps its key.
+        """
+        return {
+            "kind": "sb3",
+            "algorithm": self.sidecar["algorithm"],
+            "deterministic": True,
+            "model_sha256": self.model_sha256,
+            "vecnormalize_sha256": self.vecnormalize_sha256,
+            "sidecar_sha256": self.sidecar_sha256,
+        }
+
+    @property
+    def metadata(self) -> dict[str, Any]:
+        """Training budget copied into every episode row (``train_timesteps``, ``train_seconds``)."""
+        return {
+            "train_timesteps": int(self.sidecar["timesteps_done"]),
+            "train_seconds": float(self.sidecar["wall_seconds"]),
+        }
+
+    # --- the Policy protocol ------------------------------------------------------------------------
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Check the model fits the env of ``model`` and prepare to act (the policy is deterministic).
+
+        A different scenario is allowed (that is the generalisation experiment); a different
+        observation shape, action box or profile is not.
+
+        Raises:
+            ValueError: naming what differs between the sidecar and the env.
+        """
+        del seed
+        self.check_compatible(model)
+        box = action_space(model.limits)
+        ones = np.ones(box.shape, dtype=box.dtype)
+        # The map RescaleAction(env, -1, 1) and the training adapter apply: bit-identical actions.
+        _, _, self._to_physical = rescale_box(box, -ones, ones)
+        self._load()
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The deterministic action for ``observation``, in physical units [dv, dphi, dtheta]."""
+        del info
+        if self._to_physical is None:
+            raise RuntimeError("SB3Policy.act() before reset(model, seed)")
+        agent, normalizer = self._load()
+        obs = np.asarray(observation, dtype=np.float32).reshape(1, -1)
+        if normalizer is not None:
+            obs = normalizer.normalize_obs(obs)
+        action, _ = agent.predict(obs, deterministic=True)
+        clipped = np.clip(np.asarray(action, dtype=np.float32).reshape(-1), -1.0, 1.0)
+        return np.asarray(self._to_physical(clipped), dtype=np.float64)
+
+    # --- checks and loading -------------------------------------------------------------------------
+
+    def check_compatible(self, model: PenetrationModel) -> None:
+        """Raise ``ValueError`` naming every difference between the sidecar and ``model``'s env."""
+        sidecar, path = self.sidecar, self.files.sidecar
+        problems = []
+        shape = tuple(sidecar["observation_space"]["shape"])
+        if shape != (OBSERVATION_SIZE,):
+            problems.append(f"observation shape {shape} (the env's is ({OBSERVATION_SIZE},))")
+        box = action_space(model.limits)
+        trained = sidecar["action_space"]
+        if tuple(trained["shape"]) != box.shape or not (
+            np.allclose(trained["low"], box.low, rtol=1e-6, atol=0.0)
+            and np.allclose(trained["high"], box.high, rtol=1e-6, atol=0.0)
+        ):
+            problems.append(
+                f"action bounds high={trained['high']} (the env's are high={box.high.astype(float).tolist()} "
+                "[dv m/s, dphi rad, dtheta rad])"
+            )
+        profile = model.scenario.profile
+        if sidecar["profile"] != profile:
+            problems.append(
+                f"profile {sidecar['profile']!r} (the env's scenario {model.scenario.name!r} uses {profile!r})"
+            )
+        if problems:
+            raise ValueError(
+                f"sb3 model {self.files.model} does not fit this env: its sidecar {path} says "
+                + "; ".join(problems)
+            )
+
+    def _load(self) -> tuple[Any, Any]:
+        """The SB3 model and observation normaliser, loaded once per process and verified by hash."""
+        if self._agent is not None:
+            return self._agent, self._normalizer
+        key = (self.model_sha256, self.vecnormalize_sha256)
+        if key not in _LOADED:
+            _LOADED[key] = self._load_files()
+        self._agent, self._normalizer = _LOADED[key]
+        return self._agent, self._normalizer
+
+    def _load_files(self) -> tuple[Any, Any]:
+        try:
+            import torch
+
+            from baselines.train import algorithm_class
+        except ImportError as error:  # pragma: no cover - depends on the installed extras
+            raise ImportError(f"sb3 policies need the RL extra: pip install -e '.[rl]' ({error})") from error
+        # One intra-op thread: evaluation workers run one per core, and a 64x64 MLP gains nothing
+        # from more.
+        torch.set_num_threads(1)
+        data = _read_verified(self.files.model, self.model_sha256)
+        agent = algorithm_class(self.sidecar["algorithm"]).load(
+            io.BytesIO(data), device="cpu", custom_objects=_INFERENCE_OBJECTS
+        )
+        normalizer = None
+        if self.vecnormalize_sha256 is not None:
+            normalizer = pickle.loads(_read_verified(self.files.vecnormalize, self.vecnormalize_sha256))
+        return agent, normalizer
+
+
+def _read_verified(path: Path, sha256: str) -> bytes:
+    import hashlib
+
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: the file disappeared after load_policy()") from None
+    if hashlib.sha256(data).hexdigest() != sha256:
+        raise ValueError(
+            f"{path} changed after load_policy() (its hash is part of the results-store key); load it again"
+        )
+    return data
+
+
+def load_policy(path: str | Path) -> SB3Policy:
+    """A harness Policy for the model saved at ``path`` (``.zip``; the suffix may be omitted).
+
+    Raises:
+        FileNotFoundError: no model file, no sidecar, or no observation statistics though the
+            sidecar says the model uses them (each naming the path).
+        ValueError: a corrupt sidecar, a model file that is not the one the sidecar describes, or
+            a sidecar for another observation shape.
+    """
+    files = ModelFiles.of(path)
+    if not files.model.is_file():
+        raise FileNotFoundError(f"{files.model}: no such SB3 model file")
+    sidecar = read_sidecar(files.sidecar)
+    model_sha256 = sha256_file(files.model)
+    recorded = sidecar.get("model_sha256")
+    if recorded is not None and recorded != model_sha256:
+        raise ValueError(
+            f"{files.model} is not the model its sidecar {files.sidecar} describes (hash differs); "
+            "was one of them overwritten by another run?"
+        )
+    shape = tuple(sidecar["observation_space"].get("shape", ()))
+    if shape != (OBSERVATION_SIZE,):
+        raise ValueError(
+            f"{files.sidecar}: the model was trained on observations of shape {shape}, "
+            f"this env's are ({OBSERVATION_SIZE},)"
+        )
+    vecnormalize_sha256 = None
+    if sidecar["vecnormalize"]:
+        if not files.vecnormalize.is_file():
+            raise FileNotFoundError(
+                f"{files.vecnormalize}: missing observation statistics (the sidecar {files.sidecar} says the model uses them)"
+            )
+        vecnormalize_sha256 = sha256_file(files.vecnormalize)
+    return SB3Policy(files, sidecar, model_sha256, vecnormalize_sha256, sha256_file(files.sidecar))
