@@ -11,14 +11,14 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from conftest import tiny_scenario  # noqa: E402
-from sb3_helpers import trained_tiny_ppo  # noqa: E402
+from conftest import tiny_scenario
+from sb3_helpers import trained_tiny_ppo
 
-from baselines import SB3Policy, load_policy  # noqa: E402
-from baselines.artifacts import ModelFiles  # noqa: E402
-from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash  # noqa: E402
-from uav_penetration_env.benchmark.policies import Policy, make_policy  # noqa: E402
-from uav_penetration_env.env import UAVPenetrationEnv  # noqa: E402
+from baselines import SB3Policy, load_policy
+from baselines.artifacts import ModelFiles
+from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash
+from uav_penetration_env.benchmark.policies import Policy, make_policy
+from uav_penetration_env.env import UAVPenetrationEnv
 
 
 @pytest.fixture(scope="session")
@@ -102,7 +102,7 @@ def test_config_keys_on_file_contents_not_paths(tiny_ppo, tmp_path):
 
 
 def test_missing_files_name_the_path(tiny_ppo, tmp_path):
-    with pytest.raises(FileNotFoundError, match="nope.zip: no such SB3 model file"):
+    with pytest.raises(FileNotFoundError, match=r"nope\.zip: no such SB3 model file"):
         load_policy(tmp_path / "nope.zip")
     copied = copy_model(tiny_ppo.files, tmp_path)
     copied.sidecar.unlink()
@@ -127,7 +127,7 @@ def test_corrupt_sidecar_names_the_path(tiny_ppo, tmp_path):
 def test_model_and_sidecar_must_belong_together(tiny_ppo, tmp_path):
     copied = copy_model(tiny_ppo.files, tmp_path)
     shutil.copyfile(tiny_ppo.files.checkpoints / "ppo-tiny-s0-128steps.zip", copied.model)
-    with pytest.raises(ValueError, match="is not the model its sidecar .* describes"):
+    with pytest.raises(ValueError, match=r"is not the model its sidecar .* describes"):
         load_policy(copied.model)
 
 

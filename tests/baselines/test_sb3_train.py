@@ -9,13 +9,13 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from conftest import tiny_scenario  # noqa: E402
-from sb3_helpers import TINY_PPO, tiny_run, trained_tiny_ppo  # noqa: E402
+from conftest import tiny_scenario
+from sb3_helpers import TINY_PPO, tiny_run, trained_tiny_ppo
 
-from baselines import load_policy, train_agent  # noqa: E402
-from baselines.train import EVALUATION_COLUMNS, algorithm_kwargs, resolve_hyperparams  # noqa: E402
-from uav_penetration_env.benchmark.cli import main  # noqa: E402
-from uav_penetration_env.benchmark.evaluate import evaluate  # noqa: E402
+from baselines import load_policy, train_agent
+from baselines.train import EVALUATION_COLUMNS, algorithm_kwargs, resolve_hyperparams
+from uav_penetration_env.benchmark.cli import main
+from uav_penetration_env.benchmark.evaluate import evaluate
 
 
 @pytest.fixture(scope="session")

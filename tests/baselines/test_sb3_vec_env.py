@@ -7,12 +7,12 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from conftest import tiny_scenario  # noqa: E402
-from gymnasium.wrappers import RescaleAction  # noqa: E402
-from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan, VecMonitor, VecNormalize  # noqa: E402
+from conftest import tiny_scenario
+from gymnasium.wrappers import RescaleAction
+from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan, VecMonitor, VecNormalize
 
-from baselines.vec_env import UAVPenetrationSB3VecEnv  # noqa: E402
-from uav_penetration_env.env import UAVPenetrationEnv  # noqa: E402
+from baselines.vec_env import UAVPenetrationSB3VecEnv
+from uav_penetration_env.env import UAVPenetrationEnv
 
 # Short episodes with start jitter, so terminations, truncations and seeded starts all occur.
 SCENARIO = tiny_scenario(time={"max_steps": 12}, start={"jitter": {"xy_km": 1.0, "heading_deg": 5.0}})
@@ -77,7 +77,7 @@ def test_spaces_and_nan_check():
     obs = env.reset()
     assert obs.shape == (3, 67) and obs.dtype == np.float32
     for actions in policy_actions(3, 15):
-        obs, rewards, dones, infos = env.step(actions)  # VecCheckNan raises on NaN/inf
+        obs, rewards, dones, _ = env.step(actions)  # VecCheckNan raises on NaN/inf
         assert rewards.dtype == np.float32 and dones.dtype == bool
 
 
@@ -149,6 +149,6 @@ def test_random_id_adapter_steps_a_shared_pool():
     assert obs.shape == (2, 67)
     names = set()
     for _ in range(160):
-        _, _, dones, infos = env.step(np.zeros((2, 3)))
+        env.step(np.zeros((2, 3)))
         names.update(s.name for s in env.get_attr("scenario"))
     assert {"random-3", "random-4"} <= names
