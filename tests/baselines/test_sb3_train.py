@@ -79,12 +79,33 @@ def test_final_evaluation_is_the_saved_model(tiny_ppo):
 
 
 def test_same_seed_gives_the_same_first_evaluation(tiny_ppo, tmp_path):
-    again = train_agent("ppo", out=tmp_path / "again.zip", **tiny_run(total_timesteps=128, checkpoint_freq=0))
+    # The scenario as a mapping this time (the fixture passed a Scenario): the same env either way.
+    again = train_agent(
+        "ppo",
+        out=tmp_path / "again.zip",
+        **tiny_run(total_timesteps=128, checkpoint_freq=0, scenario=tiny_scenario().to_dict()),
+    )
+    assert again.sidecar["scenario"] == tiny_ppo.sidecar["scenario"]
     first, repeat = tiny_ppo.evaluations[0], again.evaluations[0]
     assert repeat["timesteps"] == first["timesteps"] == 128
     for key in EVALUATION_COLUMNS:
         if key != "wall_seconds":
             assert repeat[key] == first[key], key
+
+
+def test_interrupted_training_saves_the_model(tmp_path, monkeypatch):
+    import baselines.train
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt  # as Ctrl-C during the first evaluation would
+
+    monkeypatch.setattr(baselines.train, "evaluate_agent", interrupt)
+    tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        train_agent("ppo", out=tmp_path / "cut.zip", **tiny_run(scenario=str(tmp_path / "tiny.yaml")))
+    sidecar = json.loads((tmp_path / "cut.json").read_text())
+    assert sidecar["interrupted"] is True and sidecar["timesteps_done"] == 128
+    assert load_policy(tmp_path / "cut.zip").metadata["train_timesteps"] == 128
 
 
 def test_unknown_algorithm_lists_the_known_ones(tmp_path):
