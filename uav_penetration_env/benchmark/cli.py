@@ -331,11 +331,9 @@ def command_leaderboard(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
 
     _check_writable_folder(Path(args.out), "--out")
+    command = " ".join(["uav-bench", *map(shlex.quote, args.argv)])
     for path in write_leaderboards(
-        store,
-        Path(args.out),
-        reference=args.reference,
-        command=" ".join(["uav-bench", *map(shlex.quote, args.argv)]),
+        store, Path(args.out), reference=args.reference, command=command, suite=args.suite
     ):
         print(path)
     return 0
@@ -343,13 +341,37 @@ def command_leaderboard(args: argparse.Namespace) -> int:
 
 def command_plot(args: argparse.Namespace) -> int:
     """`uav-bench plot`: the figures (PNG + PDF) per scenario group."""
+    _check_writable_folder(Path(args.out), "--out")
+    if args.models is not None:
+        from baselines.curves import write_learning_curves
+
+        if not Path(args.models).is_dir():
+            raise CLIError(f"--models: {args.models} is not a folder of trained models")
+        written = write_learning_curves(
+            args.models, Path(args.out), references=dict(_reference(r) for r in args.reference_line or [])
+        )
+        if not written:
+            raise CLIError(f"--models: no *.evaluations.csv with a .json sidecar in {args.models}")
+        for path in written:
+            print(path)
+        return 0
     store = _existing_store(args.store)
     from uav_penetration_env.benchmark.figures import write_figures
 
-    _check_writable_folder(Path(args.out), "--out")
-    for path in write_figures(store, Path(args.out)):
+    for path in write_figures(store, Path(args.out), suite=args.suite):
         print(path)
     return 0
+
+
+def _reference(text: str) -> tuple[str, float]:
+    """``SCENARIO:LABEL=VALUE`` (a dashed reference line on learning-curve panels of that scenario)."""
+    try:
+        key, value = text.rsplit("=", 1)
+        return key, float(value)
+    except ValueError:
+        raise CLIError(
+            f"--reference-line: got {text!r}, expected SCENARIO:LABEL=VALUE, e.g. paper-2022-sec5:greedy=17.2"
+        ) from None
 
 
 def _existing_store(path: str) -> Path:
@@ -530,11 +552,21 @@ def build_parser() -> argparse.ArgumentParser:
     leaderboard.add_argument(
         "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
     )
+    leaderboard.add_argument(
+        "--suite", help="one table over all the store's scenarios, named SUITE (blocks = scenario x seed)"
+    )
     leaderboard.set_defaults(handler=command_leaderboard)
 
     plot = commands.add_parser("plot", help="figures (PNG + PDF) from a store")
     plot.add_argument("--store", default=str(DEFAULT_STORE))
     plot.add_argument("--out", default=str(DEFAULT_OUT))
+    plot.add_argument("--suite", help="aggregate figures over all the store's scenarios, named SUITE")
+    plot.add_argument("--models", help="instead: learning curves of the trained models in this folder")
+    plot.add_argument(
+        "--reference-line",
+        action="append",
+        help="with --models: SCENARIO:LABEL=VALUE dashed line (repeatable)",
+    )
     plot.set_defaults(handler=command_plot)
 
     export = commands.add_parser("export", help="write the episodes and steps tables as CSV or Parquet")

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats as scipy_stats
 
-from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, cost_table, scenario_groups
+from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, cost_table, scenario_groups, suite_group
 from uav_penetration_env.benchmark.store import ResultsStore
 
 PNG_DPI = 150
@@ -45,6 +45,7 @@ FIGURES = (
     "convergence",
     "timeline",
 )
+SCENARIO_FIGURES = ("tracks-top", "tracks-3d", "timeline")  # drawn over one scenario's terrain
 
 
 def _figure(width: float, height: float):
@@ -607,14 +608,23 @@ def _draw(name: str, group: ScenarioGroup, steps: pd.DataFrame, model, colours: 
 
 
 def write_figures(
-    store_path: str | Path, out_dir: str | Path, *, formats: Sequence[str] = ("png", "pdf")
+    store_path: str | Path,
+    out_dir: str | Path,
+    *,
+    formats: Sequence[str] = ("png", "pdf"),
+    suite: str | None = None,
 ) -> list[Path]:
     """Write every figure of every scenario group of a results store, in each of ``formats``.
+
+    With ``suite``, the store's episodes form one group (see ``leaderboard.suite_group``) and only
+    the figures that aggregate over episodes are drawn (no tracks or timeline: they show one
+    scenario).
 
     Args:
         store_path: the SQLite results store.
         out_dir: output folder (created if needed).
         formats: file types, each one of ``png``, ``pdf``, ``svg``.
+        suite: draw one group over all scenarios, named ``suite``.
 
     Returns:
         The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
@@ -637,11 +647,15 @@ def write_figures(
     with ResultsStore(store_path) as store:
         episodes = store.episodes()
         scenarios = store.scenarios()
-        for group in scenario_groups(episodes):
+        if suite is not None and not episodes.empty:
+            groups, names = [suite_group(episodes, suite)], [f for f in FIGURES if f not in SCENARIO_FIGURES]
+        else:
+            groups, names = scenario_groups(episodes), list(FIGURES)
+        for group in groups:
             steps = store.steps(group.episodes["episode_id"].astype(int).tolist())
-            model = _model(scenarios.get(group.scenario_hash, (None, None))[1])
+            model = None if group.scenarios else _model(scenarios.get(group.scenario_hash, (None, None))[1])
             colours = policy_colours(group.episodes["label"].unique())
-            for name in FIGURES:
+            for name in names:
                 figure = _draw(name, group, steps, model, colours)
                 written += _save(figure, out_dir, f"{group.stem}-{name}", formats)
     return written
