@@ -165,3 +165,29 @@ def test_another_scenario_is_allowed(tiny_ppo):
 def test_act_before_reset_is_an_error(tiny_ppo):
     with pytest.raises(RuntimeError, match="before reset"):
         load_policy(tiny_ppo.files.model).act(np.zeros(67, dtype=np.float32), {})
+
+
+def test_cli_run_names_an_agent_by_its_file_stem(tiny_ppo, tmp_path):
+    from uav_penetration_env.benchmark import cli
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
+    store = tmp_path / "rl.sqlite"
+    spec = f"sb3:{tiny_ppo.files.model}"
+    argv = [
+        "run",
+        "--policies",
+        spec,
+        "greedy",
+        "--scenarios",
+        str(scenario),
+        "--seeds",
+        "2",
+        "--store",
+        str(store),
+    ]
+    assert cli.main([*argv, "--no-report", "--no-progress", "--jobs", "1"]) == 0
+    with ResultsStore(store) as results:
+        rows = results.episodes()
+    assert set(rows["policy"]) == {f"sb3:{tiny_ppo.files.model.stem}", "greedy"}
+    assert rows.loc[rows["policy"] != "greedy", "train_timesteps"].notna().all()

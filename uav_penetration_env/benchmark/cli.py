@@ -231,8 +231,10 @@ def command_run(args: argparse.Namespace) -> int:
     max_evals, horizon = int(settings["max_evals"]), int(settings["horizon"])
     policies = {}
     for spec in settings["policies"]:
+        # An agent's table name is its file stem (sb3:ppo-paper-s0), not its whole path.
+        name = f"sb3:{Path(spec[4:]).stem}" if spec.startswith("sb3:") else spec
         try:
-            policies[spec] = make_policy(
+            policies[name] = make_policy(
                 spec,
                 horizon=horizon,
                 max_evals=max_evals,
