@@ -58,3 +58,30 @@ def test_suite_leaderboard_and_figures_from_a_store(tmp_path):
     assert [p.name for p in figures] == [
         "tiny-suite-j-per-point.png", "tiny-suite-cost-box.png", "tiny-suite-performance-profile.png", "tiny-suite-convergence.png"
     ]  # fmt: skip
+
+
+def test_significance_direction_follows_the_median_not_a_crash_skewed_mean():
+    """One crash of the reference makes the mean difference negative while the policy is costlier on 19 of 20 seeds."""
+    from uav_penetration_env.benchmark.leaderboard import statistics_paragraph
+
+    seeds = list(range(20))
+    ref = [10.0] * 19 + [200.0]
+    other = [11.0] * 20
+    episodes = pd.DataFrame(
+        {
+            "policy": ["ref"] * 20 + ["b"] * 20,
+            "policy_hash": ["hr"] * 20 + ["hb"] * 20,
+            "scenario": "s",
+            "scenario_hash": "h",
+            "seed": seeds + seeds,
+            "outcome": ["success"] * 19 + ["collided"] + ["success"] * 20,
+            "error": "",
+            "total_cost": ref + other,
+        }
+    )
+    table = leaderboard_table(episodes, reference="ref", n_resamples=200)
+    row = table.set_index("policy").loc["b"]
+    assert row["delta_mean"] < 0 < row["median_difference"]
+    assert row["pvalue_holm"] < 0.05
+    text = statistics_paragraph(table)
+    assert "Significantly costlier than `ref`: `b`" in text and "cheaper" not in text

@@ -112,6 +112,11 @@ COLUMN_DEFINITIONS: tuple[tuple[str, str], ...] = (
         "bootstrap 95 % interval; positive = costlier than the reference",
     ),
     (
+        "median Δ",
+        "median paired difference of total J (this policy − reference): the location the Wilcoxon test "
+        "judges, robust to a single crash; its sign says cheaper (−) or costlier (+) in the Statistics",
+    ),
+    (
         "p (Holm)",
         "two-sided Wilcoxon signed-rank test of total J against the reference over shared seeds, "
         "Holm–Bonferroni adjusted over the comparisons in this table",
@@ -495,6 +500,7 @@ def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str]
         *(title for _, title in MEAN_COLUMNS.values()),
         "rank",
         f"Δ vs {ref} [95% CI]",
+        "median Δ",
         "p (Holm)",
     ]
     if show_training:
@@ -521,6 +527,7 @@ def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str]
         line += [
             format_number(r.friedman_rank, 3),
             format_interval(r.delta_mean, r.delta_mean_ci_low, r.delta_mean_ci_high, 3),
+            format_number(r.median_difference, 3),
             format_pvalue(r.pvalue_holm),
         ]
         if show_training:
@@ -559,9 +566,15 @@ def statistics_paragraph(table: pd.DataFrame) -> str:
         )
         return " ".join(lines)
     significant = compared[compared["pvalue_holm"] < ALPHA]
-    lower = [f"`{r.policy}` ({p_text(r.pvalue_holm)})" for r in significant.itertuples() if r.delta_mean < 0]
+    # The direction is the sign of the median paired difference: the location the signed-rank
+    # test judges. The mean difference can point the other way when one episode crashed.
+    lower = [
+        f"`{r.policy}` ({p_text(r.pvalue_holm)})" for r in significant.itertuples() if r.median_difference < 0
+    ]
     higher = [
-        f"`{r.policy}` ({p_text(r.pvalue_holm)})" for r in significant.itertuples() if r.delta_mean >= 0
+        f"`{r.policy}` ({p_text(r.pvalue_holm)})"
+        for r in significant.itertuples()
+        if r.median_difference >= 0
     ]
     lines.append(
         f"Wilcoxon signed-rank tests of total J against `{reference}` (two-sided, paired by seed, "
