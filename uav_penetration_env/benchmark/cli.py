@@ -391,7 +391,7 @@ def command_export(args: argparse.Namespace) -> int:
 
     store_path = _existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_suffix("")
-    _check_writable_folder(out.parent if out.suffix else out, "--out")
+    _check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
     with ResultsStore(store_path) as store:
         tables = {"episodes": store.episodes(), "steps": store.steps()}
     written = []
