@@ -361,6 +361,8 @@ def leaderboard_table(
     table.attrs["reference"] = ref
     table.attrs["seeds"] = sorted(int(s) for s in frame["seed"].dropna().unique())
     table.attrs["n_resamples"] = int(n_resamples)
+    # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
+    table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
     return table
 
 
@@ -544,16 +546,17 @@ def statistics_paragraph(table: pd.DataFrame) -> str:
     """The "Statistics" section: Friedman's test and which differences to the reference are significant."""
     friedman: stats.FriedmanResult = table.attrs["friedman"]
     reference = table.attrs["reference"]
+    blocks = table.attrs.get("blocks", "seeds")
     k = int(friedman.ranks.notna().sum())
     lines = []
     if friedman.statistic is not None:
         lines.append(
-            f"Friedman test over the {friedman.blocks} seeds every policy finished ({k} policies): "
+            f"Friedman test over the {friedman.blocks} {blocks} every policy finished ({k} policies): "
             f"χ² = {format_number(friedman.statistic, 3)}, {p_text(friedman.pvalue)}."
         )
     else:
         lines.append(
-            f"Friedman test not run: it needs at least 3 policies and 2 seeds every policy finished "
+            f"Friedman test not run: it needs at least 3 policies and 2 {blocks} every policy finished "
             f"(here {k} policies, {friedman.blocks} seeds); ranks are averages over those seeds."
         )
     if reference is None:
@@ -577,7 +580,7 @@ def statistics_paragraph(table: pd.DataFrame) -> str:
         if r.median_difference >= 0
     ]
     lines.append(
-        f"Wilcoxon signed-rank tests of total J against `{reference}` (two-sided, paired by seed, "
+        f"Wilcoxon signed-rank tests of total J against `{reference}` (two-sided, paired over {blocks}, "
         f"Holm-corrected over {len(compared)} comparisons, α = {ALPHA})."
     )
     if lower:
@@ -590,7 +593,7 @@ def statistics_paragraph(table: pd.DataFrame) -> str:
     floor = stats.minimum_wilcoxon_pvalue(most_pairs)
     if floor > ALPHA:
         lines.append(
-            f"With at most {most_pairs} paired seeds the smallest attainable p-value is {format_number(floor, 3)} "
+            f"With at most {most_pairs} paired {blocks} the smallest attainable p-value is {format_number(floor, 3)} "
             f"> {ALPHA}, so no difference can be significant: run more seeds."
         )
     return " ".join(lines)
