@@ -66,7 +66,8 @@ class SceneRenderer:
         self.model = model
         self.human = human
         self.figure = _new_figure(human)
-        self.axes = self.figure.add_subplot(projection="3d")
+        # Fixed draw order: markers and the track stay visible in front of the terrain surface.
+        self.axes = self.figure.add_subplot(projection="3d", computed_zorder=False)
         self._dynamic: list = []
         self._draw_static()
 
@@ -80,7 +81,16 @@ class SceneRenderer:
         heights = built.terrain[::stride, ::stride]
         gx, gy = np.meshgrid(x, y, indexing="ij")
         ax.plot_surface(
-            gx, gy, heights, cmap="terrain", linewidth=0, antialiased=False, alpha=0.85, rstride=1, cstride=1
+            gx,
+            gy,
+            heights,
+            cmap="terrain",
+            linewidth=0,
+            antialiased=False,
+            alpha=0.85,
+            rstride=1,
+            cstride=1,
+            zorder=1,
         )
         radars = built.radar_xyz
         if len(radars):
@@ -93,6 +103,7 @@ class SceneRenderer:
                 s=50,
                 depthshade=False,
                 label="radars",
+                zorder=5,
             )
         start = model.initial_state()
         goal = model.goal[0]
