@@ -102,26 +102,29 @@ def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:
     raise TypeError(f"unknown natural terrain {natural!r}")  # the schema admits no other type
 
 
-def terrain_heights(scenario: Scenario) -> FloatArray:
-    """The composed terrain h = max(h_nat, h_mtn) on the scenario's grid [m] (model.md §2.4, cached).
+def compose_terrain(scenario: Scenario) -> FloatArray:
+    """The composed terrain h = max(h_nat, h_mtn) on the scenario's grid [m] (model.md §2.4), uncached.
 
     DECISION: for real terrain (``method: dem``) the listed mountains only define the terrain
     threat (§3); the raster already contains them, so they do not reshape it.
     """
     grid = grid_for(scenario)
+    heights = natural_terrain(scenario.terrain, grid)
+    if not isinstance(scenario.terrain.natural, DEMTerrain) and scenario.terrain.mountains:
+        gx, gy = grid.mesh()
+        centres, peak_heights = _mountain_arrays(scenario)
+        mountains = mountain_heights(
+            gx / 1000.0, gy / 1000.0, centres, peak_heights, scenario.terrain.mountain_decay_per_km2
+        )
+        heights = np.maximum(heights, mountains)
+    return heights
 
-    def build() -> dict[str, np.ndarray]:
-        heights = natural_terrain(scenario.terrain, grid)
-        if not isinstance(scenario.terrain.natural, DEMTerrain) and scenario.terrain.mountains:
-            gx, gy = grid.mesh()
-            centres, peak_heights = _mountain_arrays(scenario)
-            mountains = mountain_heights(
-                gx / 1000.0, gy / 1000.0, centres, peak_heights, scenario.terrain.mountain_decay_per_km2
-            )
-            heights = np.maximum(heights, mountains)
-        return {"heights": heights}
 
-    return cached_arrays("terrain", _terrain_inputs(scenario), build)["heights"]
+def terrain_heights(scenario: Scenario) -> FloatArray:
+    """:func:`compose_terrain`, cached in memory and on disk."""
+    return cached_arrays(
+        "terrain", _terrain_inputs(scenario), lambda: {"heights": compose_terrain(scenario)}
+    )["heights"]
 
 
 def _mountain_arrays(scenario: Scenario) -> tuple[FloatArray, FloatArray]:

@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import ndimage
 
-from uav_penetration_env.build import grid_for, natural_terrain
+from uav_penetration_env.build import compose_terrain, grid_for
 from uav_penetration_env.dem import dem_heights, window_extent_km
 from uav_penetration_env.scenario import (
     DEMTerrain,
@@ -31,7 +31,7 @@ from uav_penetration_env.scenario import (
     TerrainConfig,
     _load_bundled,
 )
-from uav_penetration_env.terrain import GridSpec, bilinear, mountain_heights
+from uav_penetration_env.terrain import GridSpec, bilinear
 from uav_penetration_env.types import FloatArray
 
 HELD_OUT_SEEDS = range(10_000, 10_050)  # model.md §7c: the held-out evaluation set at difficulty 0.5
@@ -41,19 +41,7 @@ MAX_RADARS = 8  # 2 + round(6 d) at d = 1
 
 def _composed_heights(scenario: Scenario) -> tuple[FloatArray, GridSpec]:
     """Terrain heights without touching the disk cache (rejection sampling builds many drafts)."""
-    grid = grid_for(scenario)
-    heights = natural_terrain(scenario.terrain, grid)
-    if scenario.terrain.mountains and not isinstance(scenario.terrain.natural, DEMTerrain):
-        gx, gy = grid.mesh()
-        centres = np.array([[m.x_km, m.y_km] for m in scenario.terrain.mountains])
-        peaks = np.array([m.height_m for m in scenario.terrain.mountains])
-        heights = np.maximum(
-            heights,
-            mountain_heights(
-                gx / 1000.0, gy / 1000.0, centres, peaks, scenario.terrain.mountain_decay_per_km2
-            ),
-        )
-    return heights, grid
+    return compose_terrain(scenario), grid_for(scenario)
 
 
 def straight_climb_feasible(scenario: Scenario, heights: FloatArray, grid: GridSpec) -> bool:
