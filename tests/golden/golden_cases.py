@@ -64,9 +64,9 @@ def planner_names() -> list[str]:
 
 def planner_case(name: str, seed: int) -> dict[str, Any]:
     """One paper-scenario episode of one planner: exact totals (as float hex), steps and outcome."""
+    from uav_penetration_env import paper_scenario
     from uav_penetration_env.benchmark.evaluate import EpisodeTask, policy_hash, run_episode
     from uav_penetration_env.benchmark.policies import make_policy
-    from uav_penetration_env import paper_scenario
 
     policy = make_policy(name, horizon=PLANNER_HORIZON, max_evals=PLANNER_BUDGET)
     task = EpisodeTask(name, policy, policy_hash(policy), paper_scenario(), seed)
