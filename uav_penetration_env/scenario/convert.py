@@ -18,7 +18,7 @@ import dataclasses
 import math
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import cache
 from typing import Any, Union, get_args, get_origin
 
@@ -148,7 +148,7 @@ def _is_number(value: Any) -> bool:
 
 # Scalar field types: which plain values each accepts (then converted by calling the type) and
 # the wording of what it expected.
-_SCALARS: dict[type, tuple[typing.Callable[[Any], bool], str]] = {
+_SCALARS: dict[type, tuple[Callable[[Any], bool], str]] = {
     float: (_is_number, "a finite number"),
     int: (lambda v: _is_number(v) and float(v) == int(v), "an integer"),
     bool: (lambda v: isinstance(v, bool), "true or false"),
