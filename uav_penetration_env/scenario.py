@@ -28,6 +28,8 @@ from typing import Any, ClassVar, Union, get_args, get_origin
 import numpy as np
 import yaml
 
+from uav_penetration_env.files import file_digest
+
 __all__ = [
     "BENCHMARK",
     "PAPER",
@@ -361,8 +363,21 @@ class DEMTerrain:
     lat_deg: tuple[float, float] = (49.10, 49.98)
     lon_deg: tuple[float, float] = (-123.38, -122.02)
     sea_floor_m: float = 0.0
+    band: int = 1  # GeoTIFF band to read (1-based)
+    nodata: float | None = None  # a missing-data value the file does not declare (model.md §2.5)
+    fill_max_cells: int = 0  # fill holes of at most this many raster cells; 0 refuses any hole
 
     def __post_init__(self) -> None:
+        _require(isinstance(self.band, int) and self.band >= 1, "band", self.band, "a band number >= 1")
+        _require(
+            self.nodata is None or math.isfinite(self.nodata), "nodata", self.nodata, "a finite height or null"
+        )
+        _require(
+            isinstance(self.fill_max_cells, int) and self.fill_max_cells >= 0,
+            "fill_max_cells",
+            self.fill_max_cells,
+            "a whole number of cells >= 0",
+        )
         _interval("lat_deg", self.lat_deg)
         _interval("lon_deg", self.lon_deg)
         _require(
@@ -692,8 +707,23 @@ class Scenario:
 
         Computed once per (immutable) instance: envs look scenarios up by hash at every reset.
         """
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), default=str)
+        payload: Any = self.to_dict()
+        files = self.input_files()
+        if files:
+            # DECISION: the content of every file the scenario reads is part of its identity
+            # (model.md §7a); scenarios that read no file keep the hash of their fields alone.
+            payload = [payload, {field: file_digest(name) for field, name in files.items()}]
+        text = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def input_files(self) -> dict[str, str]:
+        """The files this scenario reads, by field path (a DEM raster, an RCS table)."""
+        files = {}
+        if isinstance(self.terrain.natural, DEMTerrain):
+            files["terrain.natural.file"] = self.terrain.natural.file
+        if isinstance(self.uav.rcs, TableRCS):
+            files["uav.rcs.path"] = self.uav.rcs.path
+        return files
 
 
 # --- generic dict <-> dataclass conversion ---------------------------------------------------------
