@@ -18,6 +18,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar, Union
 
+from uav_penetration_env.files import file_digest
 from uav_penetration_env.scenario.convert import deep_merge, from_mapping, to_plain
 from uav_penetration_env.scenario.files import write_yaml
 from uav_penetration_env.scenario.rules import (
@@ -207,9 +208,10 @@ class FlatTerrain(Checked):
 
 @dataclass(frozen=True)
 class DEMTerrain(Checked):
-    """A real elevation raster (model.md §2.5, §7d): a matplotlib sample file or an ``.npz`` path.
+    """A real elevation raster (model.md §2.5, §7d): a matplotlib sample file, an ``.npz`` or a GeoTIFF.
 
-    The file holds ``array`` (heights, m) with ``latitude``/``longitude`` coordinate vectors, or the
+    A GeoTIFF (``.tif``/``.tiff``, extra ``geo``) is read in its own geographic CRS with its declared
+    nodata value; an ``.npz`` holds ``array`` (heights, m) with ``latitude``/``longitude`` coordinate vectors, or the
     scalar extent ``xmin, xmax, ymin, ymax`` in degrees (matplotlib's ``jacksboro_fault_dem.npz``
     layout). The window ``lat_deg`` x ``lon_deg`` is projected to local metres (equirectangular
     about its centre) with the map origin at its south-west corner.
@@ -225,6 +227,11 @@ class DEMTerrain(Checked):
         (-123.38, -122.02), Rule(lambda v: -180 <= v[0] and v[1] <= 360, "longitudes in [-180, 360]")
     )
     sea_floor_m: float = 0.0
+    band: int = rule(1, lambda v: isinstance(v, int) and v >= 1, "a band number >= 1")  # GeoTIFF band
+    # A missing-data value the file does not declare (model.md §2.5, "missing data").
+    nodata: float | None = rule(None, math.isfinite, "a finite height or null")
+    # Holes of at most this many raster cells under the map are filled; 0 refuses any hole.
+    fill_max_cells: int = rule(0, lambda v: isinstance(v, int) and v >= 0, "a whole number of cells >= 0")
 
 
 NaturalTerrain = Union[GaussianField, RandomWalk, GaussianHill, DiamondSquare, FlatTerrain, DEMTerrain]  # noqa: UP007
@@ -508,7 +515,24 @@ class Scenario(Checked):
     def hash(self) -> str:
         """A 16-hex-digit content hash of every field (weights and normalisation included).
 
-        Computed once per (immutable) instance: envs look scenarios up by hash at every reset.
+        It also covers the bytes of every file the scenario reads (:meth:`input_files`), as they
+        are when the hash is first asked for. Computed once per (immutable) instance: envs look
+        scenarios up by hash at every reset.
         """
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), default=str)
+        payload: Any = self.to_dict()
+        files = self.input_files()
+        if files:
+            # DECISION: the content of every file the scenario reads is part of its identity
+            # (model.md §7a); scenarios that read no file keep the hash of their fields alone.
+            payload = [payload, {field: file_digest(name) for field, name in files.items()}]
+        text = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def input_files(self) -> dict[str, str]:
+        """The files this scenario reads, by field path (a DEM raster, an RCS table)."""
+        files = {}
+        if isinstance(self.terrain.natural, DEMTerrain):
+            files["terrain.natural.file"] = self.terrain.natural.file
+        if isinstance(self.uav.rcs, TableRCS):
+            files["uav.rcs.path"] = self.uav.rcs.path
+        return files
