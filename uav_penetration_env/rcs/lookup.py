@@ -1,4 +1,4 @@
-"""RCS at run time: aspect angles and the table lookup the model calls every step (model.md §5.1-5.2, §8).
+"""RCS at run time: aspect angles and the table lookup the model calls every step (model.md §5.1, §5.2, §8).
 
 Angles are in radians; tables in dBsm on the grid of `uav_penetration_env.rcs.grid`. How a
 table is made (airframe primitives, averaging, user files) lives in the other modules of this

@@ -1,4 +1,4 @@
-"""Building the 1° RCS table offline: the airframe averaged over each cell, or one constant (model.md §5.2-5.3).
+"""Building the 1° RCS table offline: the airframe averaged over each cell, or one constant (model.md §5.2, §5.3).
 
 The build runs once per airframe (``build.py`` caches its result on disk); the model only reads
 the finished table through `uav_penetration_env.rcs.lookup`.

@@ -1,4 +1,4 @@
-"""Getting a scenario: from a YAML path, a mapping or a ready one; the bundled files (model.md §7b)."""
+"""Getting a scenario: from a YAML path, a mapping or a ready one, or a bundled file (model.md §7b)."""
 
 from __future__ import annotations
 
