@@ -36,7 +36,7 @@ from uav_penetration_env.terrain import GridSpec
 from uav_penetration_env.types import FloatArray
 
 EARTH_RADIUS_M = 6_371_000.0  # mean earth radius for the local projection [m]
-# DECISION: the heights any terrain on Earth can have [m]: the Challenger Deep is about -10 935 m
+# DECISION (model.md §2.5): the heights any terrain on Earth can have [m]: the Challenger Deep is about -10 935 m
 # and Everest 8 849 m. Values outside are missing-data sentinels (-9999, -32768, 32767, ...).
 VALID_HEIGHT_RANGE_M = (-11_000.0, 9_000.0)
 GEOTIFF_SUFFIXES = (".tif", ".tiff")
@@ -219,7 +219,7 @@ def _fill_holes(
 ) -> FloatArray:
     """Fill the missing cells the map touches (``rows`` x ``cols``) or refuse them.
 
-    DECISION: a hole (8-connected missing cells) of at most ``fill_max_cells`` cells is filled with
+    DECISION (model.md §2.5): a hole (8-connected missing cells) of at most ``fill_max_cells`` cells is filled with
     the height of the nearest valid cell: it invents no relief a hole did not hide. Holes are sized
     on a crop of the raster extended by ``fill_max_cells`` cells around the used block, so a hole
     that reaches the crop's edge is larger than the limit and is refused, as it should be.

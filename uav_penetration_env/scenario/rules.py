@@ -6,7 +6,7 @@ to its dataclass; the converter prefixes the path), the value and what was expec
 relate two fields stay in the dataclass's own ``__post_init__`` (after ``super().__post_init__()``)
 through :func:`require`.
 
-DECISION: the rules of a dataclass run in field order, before its cross-field checks; a value that
+DECISION (model.md §7b): the rules of a dataclass run in field order, before its cross-field checks; a value that
 breaks several rules is reported for the first field in the file's order.
 """
 
