@@ -8,7 +8,7 @@ Two layers:
   random partition), as in HPSO's Step 0 (§4).
 * **The shared loop**: :class:`SwarmOptimizer` is the base of every swarm optimiser. It holds the
   options every swarm shares (boundary rule, initialisation region, velocity cap; docs/swarm.md) and
-  the one ``minimize``: validate the problem, initialise a :class:`Swarm` (positions, zero velocities,
+  the one loop (:meth:`SwarmOptimizer.solve`): initialise a :class:`Swarm` (positions, zero velocities,
   first evaluation, personal bests, first history entry), then run the algorithm's own iteration rule,
   recording the history after every iteration and stopping when the budget is spent or the rule asks to.
   An algorithm file only writes :meth:`SwarmOptimizer.iterate`: its velocity update, grouping, schedule
@@ -526,7 +526,7 @@ def validate_schedule(obj: object, field: str) -> None:
 class Swarm:
     """The state of one swarm run: positions, velocities, personal bests, budget and trace.
 
-    Built by :meth:`SwarmOptimizer.minimize`: positions uniform in the initialisation region with
+    Built by :meth:`SwarmOptimizer.solve`: positions uniform in the initialisation region with
     particle 0 at the warm start (§2.2, D1), zero velocities, one evaluation of the whole swarm as the
     first personal bests, and the first history entry (§2.6). Algorithms read the arrays and move the
     swarm with :meth:`fly`; they never call the objective themselves.
@@ -642,7 +642,7 @@ class Swarm:
 
 @dataclass(frozen=True, kw_only=True)
 class SwarmOptimizer(OptimizerBase):
-    """Base of every particle swarm: the shared options and the one ``minimize`` (docs/swarm.md).
+    """Base of every particle swarm: the shared options and the one loop (docs/swarm.md).
 
     A subclass is a frozen dataclass with a ``swarm_size`` (field or property) and an :meth:`iterate`
     generator; its own ``__post_init__`` calls ``super().__post_init__()``. The options are keyword-only
@@ -655,6 +655,10 @@ class SwarmOptimizer(OptimizerBase):
             bounds; ``None`` (default) initialises in the bounds. Any form of
             :func:`optimizers.base.normalize_bounds` is accepted and stored as a tuple of pairs.
         velocity_fraction: Speed limit as a share of each dimension's range (default 0.2, §2.4 D4).
+
+    DECISION: a warm start ``x0`` seeds particle 0 even when it lies outside ``init_bounds`` (it is the
+    caller's explicit choice); the region only places the other particles (docs/swarm.md
+    §Initialisation region). The defaults are the rules every swarm used before the options existed.
     """
 
     boundary: str = "absorb"
