@@ -51,7 +51,7 @@ class OptimizeResult:
         history_nfev: (nit + 1,) evaluations spent at each history entry.
         message: Why the optimiser stopped.
         trace: A read-only record of the run's state machine, for optimisers with phases (empty for the
-            others). Keys per optimiser (docs/swarm.md §Trace): HPSO ``stage1_iterations``,
+            others). Keys per optimiser (docs/swarm.md §6): HPSO ``stage1_iterations``,
             ``stage2_start``, ``regroup_iterations``; IHPSO ``mode``, ``switch_iterations``,
             ``reverse_switch_iterations``, ``termination_tests``, ``locked_at``, ``stopped_by``; PS2O
             ``extinctions``; LPSO ``global_best_from``. Sequences are tuples; iterations count from 1.

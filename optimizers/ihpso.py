@@ -366,7 +366,7 @@ class IHPSO(SwarmOptimizer):
     def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[str | None]:
         """One iteration per ``next`` (§5.4 steps 1.1-1.5); yields the stop message on eq. 33.
 
-        Trace (docs/swarm.md §Trace): ``mode`` (the search mode each iteration moved in, ``"broad"`` or
+        Trace (docs/swarm.md §6): ``mode`` (the search mode each iteration moved in, ``"broad"`` or
         ``"accurate"``), ``switch_iterations`` (iterations after which broad search switched to accurate,
         eqs. 25-28), ``reverse_switch_iterations`` (accurate back to broad: zero slope but eq. 33 false),
         ``termination_tests`` (``(t, passed)`` for every evaluation of eq. 33), ``locked_at`` (the

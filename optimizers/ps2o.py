@@ -215,8 +215,8 @@ class PS2O(SwarmOptimizer):
                                           self.constriction))
             if dead.any():  # re-seeded particles skip step 4 and are evaluated in the same batch
                 reborn = dead[species_of]
-                # DECISION: re-seeded in the bounds, not in init_bounds (docs/swarm.md §Initialisation
-                # region): the region only sets where the run starts.
+                # DECISION: re-seeded in the bounds, not in init_bounds (docs/swarm.md §4): the region
+                # only sets where the run starts.
                 positions = init_positions(rng.random((int(reborn.sum()), d)), swarm.lo, swarm.hi)
                 swarm.x, swarm.v, swarm.pbest, swarm.f_pbest = reseed(swarm.x, swarm.v, swarm.pbest,
                                                                       swarm.f_pbest, reborn, positions)

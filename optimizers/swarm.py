@@ -46,7 +46,7 @@ VELOCITY_FRACTION = 0.2
 """Default ``vmax_d = 0.2 (hi_d - lo_d)`` for every swarm (§2.4, D4); see ``velocity_fraction``."""
 
 BOUNDARY_RULES = ("absorb", "reflect", "damp", "random")
-"""What happens to a coordinate that would leave the bounds (docs/swarm.md §Boundary rules)."""
+"""What happens to a coordinate that would leave the bounds (docs/swarm.md §3)."""
 
 
 def planned_iterations(max_evals: int, population: int) -> int:
@@ -192,7 +192,7 @@ def confine(
 ) -> tuple[FloatArray, FloatArray]:
     """Move ``x <- x + v`` and apply a boundary rule to the coordinates that leave ``[lo, hi]``.
 
-    Rules (docs/swarm.md §Boundary rules):
+    Rules (docs/swarm.md §3):
 
     * ``"absorb"``: clip to the wall, velocity 0 (§2.5, D5; the default, :func:`move_within_bounds`).
     * ``"reflect"``: mirror by the overshoot (:func:`reflect_into_bounds`); the velocity component is
@@ -203,7 +203,7 @@ def confine(
     DECISION: ``reflect`` reverses the velocity of a coordinate that bounced an odd number of times, so
     the particle keeps travelling along the mirrored path (the rule of a ball between two walls);
     ``random`` sets the re-drawn coordinate's velocity to 0, as a freshly initialised particle has
-    (§2.2), so that it is not thrown straight back out. Both are docs/swarm.md §Boundary rules.
+    (§2.2), so that it is not thrown straight back out. Both are docs/swarm.md §3.
 
     Args:
         x: (..., d) positions.
@@ -658,7 +658,7 @@ class SwarmOptimizer(OptimizerBase):
 
     DECISION: a warm start ``x0`` seeds particle 0 even when it lies outside ``init_bounds`` (it is the
     caller's explicit choice); the region only places the other particles (docs/swarm.md
-    §Initialisation region). The defaults are the rules every swarm used before the options existed.
+    §4). The defaults are the rules every swarm used before the options existed.
     """
 
     boundary: str = "absorb"

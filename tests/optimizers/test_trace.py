@@ -1,4 +1,4 @@
-"""``OptimizeResult.trace``: the state machine of the optimisers with phases (docs/swarm.md §Trace)."""
+"""``OptimizeResult.trace``: the state machine of the optimisers with phases (docs/swarm.md §6)."""
 
 from __future__ import annotations
 
