@@ -12,9 +12,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -33,6 +32,34 @@ RNGLike = np.random.Generator | np.random.SeedSequence | int
 MESSAGE_MAX_EVALS = "max_evals reached"
 MESSAGE_INIT_EXHAUSTED = "budget exhausted during initialisation"
 NO_FINITE_SUFFIX = "; no finite cost found"
+
+
+class ReadOnlyMapping(Mapping[str, Any]):
+    """A read-only mapping that pickles and deep-copies (``OptimizeResult.trace``).
+
+    ``types.MappingProxyType`` would be read-only too, but it cannot be pickled, and results travel
+    between worker processes.
+
+    Args:
+        data: The items (copied).
+    """
+
+    __slots__ = ("_data",)
+
+    def __init__(self, data: Mapping[str, Any] | None = None) -> None:
+        self._data = dict(data or {})
+
+    def __getitem__(self, key: str) -> Any:
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._data!r})"
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,11 +91,11 @@ class OptimizeResult:
     history: FloatArray
     history_nfev: IntArray
     message: str
-    trace: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    trace: Mapping[str, Any] = field(default_factory=ReadOnlyMapping)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.trace, MappingProxyType):
-            object.__setattr__(self, "trace", MappingProxyType(dict(self.trace)))
+        if not isinstance(self.trace, ReadOnlyMapping):
+            object.__setattr__(self, "trace", ReadOnlyMapping(self.trace))
 
 
 @runtime_checkable
@@ -406,7 +433,7 @@ class BudgetedObjective:
             history=np.array(self._history, dtype=np.float64),
             history_nfev=np.array(self._history_nfev, dtype=np.int64),
             message=message,
-            trace=MappingProxyType(dict(trace or {})),
+            trace=ReadOnlyMapping(trace),
         )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import pickle
 
 import numpy as np
 import pytest
@@ -28,6 +29,9 @@ def test_trace_is_read_only_and_empty_by_default():
         res.trace["mode"] = ()  # type: ignore[index]
     with pytest.raises(dataclasses.FrozenInstanceError):
         res.trace = {}  # type: ignore[misc]
+    ihpso = get_optimizer("ihpso").minimize(sphere, BOUNDS, rng=0, max_evals=500)
+    again = pickle.loads(pickle.dumps(ihpso))  # results travel between worker processes
+    assert dict(again.trace) == dict(ihpso.trace) and len(ihpso.trace) == 6
     for name in ("pso", "cem", "mcpso", "ccpso-ism"):  # no phases
         assert dict(get_optimizer(name).minimize(sphere, BOUNDS, rng=0, max_evals=500).trace) == {}
 
