@@ -31,7 +31,11 @@ class Recorder:
 
 
 def test_every_swarm_but_the_references_has_the_options():
-    assert set(SWARMS) == set(available_optimizers()) - {"cem", "de", "cmaes", "cmaes-default"}
+    for name in available_optimizers():
+        opt = get_optimizer(name)
+        if not type(opt).__module__.startswith("optimizers."):
+            continue  # a plug-in registered by another test
+        assert isinstance(opt, SwarmOptimizer) == (name not in {"cem", "de", "cmaes", "cmaes-default"}), name
     for name in SWARMS:
         opt = get_optimizer(name)
         assert (opt.boundary, opt.init_bounds, opt.velocity_fraction) == ("absorb", None, 0.2)
