@@ -129,7 +129,11 @@ def track_seed(episodes: pd.DataFrame, steps: pd.DataFrame) -> int | None:
 
 
 def _model(yaml_text: str | None):
-    """The scenario's PenetrationModel rebuilt from the stored YAML, or None when it cannot be."""
+    """The scenario's PenetrationModel built from the stored YAML, or None when it cannot be.
+
+    Only for what the figures draw of the scenario (terrain, radars, goal, coverage): start states
+    come from the stored step-0 rows, never from replaying a reset.
+    """
     if not yaml_text:
         return None
     import yaml
@@ -142,16 +146,17 @@ def _model(yaml_text: str | None):
         return None
 
 
-def _start_state(model, seed: int) -> np.ndarray | None:
-    """The exact start of ``seed``'s episodes (paired seeding: the same for every policy), or None."""
-    if model is None:
-        return None
-    from uav_penetration_env.benchmark.evaluate import episode_seeds
-    from uav_penetration_env.env import UAVPenetrationEnv
+def _start_state(episodes: pd.DataFrame, starts: pd.DataFrame, seed: int) -> np.ndarray | None:
+    """The start [x m, y m, z m] of ``seed``'s episodes, from their step-0 rows, or None when not stored.
 
-    env_seed, _ = episode_seeds(seed, model.scenario.hash)
-    _, info = UAVPenetrationEnv(model.scenario).reset(seed=env_seed)
-    return np.asarray(info["state"], dtype=np.float64)
+    Paired seeding gives every policy the same start on a seed, so any episode's step-0 row is it.
+    """
+    ids = episodes.loc[(episodes["seed"] == seed) & ~episodes["is_error"], "episode_id"]
+    rows = starts[starts["episode_id"].isin(ids)]
+    if rows.empty:
+        return None
+    first = rows.iloc[0]
+    return np.array([first["x_km"] * 1000.0, first["y_km"] * 1000.0, first["z_m"]], dtype=np.float64)
 
 
 def _tracks(episodes: pd.DataFrame, steps: pd.DataFrame, seed: int) -> dict[str, pd.DataFrame]:
@@ -239,7 +244,13 @@ def _coverage(model, tracks: dict[str, pd.DataFrame], start: np.ndarray | None):
     return altitude, xs, ys, threat
 
 
-def plot_tracks_top(group: ScenarioGroup, steps: pd.DataFrame, model, colours: dict[str, Any]):
+def plot_tracks_top(
+    group: ScenarioGroup,
+    steps: pd.DataFrame,
+    model,
+    colours: dict[str, Any],
+    starts: pd.DataFrame | None = None,
+):
     """Top view: hillshaded terrain, radar coverage at the median flown altitude, every planner's track."""
     from matplotlib.colors import LightSource
     from matplotlib.patches import Rectangle
@@ -248,7 +259,7 @@ def plot_tracks_top(group: ScenarioGroup, steps: pd.DataFrame, model, colours: d
     ax = figure.add_subplot()
     seed = track_seed(group.episodes, steps)
     tracks = _tracks(group.episodes, steps, seed) if seed is not None else {}
-    start = _start_state(model, seed) if seed is not None else None
+    start = _start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
     title = f"{group.name}: tracks, seed {seed}"
     if model is None:
         title += " (scenario not in the store: no terrain, radars or coverage)"
@@ -309,13 +320,19 @@ def _terrain_colormap():
     return ListedColormap(colormaps["terrain"](np.linspace(0.25, 0.95, 256)))
 
 
-def plot_tracks_3d(group: ScenarioGroup, steps: pd.DataFrame, model, colours: dict[str, Any]):
+def plot_tracks_3d(
+    group: ScenarioGroup,
+    steps: pd.DataFrame,
+    model,
+    colours: dict[str, Any],
+    starts: pd.DataFrame | None = None,
+):
     """3-D view: terrain surface, radars, coverage contour at the median flown altitude, tracks."""
     figure = _figure(8.0, 6.5)
     ax = figure.add_subplot(projection="3d")
     seed = track_seed(group.episodes, steps)
     tracks = _tracks(group.episodes, steps, seed) if seed is not None else {}
-    start = _start_state(model, seed) if seed is not None else None
+    start = _start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
     top = max((float(rows["z_m"].max()) for rows in tracks.values()), default=0.0)
     if model is not None:
         built = model.built[0]
@@ -588,12 +605,14 @@ def plot_timeline(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, 
     return figure
 
 
-def _draw(name: str, group: ScenarioGroup, steps: pd.DataFrame, model, colours: dict[str, Any]):
-    """One figure of :data:`FIGURES` for one scenario group."""
+def _draw(
+    name: str, group: ScenarioGroup, steps: pd.DataFrame, model, colours: dict[str, Any], starts: pd.DataFrame
+):
+    """One figure of :data:`FIGURES` for one scenario group (``starts``: its step-0 rows)."""
     if name == "tracks-top":
-        return plot_tracks_top(group, steps, model, colours)
+        return plot_tracks_top(group, steps, model, colours, starts)
     if name == "tracks-3d":
-        return plot_tracks_3d(group, steps, model, colours)
+        return plot_tracks_3d(group, steps, model, colours, starts)
     if name == "j-per-point":
         return plot_j_per_point(group, steps, colours)
     if name == "cost-box":
@@ -652,10 +671,11 @@ def write_figures(
         else:
             groups, names = scenario_groups(episodes), list(FIGURES)
         for group in groups:
-            steps = store.steps(group.episodes["episode_id"].astype(int).tolist())
+            rows = store.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
+            starts, steps = rows[rows["step"] == 0], rows[rows["step"] > 0]
             model = None if group.scenarios else _model(scenarios.get(group.scenario_hash, (None, None))[1])
             colours = policy_colours(group.episodes["label"].unique())
             for name in names:
-                figure = _draw(name, group, steps, model, colours)
+                figure = _draw(name, group, steps, model, colours, starts)
                 written += _save(figure, out_dir, f"{group.stem}-{name}", formats)
     return written
