@@ -30,103 +30,24 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.benchmark import stats
+from uav_penetration_env.benchmark.columns import (
+    EPISODE,
+    Column,
+    aggregated_columns,
+    leaderboard_columns,
+    legend_lines,
+    numeric_columns,
+)
 from uav_penetration_env.benchmark.store import ResultsStore
 
 ALPHA = 0.05  # significance level of the pairwise tests (after Holm's correction)
 CONFIDENCE = 0.95
 
-# Episode columns averaged per policy: output column -> (episode column, Markdown header).
+# Derived from the column table (benchmark.columns), kept for readers of the old constants.
 MEAN_COLUMNS: dict[str, tuple[str, str]] = {
-    "total_J_mean": ("total_J", "ΣJ"),
-    "mean_J": ("mean_J", "J per point"),
-    "terrain_total": ("terrain_total", "terrain Σ"),
-    "radar_total": ("radar_total", "radar Σ"),
-    "third_total": ("third_total", "third Σ"),
-    "p_detected": ("p_detected", "P(detected)"),
-    "path_length_km": ("path_length_km", "path [km]"),
-    "fuel_kg": ("fuel_kg", "fuel [kg]"),
-    "steps": ("steps", "steps"),
-    "nfev_per_step": ("nfev_per_step", "evals/step"),
-    "planning_seconds": ("planning_seconds", "planning [s/step]"),
+    column.out: (column.name, column.board.header) for column in aggregated_columns("means")
 }
-
-NUMERIC_EPISODE_COLUMNS = (
-    "seed",
-    "total_J",
-    "total_penalty",
-    "total_cost",
-    "mean_J",
-    "terrain_total",
-    "radar_total",
-    "third_total",
-    "fuel_kg",
-    "p_detected",
-    "path_length_km",
-    "steps",
-    "nfev_per_step",
-    "planning_seconds",
-    "horizon",
-    "max_evals",
-    "train_timesteps",
-    "train_seconds",
-)
-
-COLUMN_DEFINITIONS: tuple[tuple[str, str], ...] = (
-    (
-        "episodes",
-        "episodes that finished (any outcome except a harness error); all statistics use only these",
-    ),
-    ("errors", "episodes whose planner raised (stored with `error`; excluded from every statistic)"),
-    ("success", "share of episodes that reached the goal, with the Wilson 95 % interval"),
-    (
-        "collided/out/truncated",
-        "episodes that hit the terrain, left the map or exceeded the ceiling, or ran out of steps",
-    ),
-    (
-        "total J (incl. penalty)",
-        "ΣJ(k) + failure penalty = −return, per episode; mean with a percentile-bootstrap 95 % interval "
-        "over episodes ({resamples} resamples, seeded). The penalty (crash_penalty_per_step × remaining steps) "
-        "makes a crash cost at least as much as flying on, so lower is better and a crash never looks cheap",
-    ),
-    (
-        "IQM",
-        "interquartile mean (mean of the middle 50 %) of total J (incl. penalty), bootstrap 95 % interval",
-    ),
-    ("ΣJ", "mean ΣJ(k) without the penalty"),
-    ("J per point", "mean over episodes of ΣJ(k)/K: the mean J per executed track point (model.md A30)"),
-    ("terrain Σ, radar Σ, third Σ", "mean raw (unnormalised) per-term sums Σ Th_e, Σ Th_r, Σ C"),
-    ("P(detected)", "mean of 1 − Π_k (1 − detection_prob_k)"),
-    ("path [km]", "mean flown path length"),
-    ("fuel [kg]", "mean fuel burnt"),
-    ("steps", "mean number of track points K"),
-    ("evals/step", "mean objective evaluations per MPC step (0 for floors and RL)"),
-    ("planning [s/step]", "mean wall-clock seconds per action (machine-dependent; not a benchmark score)"),
-    (
-        "rank",
-        "Friedman average rank of total J (incl. penalty) over the seeds every policy finished "
-        "(1 = cheapest on a seed; ties share the mean rank); rows are sorted by it, then by mean cost",
-    ),
-    (
-        "Δ vs reference",
-        "mean paired difference of total J (this policy − reference) over shared seeds, with a paired "
-        "bootstrap 95 % interval; positive = costlier than the reference",
-    ),
-    (
-        "median Δ",
-        "median paired difference of total J (this policy − reference): the location the Wilcoxon test "
-        "judges, robust to a single crash; its sign says cheaper (−) or costlier (+) in the Statistics",
-    ),
-    (
-        "p (Holm)",
-        "two-sided Wilcoxon signed-rank test of total J against the reference over shared seeds, "
-        "Holm–Bonferroni adjusted over the comparisons in this table",
-    ),
-    (
-        "train steps, train [s]",
-        "RL agents only: environment steps and wall-clock seconds spent training, a cost the planners "
-        "pay per step instead",
-    ),
-)
+NUMERIC_EPISODE_COLUMNS = numeric_columns(EPISODE)
 
 
 # --- grouping and labels -------------------------------------------------------------------------------
@@ -282,10 +203,10 @@ def leaderboard_table(
     Returns:
         A DataFrame with columns ``policy``, ``policy_hash``, ``episodes``, ``errors``, outcome
         counts, ``success_rate`` and its ``_ci_low``/``_ci_high``, ``total_cost_mean`` and
-        ``total_cost_iqm`` with their intervals, the means of :data:`MEAN_COLUMNS`,
-        ``friedman_rank``, the comparison with the reference (``delta_mean`` with its interval,
-        ``median_difference``, ``n_pairs``, ``wilcoxon_statistic``, ``pvalue``, ``pvalue_holm``),
-        ``train_timesteps`` and ``train_seconds``. ``attrs`` carries the Friedman result, the
+        ``total_cost_iqm`` with their intervals, the aggregates of the column table's "means"
+        section, ``friedman_rank``, the comparison with the reference (``delta_mean`` with its
+        interval, ``median_difference``, ``n_pairs``, ``wilcoxon_statistic``, ``pvalue``,
+        ``pvalue_holm``) and the aggregates of its "training" section. ``attrs`` carries the Friedman result, the
         resolved reference, the seeds and ``n_resamples``.
 
     Raises:
@@ -343,14 +264,10 @@ def leaderboard_table(
             cost, stats.iqm, seed=_label_seed(seed, label, 1), n_resamples=n_resamples
         )
         row["total_cost_iqm_ci_low"], row["total_cost_iqm_ci_high"] = low, high
-        for out, (column, _) in MEAN_COLUMNS.items():
-            values = valid[column].to_numpy(dtype=np.float64) if column in valid else np.array([])
-            row[out] = float(values.mean()) if values.size else np.nan
+        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
         row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
         row.update(_versus_reference(costs, label, ref, tests, seed, n_resamples))
-        for column in ("train_timesteps", "train_seconds"):
-            values = valid[column].dropna().to_numpy(dtype=np.float64) if column in valid else np.array([])
-            row[column] = float(values.mean()) if values.size else np.nan
+        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
         rows.append(row)
     table = pd.DataFrame(rows)
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
@@ -364,6 +281,18 @@ def leaderboard_table(
     # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
     table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
     return table
+
+
+def aggregate(column: Column, valid: pd.DataFrame) -> float:
+    """A policy's value of an aggregated column over its finished episodes (``column.board.aggregate``).
+
+    ``mean``: the mean over every finished episode (NaN if one has no value); ``mean_recorded``:
+    the mean over the episodes that recorded a value (NaN if none did).
+    """
+    values = valid[column.name].to_numpy(dtype=np.float64) if column.name in valid else np.array([])
+    if column.board.aggregate == "mean_recorded":
+        values = values[~np.isnan(values)]
+    return float(values.mean()) if values.size else np.nan
 
 
 def _versus_reference(
@@ -487,57 +416,60 @@ def compact_ranges(values: Iterable[int]) -> str:
     return ", ".join(parts)
 
 
+def _success_cell(r: Any, reference: str | None) -> str:
+    if not r.episodes:
+        return ""
+    return (
+        f"{100 * r.success_rate:.0f}% [{100 * r.success_rate_ci_low:.0f}, {100 * r.success_rate_ci_high:.0f}]"
+    )
+
+
+# How each leaderboard statistic (columns.STATISTICS) prints: row of leaderboard_table -> cell.
+STATISTIC_CELLS: dict[str, Any] = {
+    "policy": lambda r, reference: f"**{r.policy}**" if r.policy == reference else str(r.policy),
+    "episodes": lambda r, reference: f"{int(r.episodes)}",
+    "errors": lambda r, reference: f"{int(r.errors)}",
+    "success_rate": _success_cell,
+    "outcome_counts": lambda r, reference: f"{int(r.collided)}/{int(r.out_of_area)}/{int(r.truncated)}",
+    "total_cost_mean": lambda r, reference: format_interval(
+        r.total_cost_mean, r.total_cost_mean_ci_low, r.total_cost_mean_ci_high
+    ),
+    "total_cost_iqm": lambda r, reference: format_interval(
+        r.total_cost_iqm, r.total_cost_iqm_ci_low, r.total_cost_iqm_ci_high
+    ),
+    "friedman_rank": lambda r, reference: format_number(r.friedman_rank, 3),
+    "delta_mean": lambda r, reference: format_interval(
+        r.delta_mean, r.delta_mean_ci_low, r.delta_mean_ci_high, 3
+    ),
+    "median_difference": lambda r, reference: format_number(r.median_difference, 3),
+    "pvalue_holm": lambda r, reference: format_pvalue(r.pvalue_holm),
+}
+
+
+def cell(column: Column, r: Any, reference: str | None) -> str:
+    """The Markdown cell of one column for one row of a :func:`leaderboard_table`."""
+    board = column.board
+    if board.aggregate == "statistic":
+        return STATISTIC_CELLS[column.name](r, reference)
+    value = r[column.out]
+    if board.style == "count":
+        return f"{int(value):,}" if math.isfinite(value) else ""
+    return format_number(value, board.digits)
+
+
 def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str], list[list[str]], list[str]]:
-    """The Markdown header, cells and alignment of a :func:`leaderboard_table`."""
-    ref = reference or "reference"
-    show_training = table[["train_timesteps", "train_seconds"]].notna().any().any()
-    header = [
-        "policy",
-        "episodes",
-        "errors",
-        "success [95% CI]",
-        "collided/out/truncated",
-        "total J (incl. penalty) mean [95% CI]",
-        "IQM [95% CI]",
-        *(title for _, title in MEAN_COLUMNS.values()),
-        "rank",
-        f"Δ vs {ref} [95% CI]",
-        "median Δ",
-        "p (Holm)",
+    """The Markdown header, cells and alignment of a :func:`leaderboard_table`.
+
+    The columns are the column table's leaderboard columns (:func:`columns.leaderboard_columns`);
+    an ``optional`` one is shown only when some policy has a value.
+    """
+    shown = [
+        column
+        for column in leaderboard_columns()
+        if not column.board.optional or table[column.out].notna().any()
     ]
-    if show_training:
-        header += ["train steps", "train [s]"]
-    rows = []
-    for _, r in table.iterrows():
-        success = (
-            f"{100 * r.success_rate:.0f}% [{100 * r.success_rate_ci_low:.0f}, {100 * r.success_rate_ci_high:.0f}]"
-            if r.episodes
-            else ""
-        )
-        line = [
-            f"**{r.policy}**" if r.policy == reference else str(r.policy),
-            f"{int(r.episodes)}",
-            f"{int(r.errors)}",
-            success,
-            f"{int(r.collided)}/{int(r.out_of_area)}/{int(r.truncated)}",
-            format_interval(r.total_cost_mean, r.total_cost_mean_ci_low, r.total_cost_mean_ci_high),
-            format_interval(r.total_cost_iqm, r.total_cost_iqm_ci_low, r.total_cost_iqm_ci_high),
-        ]
-        for out in MEAN_COLUMNS:
-            digits = 3 if out in ("p_detected", "planning_seconds", "steps") else 4
-            line.append(format_number(r[out], digits))
-        line += [
-            format_number(r.friedman_rank, 3),
-            format_interval(r.delta_mean, r.delta_mean_ci_low, r.delta_mean_ci_high, 3),
-            format_number(r.median_difference, 3),
-            format_pvalue(r.pvalue_holm),
-        ]
-        if show_training:
-            line += [
-                f"{int(r.train_timesteps):,}" if math.isfinite(r.train_timesteps) else "",
-                format_number(r.train_seconds, 3),
-            ]
-        rows.append(line)
+    header = [column.board.header.format(reference=reference or "reference") for column in shown]
+    rows = [[cell(column, r, reference) for column in shown] for _, r in table.iterrows()]
     align = ["l", *(["r"] * (len(header) - 1))]
     return header, rows, align
 
@@ -695,8 +627,7 @@ def leaderboard_markdown(
 ) -> str:
     """The whole Markdown file of one scenario group."""
     header, rows, align = markdown_rows(table, table.attrs["reference"])
-    resamples = f"{table.attrs['n_resamples']:,}"
-    definitions = [f"- **{name}**: {text.format(resamples=resamples)}." for name, text in COLUMN_DEFINITIONS]
+    definitions = legend_lines(f"{table.attrs['n_resamples']:,}")
     parts = [
         f"# Leaderboard: {group.name}",
         "",
