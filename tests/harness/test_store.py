@@ -123,7 +123,7 @@ def test_figures_of_a_migrated_store_take_the_start_from_step_0(store_v1, tmp_pa
     with ResultsStore(store_v1) as store:
         rows = store.steps(include_start=True)
         (group,) = lb.scenario_groups(store.episodes())
-    start = figures._start_state(group.episodes, rows[rows["step"] == 0], 1)
+    start = figures.start_state(group.episodes, rows[rows["step"] == 0], 1)
     expected = [float.fromhex(v) for v in json.loads((DATA / "store-v1-starts.json").read_text())["1"][:3]]
     np.testing.assert_allclose(start, expected, rtol=1e-15)
     paths = figures.write_figures(store_v1, tmp_path, formats=("png",))
