@@ -163,3 +163,16 @@ def test_a_new_run_stores_the_start_state_the_env_reset_gives(tmp_path):
         assert transitions["J"].sum() == pytest.approx(episode["total_J"], rel=1e-12)
         assert transitions["radar_threat"].sum() == pytest.approx(episode["radar_total"], rel=1e-12)
         assert len(transitions) == episode["steps"]
+
+
+@pytest.mark.parametrize("stored", ["start:\n  x_km: 3\n", "", "radars: [unclosed"])
+def test_episodes_whose_stored_scenario_is_not_the_one_flown_get_no_start_row(store_v1, tmp_path, stored):
+    """A YAML that is missing, broken, or of another scenario (another hash) must not invent a start."""
+    connection = sqlite3.connect(store_v1)
+    connection.execute("UPDATE scenarios SET yaml = ?", (stored,))
+    connection.commit()
+    connection.close()
+    with ResultsStore(store_v1) as store:
+        assert len(store.steps(include_start=True)) == len(store.steps())
+    assert raw(store_v1, "SELECT version FROM schema_version") == [(SCHEMA_VERSION,)]
+    assert len(figures.write_figures(store_v1, tmp_path, formats=("png",))) == len(figures.FIGURES)

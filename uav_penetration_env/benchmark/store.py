@@ -260,9 +260,10 @@ def migrate_start_rows(connection: sqlite3.Connection) -> None:
 
     The start state of an episode is a function of its scenario and seed (paired seeding), so it
     is recomputed here from the scenario YAML the store holds, seeded with the scenario hash the
-    episode recorded. DECISION: an episode whose scenario is missing from the store or no longer
-    loads keeps no step-0 row (readers then draw its track from step 1) rather than failing the
-    whole store.
+    episode recorded. DECISION: an episode whose scenario is missing from the store, no longer
+    loads, or loads with another hash than the one recorded (the file is not the scenario that
+    was flown, or this version reads it differently) keeps no step-0 row, and readers draw its
+    track from step 1, rather than receiving a start that may be wrong or failing the whole store.
     """
     import yaml
 
@@ -282,9 +283,12 @@ def migrate_start_rows(connection: sqlite3.Connection) -> None:
     for episode_id, scenario_hash, seed, text in episodes:
         if scenario_hash not in scenarios:
             try:
-                scenarios[scenario_hash] = load_scenario(yaml.safe_load(text)) if text else None
+                scenario = load_scenario(yaml.safe_load(text)) if text else None
             except (ValueError, KeyError, TypeError, yaml.YAMLError):  # ScenarioError is a ValueError
-                scenarios[scenario_hash] = None
+                scenario = None
+            scenarios[scenario_hash] = (
+                scenario if scenario is not None and scenario.hash == scenario_hash else None
+            )
         scenario = scenarios[scenario_hash]
         if scenario is None:
             continue

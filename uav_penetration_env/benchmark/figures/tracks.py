@@ -46,7 +46,7 @@ def scenario_model(yaml_text: str | None):
 
     try:
         return PenetrationModel(load_scenario(yaml.safe_load(yaml_text)))
-    except (ValueError, KeyError, TypeError):  # ScenarioError is a ValueError: an incompatible stored file
+    except (ValueError, KeyError, TypeError, yaml.YAMLError):  # ScenarioError is a ValueError
         return None
 
 
