@@ -19,6 +19,11 @@ leaderboard's "Columns" section, its section (the table lays out sections in
 policy's finished episodes and how it is printed. :func:`glossary_markdown` renders every
 column as the README's glossary.
 
+DECISION: the leaderboard's layout follows this file (section, then declaration order), so the
+episode columns are declared in the order the leaderboard prints them (``fuel_kg`` after
+``path_length_km``); a store's ``episodes`` table reads in declaration order whatever its
+physical order.
+
 Adding a column is one line here: a step column with its source, or an episode column with a
 ``summary`` (and a ``board`` to show it). Stores written before it gain it on their next open
 (``ALTER TABLE ... ADD COLUMN``, NULL for old rows; :class:`~.store.ResultsStore`).
@@ -209,7 +214,8 @@ class Column:
     Attributes:
         name: the column's name (SQL column, DataFrame column, CSV column).
         table: ``episodes``, ``steps`` or ``leaderboard`` (a leaderboard-only statistic).
-        sql: its SQLite type and constraints (``None`` for leaderboard statistics).
+        sql: its SQLite type and constraints (``None`` for leaderboard statistics). A column added
+            after stores exist must allow NULL or carry a DEFAULT (SQLite's ADD COLUMN rule).
         definition: one line saying what the value is (the glossary).
         summary: episodes: how the episode's value is computed from its step rows; ``None`` when
             the harness sets it.
@@ -228,7 +234,9 @@ class Column:
     @property
     def out(self) -> str:
         """The leaderboard CSV's column name."""
-        return self.board.out or self.name if self.board is not None else self.name
+        if self.board is None or self.board.out is None:
+            return self.name
+        return self.board.out
 
     @property
     def csv(self) -> tuple[str, ...]:
@@ -432,7 +440,13 @@ def step_row(info: Mapping[str, Any], action: FloatArray, record: Mapping[str, A
 
 
 def start_row(info: Mapping[str, Any]) -> dict[str, Any]:
-    """The step-0 row of an episode's start state, from the env's reset info (no action, no planning)."""
+    """The step-0 row of an episode's start state, from the env's reset info.
+
+    DECISION: the state's own quantities (position, altitude, threats, detection) describe the
+    start state; a transition's (J, penalty, third term, normalised terms, fuel) are the reset
+    info's 0; the action and planner columns are NULL, since no action led there. Episode sums
+    never include this row (:func:`summarise` gets the transitions alone).
+    """
     return {column.name: column.source.start(info) for column in STEP}
 
 
