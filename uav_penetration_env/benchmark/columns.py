@@ -499,7 +499,3 @@ def glossary_markdown() -> str:
         csv = ", ".join(f"`{name}`" for name in column.csv)
         lines.append(f"| {escape(header)} | {csv} | {escape(definition)} |")
     return "\n".join(lines)
-
-
-if __name__ == "__main__":  # pragma: no cover - `python -m uav_penetration_env.benchmark.columns`
-    print(glossary_markdown())
