@@ -19,9 +19,9 @@ leaderboard's "Columns" section, its section (the table lays out sections in
 policy's finished episodes and how it is printed. :func:`glossary_markdown` renders every
 column as the README's glossary.
 
-DECISION: the leaderboard's layout follows this file (section, then declaration order), so the
-episode columns are declared in the order the leaderboard prints them (``fuel_kg`` after
-``path_length_km``); a store's ``episodes`` table reads in declaration order whatever its
+DECISION (api.md §4.3, §4.5): the leaderboard's layout follows this file (section, then declaration
+order), so the episode columns are declared in the order the leaderboard prints them (``fuel_kg``
+after ``path_length_km``); a store's ``episodes`` table reads in declaration order whatever its
 physical order.
 
 Adding a column is one line here: a step column with its source, or an episode column with a
@@ -442,10 +442,10 @@ def step_row(info: Mapping[str, Any], action: FloatArray, record: Mapping[str, A
 def start_row(info: Mapping[str, Any]) -> dict[str, Any]:
     """The step-0 row of an episode's start state, from the env's reset info.
 
-    DECISION: the state's own quantities (position, altitude, threats, detection) describe the
-    start state; a transition's (J, penalty, third term, normalised terms, fuel) are the reset
-    info's 0; the action and planner columns are NULL, since no action led there. Episode sums
-    never include this row (:func:`summarise` gets the transitions alone).
+    DECISION (api.md §4.4, model.md §7a): the state's own quantities (position, altitude, threats,
+    detection) describe the start state; a transition's (J, penalty, third term, normalised terms,
+    fuel) are the reset info's 0; the action and planner columns are NULL, since no action led
+    there. Episode sums never include this row (:func:`summarise` gets the transitions alone).
     """
     return {column.name: column.source.start(info) for column in STEP}
 

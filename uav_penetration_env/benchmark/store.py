@@ -189,9 +189,10 @@ class ResultsStore:
     def steps(self, episode_ids: Iterable[int] | None = None, *, include_start: bool = False) -> pd.DataFrame:
         """Step rows (optionally of some episodes), ordered by episode and step.
 
-        DECISION: the step-0 rows (start states) are left out unless ``include_start``, so that any
-        sum, mean or count over the returned rows is one over the episode's K transitions, as the
-        episode totals are, and readers written before step 0 existed read the same rows.
+        DECISION (api.md §4.4): the step-0 rows (start states) are left out unless
+        ``include_start``, so that any sum, mean or count over the returned rows is one over the
+        episode's K transitions, as the episode totals are, and readers written before step 0
+        existed read the same rows.
 
         Args:
             episode_ids: the episodes (default: all).
@@ -258,12 +259,13 @@ def _sql_value(value: Any) -> Any:
 def migrate_start_rows(connection: sqlite3.Connection) -> None:
     """Version 1 -> 2: add the step-0 row (start state) of every episode that has step rows.
 
-    The start state of an episode is a function of its scenario and seed (paired seeding), so it
-    is recomputed here from the scenario YAML the store holds, seeded with the scenario hash the
-    episode recorded. DECISION: an episode whose scenario is missing from the store, no longer
-    loads, or loads with another hash than the one recorded (the file is not the scenario that
-    was flown, or this version reads it differently) keeps no step-0 row, and readers draw its
-    track from step 1, rather than receiving a start that may be wrong or failing the whole store.
+    The start state of an episode is a function of its scenario and seed (paired seeding), so it is
+    recomputed here from the scenario YAML the store holds, seeded with the scenario hash the
+    episode recorded (api.md §4.2). DECISION (api.md §4.4): an episode whose scenario is missing
+    from the store, no longer loads, or loads with another hash than the one recorded (the file is
+    not the scenario that was flown, or this version reads it differently) keeps no step-0 row, and
+    readers draw its track from step 1, rather than receiving a start that may be wrong or failing
+    the whole store.
     """
     import yaml
 
