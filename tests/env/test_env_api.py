@@ -242,3 +242,18 @@ def test_human_render_runs_headless(monkeypatch):
 def test_bad_render_mode_is_rejected():
     with pytest.raises(ValueError, match="render_mode"):
         UAVPenetrationEnv(tiny_scenario(), render_mode="ansi")
+
+
+@pytest.mark.parametrize("profile", ["benchmark", "paper"])
+def test_render_coverage_is_the_models_coverage_level(profile):
+    """The envelope drawn is the model's own detection rule, at the given altitude and heading."""
+    from uav_penetration_env.render import coverage_grid
+
+    model = UAVPenetrationEnv(tiny_scenario(profile=profile)).model
+    xs, ys, level = coverage_grid(model, 600.0, 0.4, nodes=7)
+    gx, gy = np.meshgrid(xs * 1000.0, ys * 1000.0, indexing="ij")
+    states = np.column_stack(
+        (gx.ravel(), gy.ravel(), np.full(gx.size, 600.0), np.full(gx.size, model.limits.speed_max))
+    )
+    states = np.column_stack((states, np.full(gx.size, 0.4), np.zeros(gx.size)))
+    np.testing.assert_array_equal(level, model.coverage_level(states).reshape(7, 7))
