@@ -102,8 +102,8 @@ class ReportContext:
         return self.store.scenarios()
 
     def steps(self, episode_ids: Sequence[int]) -> pd.DataFrame:
-        """Step rows of some episodes."""
-        return self.store.steps(episode_ids)
+        """Step rows of some episodes, the start state (step 0) included."""
+        return self.store.steps(episode_ids, include_start=True)
 
 
 # --- page assembly -------------------------------------------------------------------------------------
