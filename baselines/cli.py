@@ -1,6 +1,7 @@
 """``uav-bench train``: train an SB3 agent from the command line (api.md; issue 6).
 
-``uav_penetration_env.benchmark.cli`` builds the ``train`` sub-parser with
+A plug-in command (:data:`baselines.plugin.TRAIN_COMMAND`, entry-point group
+``uav_penetration.commands``): ``uav-bench`` builds the ``train`` sub-parser with
 :func:`add_train_arguments` and hands the parsed flags to :func:`train_command`. Every input is
 checked before training starts; problems exit with status 2 (``CLIError``), Ctrl-C saves the
 partly trained model and exits with 130.
@@ -13,6 +14,9 @@ import re
 import sys
 from pathlib import Path
 from typing import Any
+
+from uav_penetration_env.benchmark.commands.common import CLIError, resolve_scenarios
+from uav_penetration_env.catalogue import SCENARIO_HELP
 
 DEFAULT_MODELS = Path("leaderboards/models")
 
@@ -30,7 +34,7 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--scenario",
-        help="for the fixed ids: paper, paper-w2, dem, random:SEED or a YAML path (default: the id's own)",
+        help=f"for the fixed ids: {SCENARIO_HELP}, one scenario (default: the id's own)",
     )
     parser.add_argument(
         "--profile", choices=["benchmark", "paper"], help="physics profile (default: the id's)"
@@ -89,15 +93,10 @@ def default_out(algo: str, env_id: str, scenario: str | None, seed: int) -> Path
 
 
 def _scenario(args: argparse.Namespace) -> Any:
-    from uav_penetration_env.benchmark.cli import CLIError, resolve_scenarios
-
     if args.scenario is None:
         return None
     difficulty = 0.5 if args.difficulty is None else args.difficulty
-    try:
-        scenarios = resolve_scenarios([args.scenario], args.profile, None, difficulty)
-    except CLIError as error:  # the shared parser names run's plural flag
-        raise CLIError(str(error).replace("--scenarios", "--scenario")) from None
+    scenarios = resolve_scenarios([args.scenario], args.profile, None, difficulty, flag="--scenario")
     if len(scenarios) != 1:
         raise CLIError(
             f"--scenario: got {args.scenario!r} ({len(scenarios)} scenarios), expected one scenario"
@@ -123,7 +122,6 @@ def train_command(args: argparse.Namespace) -> int:
         CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
     """
     from baselines.train import prepare_training, run_training
-    from uav_penetration_env.benchmark.cli import CLIError
 
     scenario = _scenario(args)
     difficulty = args.difficulty

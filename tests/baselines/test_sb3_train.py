@@ -10,12 +10,15 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from conftest import tiny_scenario
-from sb3_helpers import TINY_PPO, tiny_run, trained_tiny_ppo
+from sb3_helpers import TINY_PPO, baselines_plugins, tiny_run, trained_tiny_ppo  # noqa: F401 (a fixture)
 
 from baselines import load_policy, train_agent
 from baselines.train import EVALUATION_COLUMNS, algorithm_kwargs, resolve_hyperparams
 from uav_penetration_env.benchmark.cli import main
 from uav_penetration_env.benchmark.evaluate import evaluate
+
+# Discovery of the sb3 kind and the train command answers from baselines.plugin (sb3_helpers).
+pytestmark = pytest.mark.usefixtures("baselines_plugins")
 
 
 @pytest.fixture(scope="session")
