@@ -502,23 +502,21 @@ def _json_scenario(value: Any) -> Any:
 
 def describe_env(plan: TrainingPlan, venv: Any, seeds: Sequence[int]) -> dict[str, Any]:
     """The env part of the sidecar: JSON-able env kwargs, profile, scenario (hash or description), spaces."""
-    native = venv.vector_env
-    source = native.source
+    described = venv.vector_env.describe_scenarios()
     env_kwargs = {k: _json_scenario(v) for k, v in plan.env_kwargs.items()}
-    if hasattr(source, "scenario"):
-        profile = source.scenario.profile
-        scenario = {"name": source.scenario.name, "hash": source.scenario.hash}
+    profile = described["profile"]
+    if described["kind"] == "fixed":
+        scenario = {"name": described["name"], "hash": described["hash"]}
     else:
-        profile = source.profile
         scenario = {
             "description": (
-                f"{plan.env_id}: procedural scenarios (model.md §7c) at difficulty {source.difficulty}; "
+                f"{plan.env_id}: procedural scenarios (model.md §7c) at difficulty {described['difficulty']}; "
                 f"each sub-env's first episode flies the scenario of its reset seed {list(seeds)}, later "
-                f"episodes a pool of {source.pool_size} scenarios from pool_seed {source.pool_seed}"
+                f"episodes a pool of {described['pool_size']} scenarios from pool_seed {described['pool_seed']}"
             ),
-            "difficulty": source.difficulty,
-            "pool_size": source.pool_size,
-            "pool_seed": source.pool_seed,
+            "difficulty": described["difficulty"],
+            "pool_size": described["pool_size"],
+            "pool_seed": described["pool_seed"],
         }
     physical = venv.physical_action_space
     return {
