@@ -299,9 +299,9 @@ def resolve_scenarios(spec: ScenarioSpec, difficulty: float = 0.5) -> list[Scena
     ``random:SEED`` is ``random_scenario(default_rng(SEED), difficulty, name="random-SEED")``;
     ``random:A-B`` is one such scenario per seed A..B.
 
-    DECISION: a catalogue name always means the catalogue's scenario, even when a file of that
-    name exists in the working folder (``./paper`` reaches the file), so that a command line means
-    the same thing in every folder.
+    DECISION (api.md §4.6): a catalogue name always means the catalogue's scenario, even when a
+    file of that name exists in the working folder (``./paper`` reaches the file), so that a command
+    line means the same thing in every folder.
 
     Raises:
         UnknownScenarioError: a string that is neither a name, a ``random:`` form nor an existing
