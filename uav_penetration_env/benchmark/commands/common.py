@@ -20,6 +20,9 @@ from pathlib import Path
 from typing import Any
 
 from uav_penetration_env.benchmark.plugins import Needs
+from uav_penetration_env.catalogue import UnknownScenarioError
+from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+from uav_penetration_env.scenario import ScenarioError
 
 DEFAULT_STORE = Path("results/uav-bench.sqlite")
 DEFAULT_OUT = Path("results")
@@ -138,10 +141,6 @@ def resolve_scenarios(
     Raises:
         CLIError: an unknown name (with a did-you-mean) or a broken scenario, naming ``flag``.
     """
-    from uav_penetration_env.catalogue import UnknownScenarioError
-    from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
-    from uav_penetration_env.scenario import ScenarioError
-
     scenarios = []
     for spec in specs:
         try:
