@@ -7,10 +7,9 @@ the project's model specification.
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
-
 from gymnasium.envs.registration import register, registry
 
+from uav_penetration_env._version import __version__
 from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.catalogue import HELD_OUT_SEEDS, dem_scenario, generate_dem_scenario, random_scenario
 from uav_penetration_env.model import PenetrationModel, StepResult
@@ -24,6 +23,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "StepResult",
+    "__version__",
     "build_scenario",
     "dem_scenario",
     "generate_dem_scenario",

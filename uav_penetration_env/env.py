@@ -21,14 +21,14 @@ import numpy as np
 from gymnasium import spaces
 
 from uav_penetration_env.build import BuiltScenario, build_scenario
-from uav_penetration_env.catalogue import dem_scenario, random_scenario
+from uav_penetration_env.catalogue import random_scenario
+from uav_penetration_env.catalogue import resolve_scenario as resolve_catalogue_scenario
 from uav_penetration_env.kinematics import UAVLimits
 from uav_penetration_env.model import OBSERVATION_LIMIT, OBSERVATION_SIZE, PenetrationModel, StepResult
-from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
+from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import FloatArray
 
 ScenarioLike = Scenario | Mapping[str, Any] | str | Path | None
-DEFAULT_SCENARIOS = {"paper": paper_scenario, "dem": dem_scenario}
 RANDOM_RADAR_SLOTS = 8  # model.md §7a: radars padded to M_max = 8 in the Random id
 POOL_SEED_OFFSET = 2**32  # pool scenarios never collide with user seeds or the held-out set
 
@@ -36,17 +36,13 @@ POOL_SEED_OFFSET = 2**32  # pool scenarios never collide with user seeds or the 
 def resolve_scenario(
     scenario: ScenarioLike, default: str, profile: str | None, id_profile: str | None
 ) -> Scenario:
-    """The scenario an env runs: a path, dict or Scenario (else the id's default), with its profile.
+    """The scenario an env runs: a catalogue name, path, dict or Scenario (else the id's default), with its profile.
 
+    Names resolve in the catalogue (:func:`uav_penetration_env.catalogue.resolve_scenario`).
     Profile precedence (model.md §7a): the ``profile=`` keyword, else the id's profile, else the
     file's.
     """
-    if scenario is None:
-        resolved = DEFAULT_SCENARIOS[default]()
-    elif isinstance(scenario, str) and scenario in DEFAULT_SCENARIOS and not Path(scenario).exists():
-        resolved = DEFAULT_SCENARIOS[scenario]()
-    else:
-        resolved = load_scenario(scenario)
+    resolved = resolve_catalogue_scenario(default if scenario is None else scenario)
     return resolved.with_profile(profile or id_profile)
 
 

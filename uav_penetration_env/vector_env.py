@@ -145,6 +145,55 @@ class UAVPenetrationVectorEnv(VectorEnv):
             raise RuntimeError("no scenario loaded yet: call reset() first")
         return self._model
 
+    # --- read-only public view of the sub-envs (for adapters such as baselines' SB3 VecEnv) ------------
+
+    @property
+    def scenarios(self) -> tuple[Scenario | None, ...]:
+        """The scenario each sub-env is flying (``None`` before its first reset)."""
+        return tuple(self._scenarios)
+
+    @property
+    def states(self) -> np.ndarray:
+        """(num_envs, 6) current states [x, y, z (m), v (m/s), phi, theta (rad)]: a read-only view.
+
+        The view follows the env as it steps; copy it to keep a snapshot.
+        """
+        view = self._states.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def step_indices(self) -> np.ndarray:
+        """(num_envs,) steps taken in each sub-env's current episode: a read-only view."""
+        view = self._steps.view()
+        view.flags.writeable = False
+        return view
+
+    def describe_scenarios(self) -> dict[str, Any]:
+        """Where the sub-envs' scenarios come from, as JSON-able data (e.g. for a training sidecar).
+
+        Returns:
+            For a fixed scenario: ``kind="fixed"``, ``name``, ``hash``, ``profile``. For the Random id:
+            ``kind="random"``, ``difficulty``, ``pool_size``, ``pool_seed`` (``None`` until the first
+            reset draws it) and ``profile``.
+        """
+        source = self.source
+        if isinstance(source, FixedScenarioSource):
+            scenario = source.scenario
+            return {
+                "kind": "fixed",
+                "name": scenario.name,
+                "hash": scenario.hash,
+                "profile": scenario.profile,
+            }
+        return {
+            "kind": "random",
+            "difficulty": source.difficulty,
+            "pool_size": source.pool_size,
+            "pool_seed": source.pool_seed,
+            "profile": source.profile,
+        }
+
     def _load(self, needed: Sequence[Scenario]) -> None:
         """Make sure the model's pool holds ``needed``, rebuilding it only when something is missing.
 
