@@ -35,7 +35,6 @@ from uav_penetration_env.env import (
     action_space,
     batched_info,
     observation_space,
-    reset_result,
     resolve_scenario,
     validate_action,
 )
@@ -276,7 +275,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self._reset_rows(rows, [seeds[i] for i in rows])
         self._started = True
         self._np_random_seed = tuple(self._sub_seeds)
-        result = reset_result(self._model, self._states[rows], self._rows_index(rows))
+        result = self._model.reset_result(self._states[rows], self._rows_index(rows))
         # observe() without a result re-evaluates the radars at each state: the same numbers a step
         # into that state reported, so rows that were not reset keep their observation.
         obs = self._model.observe(
@@ -363,8 +362,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
             )
             self._reset_rows(finished, [None] * len(finished))
             index = None if self._model.pool_size == 1 else self._index
-            fresh = reset_result(
-                self._model, self._states[finished], None if index is None else index[finished]
+            fresh = self._model.reset_result(
+                self._states[finished], None if index is None else index[finished]
             )
             obs = self._model.observe(self._states, self._steps, None, index)
             reset_info = batched_info(self._model, fresh, None)
@@ -383,9 +382,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
             return result
         n = self.num_envs
         index = None if self._model.pool_size == 1 else self._index
-        fresh = reset_result(
-            self._model, self._states[resetting], None if index is None else index[resetting]
-        )
+        fresh = self._model.reset_result(self._states[resetting], None if index is None else index[resetting])
         merged = {}
         for name in StepResult.__dataclass_fields__:
             a, b = getattr(result, name), getattr(fresh, name)
