@@ -569,8 +569,9 @@ class IHPSO(SwarmOptimizer):
         Trace (docs/swarm.md §6): ``mode`` (the search mode each iteration moved in, ``"broad"`` or
         ``"accurate"``), ``switch_iterations`` (iterations after which broad search switched to accurate,
         eqs. 25-28), ``reverse_switch_iterations`` (accurate back to broad: zero slope but eq. 33 false),
-        ``termination_tests`` (``(t, passed)`` for every evaluation of eq. 33), ``locked_at`` (the
-        iteration accurate mode was locked, ``ihpso-noterm`` only), ``levels`` (``J(0), J(1), ...``,
+        ``termination_tests`` (``(t, passed)`` for every evaluation of eq. 33), ``termination_spreads``
+        (``(t, SD_pemin, SD_psmax)`` for each, as :func:`termination_spreads` gives them), ``locked_at``
+        (the iteration accurate mode was locked, ``ihpso-noterm`` only), ``levels`` (``J(0), J(1), ...``,
         ``None`` where undefined) and ``stopped_by`` (``"termination"`` for eq. 33, ``"max_evals"``
         otherwise).
         """
@@ -582,9 +583,11 @@ class IHPSO(SwarmOptimizer):
         switches: list[int] = []
         reverse_switches: list[int] = []
         tests: list[tuple[int, bool]] = []
+        spreads: list[tuple[int, float, float]] = []
         levels: list[float | None] = []
         trace.update(mode=modes, switch_iterations=switches, reverse_switch_iterations=reverse_switches,
-                     termination_tests=tests, locked_at=None, levels=levels, stopped_by="max_evals")
+                     termination_tests=tests, termination_spreads=spreads, locked_at=None, levels=levels,
+                     stopped_by="max_evals")
 
         # Step 0 (§5.4) after initialisation: J(0), broad mode grouped by scheme[0].
         level = self.fitness_level(swarm.f_pbest)
@@ -628,6 +631,9 @@ class IHPSO(SwarmOptimizer):
                 U = swarm.normalised()
                 converged = self.converged(U)
                 tests.append((t, converged))
+                spreads.append((t, *termination_spreads(U, self.n_groups, method=self.linkage,
+                                                        eps=self.entropy_eps, cut=self.grouping_cut,
+                                                        spread=self.spread)))
                 if converged:
                     if self.terminate:
                         trace["stopped_by"] = "termination"
