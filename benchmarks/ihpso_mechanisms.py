@@ -17,7 +17,13 @@ tolerances, and prints:
 * paired Wilcoxon signed-rank tests over the pairs;
 * the tolerance table (evaluation share and final J per tolerance).
 
-Usage: ``python benchmarks/ihpso_mechanisms.py [--states 8] [--seeds 3] [--max-evals 10000]``.
+With ``--swarm-draws N`` it first prints how often eq. 33 (``termination_test``) passes on synthetic
+swarms of 100 particles in 3-D and 15-D: Gaussian clumps (standard deviation 1 per coordinate, centres
+10 apart) and single uniform or Gaussian clouds, N seeded draws each (the generators
+``tests/optimizers/test_ihpso_mechanisms.py`` uses).
+
+Usage: ``python benchmarks/ihpso_mechanisms.py [--states 8] [--seeds 3] [--max-evals 10000]
+[--episode-seed 1] [--swarm-draws 1000]``; ``--states 0`` skips the MPC study.
 """
 
 from __future__ import annotations
@@ -35,7 +41,68 @@ from scipy.stats import wilcoxon
 
 HORIZON = 5
 TOLERANCES = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)  # 1e-4 is the default (optimizers.md D15)
-EPISODE_SEED = 1
+SWARM_SIZE, N_GROUPS = 100, 5
+SEPARATION = 10.0  # clump centres, in standard deviations of a clump (issue 11)
+CLUMP_SIZES = ((50, 50), (70, 30), (80, 20), (90, 10), (34, 33, 33), (50, 30, 20), (60, 30, 10))
+
+
+# ----------------------------------------------------------------------------------------------
+# Synthetic swarms for eq. 33
+# ----------------------------------------------------------------------------------------------
+
+
+def clump_centres(n_clumps: int, dim: int, rng: np.random.Generator) -> np.ndarray:
+    """Centres pairwise exactly ``SEPARATION`` apart in a random plane: 2 on a line, 3 an equilateral triangle.
+
+    Returns:
+        (n_clumps, dim) centres.
+    """
+    if n_clumps not in (2, 3):
+        raise ValueError(f"n_clumps: got {n_clumps!r}, expected 2 or 3")
+    basis, _ = np.linalg.qr(rng.normal(size=(dim, 2)))
+    planar = np.array([[-0.5, 0.0], [0.5, 0.0]]) if n_clumps == 2 else np.array(
+        [[0.0, 0.0], [1.0, 0.0], [0.5, math.sqrt(3) / 2]])
+    return SEPARATION * planar @ basis.T
+
+
+def clumps(sizes: tuple[int, ...], dim: int, rng: np.random.Generator) -> np.ndarray:
+    """(sum(sizes), dim) Gaussian clumps (standard deviation 1) around :func:`clump_centres`, shuffled."""
+    centres = clump_centres(len(sizes), dim, rng)
+    points = np.vstack([c + rng.normal(size=(size, dim)) for c, size in zip(centres, sizes, strict=True)])
+    return points[rng.permutation(points.shape[0])]
+
+
+def cloud(kind: str, dim: int, rng: np.random.Generator) -> np.ndarray:
+    """(100, dim) single cloud: ``"uniform"`` in the unit cube or ``"gaussian"``."""
+    return rng.random((SWARM_SIZE, dim)) if kind == "uniform" else rng.normal(size=(SWARM_SIZE, dim))
+
+
+def termination_pass_rate(make: Any, draws: int, seed: int, **test_options: Any) -> float:
+    """Share of ``draws`` swarms ``make(rng)`` on which eq. 33 (``termination_test``, G = 5) passes."""
+    from optimizers.ihpso import termination_test
+
+    rng = np.random.default_rng(seed)
+    return float(np.mean([termination_test(make(rng), N_GROUPS, **test_options) for _ in range(draws)]))
+
+
+def swarm_table(draws: int) -> None:
+    """Print eq. 33's failure rate on clumps and pass rate on clouds, now and under 2022v0."""
+    v0 = {"method": "average", "cut": "equal", "spread": "sum"}
+    print(f"== eq. 33 on synthetic swarms (100 particles, G = 5, {draws} draws each) ==")
+    print(f"{'swarm':<22} {'dim':>3} {'ihpso: fails':>13} {'2022v0: fails':>14}")
+    for sizes in CLUMP_SIZES:
+        for dim in (3, 15):
+            label = "clumps " + "/".join(map(str, sizes))
+            now = termination_pass_rate(lambda rng, s=sizes, d=dim: clumps(s, d, rng), draws, 1000 + dim)
+            old = termination_pass_rate(lambda rng, s=sizes, d=dim: clumps(s, d, rng), draws, 1000 + dim, **v0)
+            print(f"{label:<22} {dim:>3} {1 - now:>13.1%} {1 - old:>14.1%}")
+    print(f"{'swarm':<22} {'dim':>3} {'ihpso: passes':>13} {'2022v0: passes':>14}")
+    for kind in ("uniform", "gaussian"):
+        for dim in (3, 15):
+            now = termination_pass_rate(lambda rng, k=kind, d=dim: cloud(k, d, rng), draws, 2000 + dim)
+            old = termination_pass_rate(lambda rng, k=kind, d=dim: cloud(k, d, rng), draws, 2000 + dim, **v0)
+            print(f"{'cloud ' + kind:<22} {dim:>3} {now:>13.1%} {old:>14.1%}")
+    print()
 
 
 @dataclass
@@ -59,6 +126,11 @@ class CaptureObjective:
         return SimpleNamespace(fun=math.inf, x=None, nfev=0, history=[], history_nfev=[])
 
 
+# ----------------------------------------------------------------------------------------------
+# MPC window states
+# ----------------------------------------------------------------------------------------------
+
+
 def greedy_episode(seed: int) -> tuple[Any, list[tuple[np.ndarray, int]], list[np.ndarray]]:
     """A greedy episode of the paper scenario: the env, the (state, step) before each action, the actions."""
     from uav_penetration_env import paper_scenario
@@ -80,11 +152,11 @@ def greedy_episode(seed: int) -> tuple[Any, list[tuple[np.ndarray, int]], list[n
     return env, states, actions
 
 
-def collect_windows(n_states: int, max_evals: int) -> list[Window]:
+def collect_windows(n_states: int, max_evals: int, episode_seed: int) -> list[Window]:
     """``n_states`` window states spread evenly over a greedy episode (first step excluded)."""
     from uav_penetration_env.benchmark.policies import MPCPolicy
 
-    env, states, actions = greedy_episode(EPISODE_SEED)
+    env, states, actions = greedy_episode(episode_seed)
     picks = np.unique(np.linspace(1, len(states) - 1, n_states).astype(int))
     windows = []
     for index in picks:
@@ -133,11 +205,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--states", type=int, default=8)
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--max-evals", type=int, default=10_000)
+    parser.add_argument("--episode-seed", type=int, default=1)
+    parser.add_argument("--swarm-draws", type=int, default=0)
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
-    windows = collect_windows(args.states, args.max_evals)
-    print(f"window states: greedy episode (env seed {EPISODE_SEED}) of the paper scenario, steps "
+    if args.swarm_draws > 0:
+        swarm_table(args.swarm_draws)
+    if args.states <= 0:
+        return 0
+    windows = collect_windows(args.states, args.max_evals, args.episode_seed)
+    print(f"window states: greedy episode (env seed {args.episode_seed}) of the paper scenario, steps "
           f"{[w.step for w in windows]}; seeds 0..{args.seeds - 1}; {args.max_evals} evaluations; H = {HORIZON}")
     ihpso, hpso, old = get_optimizer("ihpso"), get_optimizer("hpso"), get_optimizer("ihpso-2022v0")
     rows = []

@@ -8,8 +8,11 @@ versions of the swarm tests are marked slow; the default run uses 200 draws with
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,8 +34,23 @@ from optimizers.ihpso import (
 )
 from tests.golden import golden_cases
 
-N, G = 100, 5
-SEPARATION = 10.0  # clump centres, in standard deviations of a clump (issue 11)
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "ihpso_mechanisms.py"
+
+
+def load_script():
+    spec = importlib.util.spec_from_file_location("ihpso_mechanisms", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(spec.name, None)
+    return module
+
+
+study = load_script()  # the swarm generators live in the study script, so its table and these tests agree
+clump_centres, clumps, cloud = study.clump_centres, study.clumps, study.cloud
+N, G = study.SWARM_SIZE, study.N_GROUPS
 BOUNDS = [(-5.0, 5.0)] * 10
 
 
@@ -45,33 +63,11 @@ def sphere(x):
 # ----------------------------------------------------------------------------------------------
 
 
-def clump_centres(n_clumps: int, dim: int, rng: np.random.Generator) -> np.ndarray:
-    """Centres pairwise exactly ``SEPARATION`` apart, in a random plane (2 on a line, 3 an equilateral triangle)."""
-    basis, _ = np.linalg.qr(rng.normal(size=(dim, 2)))
-    if n_clumps == 2:
-        planar = np.array([[-0.5, 0.0], [0.5, 0.0]])
-    else:
-        planar = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, math.sqrt(3) / 2]])
-    return SEPARATION * planar @ basis.T
-
-
-def clumps(sizes: tuple[int, ...], dim: int, rng: np.random.Generator) -> np.ndarray:
-    """Gaussian clumps of standard deviation 1 per coordinate around :func:`clump_centres`, shuffled."""
-    centres = clump_centres(len(sizes), dim, rng)
-    points = np.vstack([c + rng.normal(size=(size, dim)) for c, size in zip(centres, sizes, strict=True)])
-    return points[rng.permutation(points.shape[0])]
-
-
-def cloud(kind: str, dim: int, rng: np.random.Generator) -> np.ndarray:
-    return rng.random((N, dim)) if kind == "uniform" else rng.normal(size=(N, dim))
-
-
 CLUMP_SIZES = [(50, 50), (70, 30), (34, 33, 33), (50, 30, 20), (60, 30, 10)]
 
 
 def pass_rate(make, draws: int, seed: int) -> float:
-    rng = np.random.default_rng(seed)
-    return float(np.mean([termination_test(make(rng), G) for _ in range(draws)]))
+    return study.termination_pass_rate(make, draws, seed)
 
 
 def check_clumps_fail(sizes, dim, draws):
@@ -325,3 +321,10 @@ def test_there_are_golden_ihpso_cases():
 def test_ihpso_2022v0_reproduces_the_golden_ihpso(key):
     _, function, seed = key.split("/")
     assert golden_cases.optimizer_case("ihpso-2022v0", function, int(seed)) == GOLDEN[key]
+
+
+def test_study_script_runs_end_to_end(capsys):
+    assert study.main(["--states", "1", "--seeds", "1", "--max-evals", "300", "--swarm-draws", "3"]) == 0
+    out = capsys.readouterr().out
+    for header in ("eq. 33 on synthetic swarms", "IHPSO's mechanisms over 1", "Tolerance of"):
+        assert header in out
