@@ -60,8 +60,11 @@ def clump_centres(n_clumps: int, dim: int, rng: np.random.Generator) -> np.ndarr
     if n_clumps not in (2, 3):
         raise ValueError(f"n_clumps: got {n_clumps!r}, expected 2 or 3")
     basis, _ = np.linalg.qr(rng.normal(size=(dim, 2)))
-    planar = np.array([[-0.5, 0.0], [0.5, 0.0]]) if n_clumps == 2 else np.array(
-        [[0.0, 0.0], [1.0, 0.0], [0.5, math.sqrt(3) / 2]])
+    planar = (
+        np.array([[-0.5, 0.0], [0.5, 0.0]])
+        if n_clumps == 2
+        else np.array([[0.0, 0.0], [1.0, 0.0], [0.5, math.sqrt(3) / 2]])
+    )
     return SEPARATION * planar @ basis.T
 
 
@@ -94,7 +97,9 @@ def swarm_table(draws: int) -> None:
         for dim in (3, 15):
             label = "clumps " + "/".join(map(str, sizes))
             now = termination_pass_rate(lambda rng, s=sizes, d=dim: clumps(s, d, rng), draws, 1000 + dim)
-            old = termination_pass_rate(lambda rng, s=sizes, d=dim: clumps(s, d, rng), draws, 1000 + dim, **v0)
+            old = termination_pass_rate(
+                lambda rng, s=sizes, d=dim: clumps(s, d, rng), draws, 1000 + dim, **v0
+            )
             print(f"{label:<22} {dim:>3} {1 - now:>13.1%} {1 - old:>14.1%}")
     print(f"{'swarm':<22} {'dim':>3} {'ihpso: passes':>13} {'2022v0: passes':>14}")
     for kind in ("uniform", "gaussian"):
@@ -122,6 +127,7 @@ class CaptureObjective:
         self.captured: tuple[Any, Any] | None = None
 
     def minimize(self, fun: Any, bounds: Any, *, rng: Any = None, max_evals: int = 1) -> SimpleNamespace:
+        """Keep ``fun`` and ``bounds``; return a result with no finite plan (MPCPolicy then holds course)."""
         self.captured = (fun, bounds)
         return SimpleNamespace(fun=math.inf, x=None, nfev=0, history=[], history_nfev=[])
 
@@ -183,8 +189,9 @@ def evals_to_target(result: Any, target: float) -> int:
 
 
 def run(optimizer: Any, window: Window, seed: int, max_evals: int) -> Any:
-    return optimizer.minimize(window.objective, window.bounds, rng=np.random.default_rng(seed),
-                              max_evals=max_evals, x0=window.x0)
+    return optimizer.minimize(
+        window.objective, window.bounds, rng=np.random.default_rng(seed), max_evals=max_evals, x0=window.x0
+    )
 
 
 def paired(label: str, a: np.ndarray, b: np.ndarray) -> str:
@@ -194,8 +201,10 @@ def paired(label: str, a: np.ndarray, b: np.ndarray) -> str:
         p = 1.0
     else:
         p = float(wilcoxon(a, b, zero_method="wilcox").pvalue)
-    return (f"{label:<44} median A={np.median(a):.6g}  B={np.median(b):.6g}  A<B in {int(np.sum(a < b))}, "
-            f"A>B in {int(np.sum(a > b))} of {a.size}  Wilcoxon p={p:.3g}")
+    return (
+        f"{label:<44} median A={np.median(a):.6g}  B={np.median(b):.6g}  A<B in {int(np.sum(a < b))}, "
+        f"A>B in {int(np.sum(a > b))} of {a.size}  Wilcoxon p={p:.3g}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -215,8 +224,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.states <= 0:
         return 0
     windows = collect_windows(args.states, args.max_evals, args.episode_seed)
-    print(f"window states: greedy episode (env seed {args.episode_seed}) of the paper scenario, steps "
-          f"{[w.step for w in windows]}; seeds 0..{args.seeds - 1}; {args.max_evals} evaluations; H = {HORIZON}")
+    print(
+        f"window states: greedy episode (env seed {args.episode_seed}) of the paper scenario, steps "
+        f"{[w.step for w in windows]}; seeds 0..{args.seeds - 1}; {args.max_evals} evaluations; H = {HORIZON}"
+    )
     ihpso, hpso, old = get_optimizer("ihpso"), get_optimizer("hpso"), get_optimizer("ihpso-2022v0")
     rows = []
     for window in windows:
@@ -228,31 +239,45 @@ def main(argv: list[str] | None = None) -> int:
             target = max(r_i.fun, r_h.fun)
             tolerance = {}
             for rtol in TOLERANCES:
-                r_t = r_i if rtol == ihpso.slope_rtol else run(replace(ihpso, slope_rtol=rtol), window, seed,
-                                                                  args.max_evals)
+                r_t = (
+                    r_i
+                    if rtol == ihpso.slope_rtol
+                    else run(replace(ihpso, slope_rtol=rtol), window, seed, args.max_evals)
+                )
                 tolerance[rtol] = (r_t.nfev, r_t.fun)
             switches = r_i.trace["switch_iterations"]
-            rows.append({
-                "step": window.step, "seed": seed,
-                "J_i": r_i.fun, "J_h": r_h.fun, "J_o": r_o.fun, "J_hb": r_hb.fun,
-                "n_i": r_i.nfev, "n_h": r_h.nfev, "n_o": r_o.nfev,
-                "ft_i": evals_to_target(r_i, target), "ft_h": evals_to_target(r_h, target),
-                "reverse": len(r_i.trace["reverse_switch_iterations"]),
-                "terminated": r_i.trace["stopped_by"] == "termination",
-                "terminated_o": r_o.trace["stopped_by"] == "termination",
-                "reverse_o": len(r_o.trace["reverse_switch_iterations"]),
-                "first_switch": switches[0] if switches else None,
-                "switches": len(switches),
-                "tests": len(r_i.trace["termination_tests"]),
-                "accurate_share": r_i.trace["mode"].count("accurate") / max(len(r_i.trace["mode"]), 1),
-                "tolerance": tolerance,
-            })
+            rows.append(
+                {
+                    "step": window.step,
+                    "seed": seed,
+                    "J_i": r_i.fun,
+                    "J_h": r_h.fun,
+                    "J_o": r_o.fun,
+                    "J_hb": r_hb.fun,
+                    "n_i": r_i.nfev,
+                    "n_h": r_h.nfev,
+                    "n_o": r_o.nfev,
+                    "ft_i": evals_to_target(r_i, target),
+                    "ft_h": evals_to_target(r_h, target),
+                    "reverse": len(r_i.trace["reverse_switch_iterations"]),
+                    "terminated": r_i.trace["stopped_by"] == "termination",
+                    "terminated_o": r_o.trace["stopped_by"] == "termination",
+                    "reverse_o": len(r_o.trace["reverse_switch_iterations"]),
+                    "first_switch": switches[0] if switches else None,
+                    "switches": len(switches),
+                    "tests": len(r_i.trace["termination_tests"]),
+                    "accurate_share": r_i.trace["mode"].count("accurate") / max(len(r_i.trace["mode"]), 1),
+                    "tolerance": tolerance,
+                }
+            )
             row = rows[-1]
-            print(f"  step {window.step:3d} seed {seed}: ihpso J={row['J_i']:.6g} nfev={row['n_i']:5d} "
-                  f"switches={row['switches']} reverse={row['reverse']} tests={row['tests']} "
-                  f"stop={'term' if row['terminated'] else 'budget'} | hpso J={row['J_h']:.6g} "
-                  f"| hpso@{row['n_i']} J={row['J_hb']:.6g} | 2022v0 J={row['J_o']:.6g} nfev={row['n_o']}",
-                  flush=True)
+            print(
+                f"  step {window.step:3d} seed {seed}: ihpso J={row['J_i']:.6g} nfev={row['n_i']:5d} "
+                f"switches={row['switches']} reverse={row['reverse']} tests={row['tests']} "
+                f"stop={'term' if row['terminated'] else 'budget'} | hpso J={row['J_h']:.6g} "
+                f"| hpso@{row['n_i']} J={row['J_hb']:.6g} | 2022v0 J={row['J_o']:.6g} nfev={row['n_o']}",
+                flush=True,
+            )
 
     n = len(rows)
 
@@ -261,32 +286,44 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"\n== IHPSO's mechanisms over {n} (state, seed) pairs ==")
     first = [r["first_switch"] for r in rows if r["first_switch"] is not None]
-    print(f"runs with a broad->accurate switch: {len(first)}/{n}; first switch at t = 3 in "
-          f"{sum(f == 3 for f in first)}/{len(first)} (median t = {np.median(first) if first else float('nan')})")
-    print(f"runs with a reverse switch: {sum(r['reverse'] > 0 for r in rows)}/{n} "
-          f"(ihpso-2022v0: {sum(r['reverse_o'] > 0 for r in rows)}/{n})")
-    print(f"runs ended by adaptive termination: {sum(r['terminated'] for r in rows)}/{n} "
-          f"(ihpso-2022v0: {sum(r['terminated_o'] for r in rows)}/{n})")
+    print(
+        f"runs with a broad->accurate switch: {len(first)}/{n}; first switch at t = 3 in "
+        f"{sum(f == 3 for f in first)}/{len(first)} (median t = {np.median(first) if first else float('nan')})"
+    )
+    print(
+        f"runs with a reverse switch: {sum(r['reverse'] > 0 for r in rows)}/{n} "
+        f"(ihpso-2022v0: {sum(r['reverse_o'] > 0 for r in rows)}/{n})"
+    )
+    print(
+        f"runs ended by adaptive termination: {sum(r['terminated'] for r in rows)}/{n} "
+        f"(ihpso-2022v0: {sum(r['terminated_o'] for r in rows)}/{n})"
+    )
     print(f"median share of iterations in accurate mode: {np.median(col('accurate_share')):.2f}")
-    print(f"evaluations used: IHPSO median {np.median(col('n_i')):.0f}, HPSO {np.median(col('n_h')):.0f}, "
-          f"ratio of totals {col('n_i').sum() / col('n_h').sum():.3f}; 2022v0 ratio "
-          f"{col('n_o').sum() / col('n_h').sum():.3f}")
+    print(
+        f"evaluations used: IHPSO median {np.median(col('n_i')):.0f}, HPSO {np.median(col('n_h')):.0f}, "
+        f"ratio of totals {col('n_i').sum() / col('n_h').sum():.3f}; 2022v0 ratio "
+        f"{col('n_o').sum() / col('n_h').sum():.3f}"
+    )
     ft_i, ft_h = col("ft_i"), col("ft_h")
-    print(f"fixed target (worse of the two final J): evaluations IHPSO/HPSO, ratio of medians "
-          f"{np.median(ft_i) / np.median(ft_h):.3f}, ratio of totals {ft_i.sum() / ft_h.sum():.3f}, "
-          f"IHPSO faster in {int(np.sum(ft_i < ft_h))}/{n}")
+    print(
+        f"fixed target (worse of the two final J): evaluations IHPSO/HPSO, ratio of medians "
+        f"{np.median(ft_i) / np.median(ft_h):.3f}, ratio of totals {ft_i.sum() / ft_h.sum():.3f}, "
+        f"IHPSO faster in {int(np.sum(ft_i < ft_h))}/{n}"
+    )
     print(paired("fixed target: evaluations (A=IHPSO, B=HPSO)", ft_i, ft_h))
     print(paired("fixed budget: J (A=IHPSO, B=HPSO at IHPSO's nfev)", col("J_i"), col("J_hb")))
     print(paired("full budget: J (A=IHPSO, B=HPSO 10k)", col("J_i"), col("J_h")))
     print(paired("J (A=IHPSO, B=IHPSO-2022v0)", col("J_i"), col("J_o")))
 
-    print("\n== Tolerance of \"slope = 0\" (rtol; default 1e-4, fixed before this run) ==")
+    print('\n== Tolerance of "slope = 0" (rtol; default 1e-4, fixed before this run) ==')
     print(f"{'rtol':>8} {'eval share':>11} {'terminated':>11} {'median J':>12} {'median J/J_hpso':>16}")
     for rtol in TOLERANCES:
         nfev = np.array([r["tolerance"][rtol][0] for r in rows], dtype=np.float64)
         fun = np.array([r["tolerance"][rtol][1] for r in rows], dtype=np.float64)
-        print(f"{rtol:>8.0e} {nfev.sum() / col('n_h').sum():>11.3f} {int(np.sum(nfev < args.max_evals)):>6}/{n:<4} "
-              f"{np.median(fun):>12.6g} {np.median(fun / col('J_h')):>16.4f}")
+        print(
+            f"{rtol:>8.0e} {nfev.sum() / col('n_h').sum():>11.3f} {int(np.sum(nfev < args.max_evals)):>6}/{n:<4} "
+            f"{np.median(fun):>12.6g} {np.median(fun / col('J_h')):>16.4f}"
+        )
     print(f"\nelapsed {time.perf_counter() - start:.0f} s")
     return 0
 

@@ -9,6 +9,7 @@ versions of the swarm tests are marked slow; the default run uses 200 draws with
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import json
 import math
 import sys
@@ -110,8 +111,10 @@ def test_termination_passes_on_a_single_cloud_1000_draws(kind, dim):
 def test_2022v0_termination_passes_on_two_clumps(dim):
     """The reading issue 11 measured: equal-size blocks and sums pass on two separated clumps of 50."""
     rng = np.random.default_rng(3)
-    old = [termination_test(clumps((50, 50), dim, rng), G, method="average", cut="equal", spread="sum")
-           for _ in range(100)]
+    old = [
+        termination_test(clumps((50, 50), dim, rng), G, method="average", cut="equal", spread="sum")
+        for _ in range(100)
+    ]
     assert np.mean(old) >= 0.5
 
 
@@ -289,7 +292,7 @@ def test_trace_spreads_agree_with_the_tests(name):
         assert t == t_spread and passed == (entropy_min <= cluster_max)
     assert len(res.trace["levels"]) == res.nit + 1
     levels = [v for v in res.trace["levels"] if v is not None]
-    assert all(b <= a for a, b in zip(levels, levels[1:]))  # pbests never worsen, so neither does J
+    assert all(b <= a for a, b in itertools.pairwise(levels))  # pbests never worsen, so neither does J
 
 
 def test_ablations_are_registered_with_their_overrides():
@@ -298,8 +301,16 @@ def test_ablations_are_registered_with_their_overrides():
     assert get_optimizer("ihpso-2022v0") == IHPSO(**IHPSO_2022V0)
 
 
-@pytest.mark.parametrize(("field", "value"), [("grouping_cut", "blocks"), ("spread", "mean"), ("level", "median"),
-                                              ("switch", 1), ("reverse_switch", None)])
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("grouping_cut", "blocks"),
+        ("spread", "mean"),
+        ("level", "median"),
+        ("switch", 1),
+        ("reverse_switch", None),
+    ],
+)
 def test_invalid_new_hyper_parameters(field, value):
     with pytest.raises(ValueError, match=rf"IHPSO\.{field}: got .*expected"):
         IHPSO(**{field: value})
