@@ -23,7 +23,9 @@ swarms of 100 particles in 3-D and 15-D: Gaussian clumps (standard deviation 1 p
 ``tests/optimizers/test_ihpso_mechanisms.py`` uses).
 
 Usage: ``python benchmarks/ihpso_mechanisms.py [--states 8] [--seeds 3] [--max-evals 10000]
-[--episode-seed 1] [--swarm-draws 1000]``; ``--states 0`` skips the MPC study.
+[--episode-seed 1] [--steps 4 10 ...] [--swarm-draws 1000]``; ``--states 0`` skips the MPC study. The
+paper scenario's greedy episode is deterministic (the env seed does not change it), so other window
+states are chosen with ``--steps``.
 """
 
 from __future__ import annotations
@@ -158,12 +160,26 @@ def greedy_episode(seed: int) -> tuple[Any, list[tuple[np.ndarray, int]], list[n
     return env, states, actions
 
 
-def collect_windows(n_states: int, max_evals: int, episode_seed: int) -> list[Window]:
-    """``n_states`` window states spread evenly over a greedy episode (first step excluded)."""
+def collect_windows(
+    n_states: int, max_evals: int, episode_seed: int, steps: list[int] | None = None
+) -> list[Window]:
+    """Window states of a greedy episode: ``steps`` if given, else ``n_states`` spread evenly (step 0 excluded).
+
+    Raises:
+        ValueError: If a step is outside the episode.
+    """
     from uav_penetration_env.benchmark.policies import MPCPolicy
 
     env, states, actions = greedy_episode(episode_seed)
-    picks = np.unique(np.linspace(1, len(states) - 1, n_states).astype(int))
+    if steps:
+        bad = [s for s in steps if not 0 <= s < len(states)]
+        if bad:
+            raise ValueError(
+                f"steps: got {bad}, expected steps in [0, {len(states)}) (the greedy episode's length)"
+            )
+        picks = np.array(sorted(set(steps)))
+    else:
+        picks = np.unique(np.linspace(1, len(states) - 1, n_states).astype(int))
     windows = []
     for index in picks:
         state, step = states[int(index)]
@@ -216,14 +232,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-evals", type=int, default=10_000)
     parser.add_argument("--episode-seed", type=int, default=1)
     parser.add_argument("--swarm-draws", type=int, default=0)
+    parser.add_argument(
+        "--steps", type=int, nargs="*", default=None, help="window steps (overrides --states)"
+    )
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
     if args.swarm_draws > 0:
         swarm_table(args.swarm_draws)
-    if args.states <= 0:
+    if args.states <= 0 and not args.steps:
         return 0
-    windows = collect_windows(args.states, args.max_evals, args.episode_seed)
+    windows = collect_windows(args.states, args.max_evals, args.episode_seed, args.steps)
     print(
         f"window states: greedy episode (env seed {args.episode_seed}) of the paper scenario, steps "
         f"{[w.step for w in windows]}; seeds 0..{args.seeds - 1}; {args.max_evals} evaluations; H = {HORIZON}"
@@ -268,6 +287,8 @@ def main(argv: list[str] | None = None) -> int:
                     "tests": len(r_i.trace["termination_tests"]),
                     "accurate_share": r_i.trace["mode"].count("accurate") / max(len(r_i.trace["mode"]), 1),
                     "tolerance": tolerance,
+                    "spreads": r_i.trace["termination_spreads"],
+                    "nit": r_i.nit,
                 }
             )
             row = rows[-1]
@@ -299,6 +320,14 @@ def main(argv: list[str] | None = None) -> int:
         f"(ihpso-2022v0: {sum(r['terminated_o'] for r in rows)}/{n})"
     )
     print(f"median share of iterations in accurate mode: {np.median(col('accurate_share')):.2f}")
+    tests = [len(r["spreads"]) for r in rows]
+    final = [r["spreads"][-1] for r in rows if r["terminated"]]
+    print(
+        f"eq. 33 tests per run: median {np.median(tests):.0f} (max {max(tests)}); at the stopping test "
+        f"(normalised coordinates): median SD_pemin {np.median([f[1] for f in final]) if final else math.nan:.3g}, "
+        f"median SD_pemin / SD_psmax {np.median([f[1] / f[2] for f in final]) if final else math.nan:.3f}; "
+        f"median stopping iteration {np.median([r['nit'] for r in rows if r['terminated']]) if final else math.nan:.0f}"
+    )
     print(
         f"evaluations used: IHPSO median {np.median(col('n_i')):.0f}, HPSO {np.median(col('n_h')):.0f}, "
         f"ratio of totals {col('n_i').sum() / col('n_h').sum():.3f}; 2022v0 ratio "
