@@ -339,3 +339,20 @@ def test_study_script_runs_end_to_end(capsys):
     out = capsys.readouterr().out
     for header in ("eq. 33 on synthetic swarms", "IHPSO's mechanisms over 1", "Tolerance of"):
         assert header in out
+
+
+PLANNER_GOLDEN = json.loads(golden_cases.PLANNER_FILE.read_text())
+
+
+@pytest.mark.parametrize(
+    ("name", "key"),
+    [
+        ("ihpso-2022v0", "ihpso/0"),
+        pytest.param("ihpso-2022v0", "ihpso/1", marks=pytest.mark.slow),
+        pytest.param("ihpso-2022v0-eq37", "ihpso-eq37/0", marks=pytest.mark.slow),
+        pytest.param("ihpso-2022v0-eq37", "ihpso-eq37/1", marks=pytest.mark.slow),
+    ],
+)
+def test_ihpso_2022v0_reproduces_the_golden_ihpso_planner(name, key):
+    """The paper-scenario MPC episodes of the old ``ihpso`` planner, exactly (tests/golden/planners.json)."""
+    assert golden_cases.planner_case(name, int(key.split("/")[1])) == PLANNER_GOLDEN[key]
