@@ -15,6 +15,7 @@ tolerances, and prints:
 * fixed target: evaluations each needed to reach the worse of the two final costs (from ``history_nfev``);
 * fixed budget: IHPSO's J against HPSO's J when HPSO gets IHPSO's evaluation count;
 * paired Wilcoxon signed-rank tests over the pairs;
+* the ablations ``ihpso-noswitch``, ``ihpso-noreverse``, ``ihpso-noterm`` on the same pairs;
 * the tolerance table (evaluation share and final J per tolerance).
 
 With ``--swarm-draws N`` it first prints how often eq. 33 (``termination_test``) passes on synthetic
@@ -43,6 +44,7 @@ from scipy.stats import wilcoxon
 
 HORIZON = 5
 TOLERANCES = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)  # 1e-4 is the default (optimizers.md D15)
+ABLATIONS = ("ihpso-noswitch", "ihpso-noreverse", "ihpso-noterm")
 SWARM_SIZE, N_GROUPS = 100, 5
 SEPARATION = 10.0  # clump centres, in standard deviations of a clump (issue 11)
 CLUMP_SIZES = ((50, 50), (70, 30), (80, 20), (90, 10), (34, 33, 33), (50, 30, 20), (60, 30, 10))
@@ -248,6 +250,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{[w.step for w in windows]}; seeds 0..{args.seeds - 1}; {args.max_evals} evaluations; H = {HORIZON}"
     )
     ihpso, hpso, old = get_optimizer("ihpso"), get_optimizer("hpso"), get_optimizer("ihpso-2022v0")
+    ablation_optimizers = {name: get_optimizer(name) for name in ABLATIONS}
     rows = []
     for window in windows:
         for seed in range(args.seeds):
@@ -255,6 +258,9 @@ def main(argv: list[str] | None = None) -> int:
             r_h = run(hpso, window, seed, args.max_evals)
             r_o = run(old, window, seed, args.max_evals)
             r_hb = run(hpso, window, seed, int(r_i.nfev))
+            ablations = {
+                name: run(opt, window, seed, args.max_evals) for name, opt in ablation_optimizers.items()
+            }
             target = max(r_i.fun, r_h.fun)
             tolerance = {}
             for rtol in TOLERANCES:
@@ -288,6 +294,7 @@ def main(argv: list[str] | None = None) -> int:
                     "accurate_share": r_i.trace["mode"].count("accurate") / max(len(r_i.trace["mode"]), 1),
                     "tolerance": tolerance,
                     "spreads": r_i.trace["termination_spreads"],
+                    "ablations": {name: (r.nfev, r.fun) for name, r in ablations.items()},
                     "nit": r_i.nit,
                 }
             )
@@ -344,6 +351,17 @@ def main(argv: list[str] | None = None) -> int:
     print(paired("full budget: J (A=IHPSO, B=HPSO 10k)", col("J_i"), col("J_h")))
     print(paired("J (A=IHPSO, B=IHPSO-2022v0)", col("J_i"), col("J_o")))
 
+    print("\n== Ablations (same pairs) ==")
+    print(
+        f"{'configuration':<16} {'eval share':>11} {'median J':>12} {'median J/J_ihpso':>17} {'J < ihpso':>10}"
+    )
+    for name in ABLATIONS:
+        nfev = np.array([r["ablations"][name][0] for r in rows], dtype=np.float64)
+        fun = np.array([r["ablations"][name][1] for r in rows], dtype=np.float64)
+        print(
+            f"{name:<16} {nfev.sum() / col('n_h').sum():>11.3f} {np.median(fun):>12.6g} "
+            f"{np.median(fun / col('J_i')):>17.4f} {int(np.sum(fun < col('J_i'))):>6}/{n}"
+        )
     print('\n== Tolerance of "slope = 0" (rtol; default 1e-4, fixed before this run) ==')
     print(f"{'rtol':>8} {'eval share':>11} {'terminated':>11} {'median J':>12} {'median J/J_hpso':>16}")
     for rtol in TOLERANCES:
