@@ -138,7 +138,9 @@ def _pair_indices(n: int) -> tuple[IntArray, IntArray]:
 
 
 def group_distance_sums(distances: FloatArray, labels: IntArray, n_groups: int) -> FloatArray:
-    """``SD_p`` (eq. 30) from condensed distances: the sum over unordered pairs within each group (D19).
+    """``SD_p`` (eq. 30 literally) from condensed distances: the sum over unordered pairs in each group.
+
+    The 2022v0 reading (D19); the default compares :func:`group_rms_distances` instead.
 
     Args:
         distances: Condensed pairwise distances (``pdist`` order).
@@ -155,7 +157,7 @@ def group_distance_sums(distances: FloatArray, labels: IntArray, n_groups: int) 
 
 
 def within_group_distance_sums(U: ArrayLike, labels: ArrayLike) -> FloatArray:
-    """``SD_p = sum_{i<j in p} ||u_i - u_j||`` for every group p (eq. 30, D19).
+    """``SD_p = sum_{i<j in p} ||u_i - u_j||`` for every group p (eq. 30 literally; 2022v0, D19).
 
     Args:
         U: (N, d) positions (normalised coordinates in IHPSO).
@@ -260,8 +262,10 @@ def termination_spreads(
     entropy = groups_from_distances(distances, n, n_groups, inverse=True, method=method, eps=eps, cut=cut)
     cluster = groups_from_distances(distances, n, n_groups, inverse=False, method=method, eps=eps, cut=cut)
     if spread == "sum":
-        sd_entropy = group_distance_sums(distances, entropy, n_groups)
-        sd_cluster = group_distance_sums(distances, cluster, n_groups)
+        # Only the labels present: a maxclust cut may give fewer than G groups, and an empty group's sum
+        # of 0 would pass the test. (The equal cut always fills all G, so 2022v0 is unchanged.)
+        sd_entropy = group_distance_sums(distances, entropy, int(entropy.max()) + 1)
+        sd_cluster = group_distance_sums(distances, cluster, int(cluster.max()) + 1)
         return float(sd_entropy.min()), float(sd_cluster.max())
     sd_entropy = group_rms_distances(distances, entropy)
     sd_cluster = group_rms_distances(distances, cluster)
