@@ -568,7 +568,7 @@ class IHPSO(SwarmOptimizer):
         ``k_{t-2j}, k_{t-j}, k_t`` of the current broad phase, and ``k_1`` is the first slope (D18). With
         j = 1 any local peak of the slope sequence (``k_{t-1} > k_{t-2}``, ``k_t < k_{t-1}``, ``k_t <
         α k_{t-1}``) satisfies eq. 27, so a noisy level can switch at the earliest allowed iteration; the
-        trace records when it did.
+        trace records when it did (DECISION: optimizers.md D36, kept as printed and reported).
 
         Trace (docs/swarm.md §6): ``mode`` (the search mode each iteration moved in, ``"broad"`` or
         ``"accurate"``), ``switch_iterations`` (iterations after which broad search switched to accurate,
