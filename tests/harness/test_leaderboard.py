@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pandas as pd
 import pytest
 from conftest import tiny_scenario
 
 from uav_penetration_env.benchmark import leaderboard as lb
+from uav_penetration_env.benchmark.columns import legend_lines
 from uav_penetration_env.benchmark.provenance import provenance
 from uav_penetration_env.benchmark.store import ResultsStore
 
@@ -349,11 +351,51 @@ def test_leaderboard_is_the_one_the_code_before_the_column_table_made(store_path
     assert paths[1].read_bytes() == (old / "tiny.csv").read_bytes()
 
 
+def traced(policy: str, seed: int) -> dict:
+    """A synthetic episode with the trace summaries of issue 11 (ihpso: a quarter of the steps stop early)."""
+    if policy == "ihpso":
+        return {
+            "stopped_early_share": 0.25,
+            "switches_per_step": 1.0,
+            "reverse_switches_per_step": 0.5 * (seed % 2),
+        }
+    if policy == "pso":  # an optimiser without switches records none
+        return {"stopped_early_share": 0.0}
+    return {}
+
+
+def test_trace_summaries_are_averaged_per_planner_and_left_out_when_never_recorded(tmp_path):
+    with ResultsStore(tmp_path / "traced.sqlite") as store:
+        for seed in SEEDS:
+            for policy in OFFSETS:
+                store.write_episode(episode(policy, seed) | traced(policy, seed), [])
+        table = lb.leaderboard_table(store.episodes(), reference="ihpso", seed=0, n_resamples=200)
+    row = table.set_index("policy")
+    assert row.loc["ihpso", "stopped_early_share"] == pytest.approx(0.25)
+    assert row.loc["ihpso", "reverse_switches_per_step"] == pytest.approx(0.25)  # half the seeds at 0.5
+    assert row.loc["pso", "stopped_early_share"] == 0.0
+    assert np.isnan(row.loc["pso", "switches_per_step"]) and np.isnan(
+        row.loc["greedy", "stopped_early_share"]
+    )
+    header, rows, _ = lb.markdown_rows(table, "ihpso")
+    ihpso = dict(zip(header, rows[table["policy"].tolist().index("ihpso")], strict=True))
+    assert (ihpso["stopped early"], ihpso["switches/step"], ihpso["reverse/step"]) == ("0.25", "1", "0.25")
+
+
+def test_a_store_without_trace_summaries_has_no_such_columns(table):
+    assert not {"stopped_early_share", "switches_per_step", "reverse_switches_per_step"} & set(table.columns)
+    assert "stopped early" not in lb.markdown_rows(table, "ihpso")[0]
+    assert not any("stopped early" in line for line in legend_lines("2,000", set(table.columns)))
+    assert any("stopped early" in line for line in legend_lines("2,000"))
+
+
 def test_table_columns_are_the_column_tables(table):
     from uav_penetration_env.benchmark.columns import leaderboard_columns
 
-    written = [name for column in leaderboard_columns() for name in column.csv]
+    # recorded_only columns (trace summaries) are absent here: the store never recorded them.
+    declared = [c for c in leaderboard_columns() if not c.board.recorded_only]
+    written = [name for column in declared for name in column.csv]
     assert sorted(written) == sorted(table.columns)  # every CSV column is declared, once
     header, rows, _ = lb.markdown_rows(table, "ihpso")
-    assert header == [c.board.header.format(reference="ihpso") for c in leaderboard_columns()]
+    assert header == [c.board.header.format(reference="ihpso") for c in declared]
     assert all(len(row) == len(header) for row in rows)

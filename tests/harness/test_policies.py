@@ -249,3 +249,48 @@ def test_mpc_defaults_live_in_one_place():
     assert {k: RUN_DEFAULTS[k] for k in ("horizon", "discount", "max_evals", "terminal_cost")} == (
         dataclasses.asdict(MPC_DEFAULTS)
     )
+
+
+def test_trace_summary_of_a_hand_made_trace():
+    from uav_penetration_env.benchmark.policies import trace_summary
+
+    ihpso = {"switch_iterations": (3, 9), "reverse_switch_iterations": (7,), "stopped_by": "termination"}
+    assert trace_summary(ihpso, 4200, 10_000) == {
+        "stopped_early": True,
+        "switches": 2,
+        "reverse_switches": 1,
+        "extinctions": None,
+    }
+    ps2o = {"extinctions": ((4, (1,)), (8, (0, 2)))}
+    assert trace_summary(ps2o, 10_000, 10_000) == {
+        "stopped_early": False,
+        "switches": None,
+        "reverse_switches": None,
+        "extinctions": 2,
+    }
+    assert trace_summary(None, 10, 10)["switches"] is None  # an optimiser without a trace
+
+
+def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
+    from uav_penetration_env.benchmark.policies import make_policy, mpc_objective
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny)
+    observation, info = env.reset(seed=3)
+    policy = make_policy("ihpso", max_evals=300)
+    policy.reset(env.unwrapped.model, 0)
+    policy.act(observation, info)
+    record = policy.last_record
+    assert record["stopped_early"] == (record["nfev"] < 300)
+    assert isinstance(record["switches"], int) and isinstance(record["reverse_switches"], int)
+    assert record["extinctions"] is None
+    # The objective MPCPolicy plans on is mpc_objective's: the same cost for the same sequences.
+    cost = mpc_objective(env.unwrapped.model, info["state"], info["step"], horizon=policy.horizon)
+    plans = np.random.default_rng(0).uniform(cost.bounds.lb, cost.bounds.ub, size=(4, 3 * policy.horizon))
+    expected = env.unwrapped.model.rollout_cost(
+        info["state"],
+        plans.reshape(4, policy.horizon, 3),
+        step=info["step"],
+        terminal_cost=policy.terminal_cost,
+    )
+    np.testing.assert_array_equal(cost(plans), expected)

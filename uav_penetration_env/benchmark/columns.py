@@ -32,7 +32,7 @@ Adding a column is one line here: a step column with its source, or an episode c
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -165,6 +165,18 @@ def _mean(name: str) -> Callable[[EpisodeSteps], float]:
     return lambda steps: steps.mean(name)
 
 
+def _mean_recorded(name: str) -> Callable[[EpisodeSteps], float | None]:
+    """The mean over the steps that recorded a value; ``None`` (NULL) when none did (floors, RL)."""
+
+    def summary(steps: EpisodeSteps) -> float | None:
+        values = np.array(
+            [row.get(name) for row in steps.rows if row.get(name) is not None], dtype=np.float64
+        )
+        return float(values.mean()) if values.size else None
+
+    return summary
+
+
 # --- the column declaration ------------------------------------------------------------------------------
 
 
@@ -187,6 +199,9 @@ class Board:
             thousands separators).
         optional: shown only when some policy has a value.
         csv: the leaderboard CSV columns a statistic writes (default: its ``out`` alone).
+        recorded_only: left out of the Markdown, its legend and the CSV when no policy has a value.
+            DECISION (issue 11): for columns declared after stores existed (the trace summaries),
+            so the leaderboard of an older store stays the one it was.
     """
 
     header: str
@@ -199,6 +214,7 @@ class Board:
     style: str = "number"
     optional: bool = False
     csv: tuple[str, ...] = ()
+    recorded_only: bool = False
 
     def __post_init__(self) -> None:
         for attribute, allowed in (("section", SECTIONS), ("aggregate", AGGREGATES), ("style", STYLES)):
@@ -299,6 +315,10 @@ STEP: tuple[Column, ...] = (
     _step("plan_cost", "REAL", "the planner's best window cost J^(H) for the action", Planner("plan_cost")),
     _step("history", "TEXT", "JSON list: the optimiser's best-so-far after each iteration", Planner("history")),
     _step("history_nfev", "TEXT", "JSON list: evaluations spent at each history entry", Planner("history_nfev")),
+    _step("stopped_early", "INTEGER", "1 when the optimiser stopped before its budget (nfev < max_evals), NULL without an optimiser", Planner("stopped_early")),
+    _step("switches", "INTEGER", "broad -> accurate search switches of the plan (IHPSO eqs. 25-28; NULL for optimisers without them)", Planner("switches")),
+    _step("reverse_switches", "INTEGER", "accurate -> broad search switches of the plan (IHPSO eq. 33; NULL for optimisers without them)", Planner("reverse_switches")),
+    _step("extinctions", "INTEGER", "iterations in which species died out (PS2O; NULL for optimisers without them)", Planner("extinctions")),
 )  # fmt: skip
 
 EPISODE: tuple[Column, ...] = (
@@ -330,6 +350,13 @@ EPISODE: tuple[Column, ...] = (
     _episode("nfev", "INTEGER", "objective evaluations over the episode", lambda s: int(s.column("nfev").sum())),
     _episode("nfev_per_step", "REAL", "mean objective evaluations per step", _mean("nfev"),
              Board("evals/step", "mean objective evaluations per MPC step (0 for floors and RL)")),
+    _episode("stopped_early_share", "REAL", "share of steps whose optimiser stopped before its budget", _mean_recorded("stopped_early"),
+             Board("stopped early", "share of MPC steps whose optimiser stopped before its budget (IHPSO: adaptive termination, eqs. 29-33); blank without an optimiser", digits=3, recorded_only=True)),
+    _episode("switches_per_step", "REAL", "mean broad -> accurate switches per step", _mean_recorded("switches"),
+             Board("switches/step", "mean broad → accurate and accurate → broad search switches per MPC step (IHPSO eqs. 25-28, 33); blank for optimisers without them", digits=3, recorded_only=True)),
+    _episode("reverse_switches_per_step", "REAL", "mean accurate -> broad switches per step", _mean_recorded("reverse_switches"),
+             Board("reverse/step", "mean broad → accurate and accurate → broad search switches per MPC step (IHPSO eqs. 25-28, 33); blank for optimisers without them", digits=3, recorded_only=True)),
+    _episode("extinctions_per_step", "REAL", "mean species-extinction iterations per step (PS2O)", _mean_recorded("extinctions")),
     _episode("planning_seconds", "REAL", "mean wall-clock seconds per action", _mean("planning_seconds"),
              Board("planning [s/step]", "mean wall-clock seconds per action (machine-dependent; not a benchmark score)", digits=3)),
     _episode("objective_seconds", "REAL", "mean seconds per step spent inside rollout_cost", _mean("objective_seconds")),
@@ -419,12 +446,20 @@ def aggregated_columns(section: str) -> list[Column]:
     ]
 
 
-def legend_lines(resamples: str) -> list[str]:
-    """The leaderboard's "Columns" section: one bullet per legend (consecutive equal legends merge)."""
+def legend_lines(resamples: str, present: Collection[str] | None = None) -> list[str]:
+    """The leaderboard's "Columns" section: one bullet per legend (consecutive equal legends merge).
+
+    Args:
+        resamples: the number of bootstrap resamples, as printed.
+        present: the leaderboard table's columns; a ``recorded_only`` column missing from them has
+            no bullet (default: every column has one).
+    """
     bullets: list[tuple[list[str], str]] = []
     for column in leaderboard_columns():
         board = column.board
-        if board.legend is None:
+        if board.legend is None or (
+            board.recorded_only and present is not None and column.out not in present
+        ):
             continue
         name = board.name or board.header
         if bullets and bullets[-1][1] == board.legend:

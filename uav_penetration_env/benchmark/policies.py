@@ -11,6 +11,7 @@ import dataclasses
 import inspect
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -149,7 +150,8 @@ class MPCPolicy:
 
     Attributes:
         last_record: per-step diagnostics of the last ``act`` (evaluations, planning seconds,
-            seconds inside ``rollout_cost``, the optimiser's ``history``/``history_nfev``).
+            seconds inside ``rollout_cost``, the optimiser's ``history``/``history_nfev`` and the
+            :func:`trace_summary` of its trace).
     """
 
     optimizer: Any
@@ -205,21 +207,20 @@ class MPCPolicy:
         """Plan on ``rollout_cost`` from the exact state and apply the plan's first control."""
         if self.model is None or self.rng is None:
             raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
-        model, horizon = self.model, self.horizon
         state = np.asarray(info["state"], dtype=np.float64)
-        step = int(info["step"])
-        high = np.tile(model.limits.action_high, horizon)
         inside = [0.0]
+        cost = mpc_objective(
+            self.model,
+            state,
+            int(info["step"]),
+            horizon=self.horizon,
+            discount=self.discount,
+            terminal_cost=self.terminal_cost,
+        )
 
         def objective(flat: FloatArray) -> FloatArray:
             start = time.perf_counter()
-            costs = model.rollout_cost(
-                state,
-                flat.reshape(len(flat), horizon, 3),
-                step=step,
-                discount=self.discount,
-                terminal_cost=self.terminal_cost,
-            )
+            costs = cost(flat)
             inside[0] += time.perf_counter() - start
             return costs
 
@@ -227,11 +228,10 @@ class MPCPolicy:
         if self.warm_start and self._accepts_x0 and self._plan is not None:
             kwargs["x0"] = self._plan.reshape(-1)
         start = time.perf_counter()
-        # scipy Bounds: unambiguous for every dimension (a (lower, upper) pair of length-2 arrays would
-        # read as two (lo, hi) pairs, optimizers.md D29).
-        result = self.optimizer.minimize(objective, Bounds(-high, high), **kwargs)
+        result = self.optimizer.minimize(objective, cost.bounds, **kwargs)
         planning = time.perf_counter() - start
         found = bool(np.isfinite(result.fun))
+        horizon = self.horizon
         plan = np.asarray(result.x, dtype=np.float64).reshape(horizon, 3) if found else np.zeros((horizon, 3))
         self._plan = np.vstack([plan[1:], np.zeros((1, 3))]) if found else None
         self.last_record = {
@@ -241,8 +241,117 @@ class MPCPolicy:
             "plan_cost": float(result.fun),
             "history": np.asarray(getattr(result, "history", []), dtype=np.float64).tolist(),
             "history_nfev": np.asarray(getattr(result, "history_nfev", []), dtype=np.int64).tolist(),
+            **trace_summary(getattr(result, "trace", {}), int(result.nfev), self.max_evals),
         }
         return plan[0].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class MPCObjective:
+    """The MPC objective of one window (paper eq. 37; model.md §7): control sequences -> window costs.
+
+    Built by :func:`mpc_objective`; :class:`MPCPolicy` plans on it and ``uav-bench windows`` reruns
+    optimisers on it, so both see the same function.
+
+    Attributes:
+        model: the scenario's model.
+        state: (6,) the exact state the window starts from.
+        step: the step index k of that state (the third term and the horizon's clock read it).
+        horizon: H, control steps per plan.
+        discount: gamma of eq. 37.
+        terminal_cost: c_T of the cost-to-go (model.md §7).
+    """
+
+    model: PenetrationModel
+    state: FloatArray
+    step: int
+    horizon: int = MPC_DEFAULTS.horizon
+    discount: float = MPC_DEFAULTS.discount
+    terminal_cost: float = MPC_DEFAULTS.terminal_cost
+
+    @property
+    def bounds(self) -> Bounds:
+        """The (3H,) box of the flattened control sequence: the action box repeated H times.
+
+        scipy ``Bounds`` are unambiguous for every dimension (a (lower, upper) pair of length-2
+        arrays would read as two (lo, hi) pairs, optimizers.md D29).
+        """
+        high = np.tile(self.model.limits.action_high, self.horizon)
+        return Bounds(-high, high)
+
+    def __call__(self, flat: FloatArray) -> FloatArray:
+        """(n,) window costs ``model.rollout_cost`` of (n, 3H) flattened control sequences."""
+        return self.model.rollout_cost(
+            self.state,
+            flat.reshape(len(flat), self.horizon, 3),
+            step=self.step,
+            discount=self.discount,
+            terminal_cost=self.terminal_cost,
+        )
+
+
+def mpc_objective(
+    model: PenetrationModel,
+    state: FloatArray,
+    step: int,
+    *,
+    horizon: int = MPC_DEFAULTS.horizon,
+    discount: float = MPC_DEFAULTS.discount,
+    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
+) -> MPCObjective:
+    """The objective MPC minimises at ``state`` (step ``step``): the one function planners and window runs share.
+
+    Args:
+        model: the scenario's model.
+        state: (6,) the exact state.
+        step: its step index k.
+        horizon: H.
+        discount: gamma of eq. 37.
+        terminal_cost: c_T (model.md §7).
+
+    Returns:
+        A callable ``(n, 3H) -> (n,)`` with its ``bounds``.
+    """
+    return MPCObjective(
+        model,
+        np.asarray(state, dtype=np.float64).copy(),
+        int(step),
+        horizon=horizon,
+        discount=discount,
+        terminal_cost=terminal_cost,
+    )
+
+
+def trace_summary(trace: Any, nfev: int, max_evals: int) -> dict[str, Any]:
+    """A compact, optimiser-independent summary of one run's ``OptimizeResult.trace`` (docs/swarm.md §6).
+
+    DECISION (issue 11): ``stopped_early`` is read from the budget, ``nfev < max_evals``, not from a
+    trace key, so it means the same for every optimiser (IHPSO's adaptive termination, a scipy
+    method's convergence, an optimiser that gives up). The counts are ``None`` where the optimiser
+    does not trace that mechanism (its trace lacks the key), so a leaderboard shows "no such
+    mechanism" rather than a 0 that reads as "never happened".
+
+    Args:
+        trace: the result's trace mapping (empty or absent for optimisers without phases).
+        nfev: evaluations the run spent.
+        max_evals: the budget it was given.
+
+    Returns:
+        ``stopped_early`` (bool), ``switches`` (broad -> accurate switches, IHPSO eqs. 25-28),
+        ``reverse_switches`` (accurate -> broad, eq. 33), ``extinctions`` (PS2O iterations in which
+        species died out).
+    """
+    trace = trace if isinstance(trace, Mapping) else {}
+
+    def count(key: str) -> int | None:
+        return len(trace[key]) if key in trace and trace[key] is not None else None
+
+    return {
+        "stopped_early": bool(nfev < max_evals),
+        "switches": count("switch_iterations"),
+        "reverse_switches": count("reverse_switch_iterations"),
+        "extinctions": count("extinctions"),
+    }
 
 
 FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}

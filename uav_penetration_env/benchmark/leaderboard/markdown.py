@@ -74,12 +74,14 @@ def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str]
     """The Markdown header, cells and alignment of a :func:`leaderboard_table`.
 
     The columns are the column table's leaderboard columns (:func:`columns.leaderboard_columns`);
-    an ``optional`` one is shown only when some policy has a value.
+    an ``optional`` one is shown only when some policy has a value, a ``recorded_only`` one only when
+    the table has it.
     """
     shown = [
         column
         for column in leaderboard_columns()
-        if not column.board.optional or table[column.out].notna().any()
+        if (column.out in table or not column.board.recorded_only)
+        and (not column.board.optional or table[column.out].notna().any())
     ]
     header = [column.board.header.format(reference=reference or "reference") for column in shown]
     rows = [[cell(column, r, reference) for column in shown] for _, r in table.iterrows()]
@@ -240,7 +242,7 @@ def leaderboard_markdown(
 ) -> str:
     """The whole Markdown file of one scenario group."""
     header, rows, align = markdown_rows(table, table.attrs["reference"])
-    definitions = legend_lines(f"{table.attrs['n_resamples']:,}")
+    definitions = legend_lines(f"{table.attrs['n_resamples']:,}", set(table.columns))
     parts = [
         f"# Leaderboard: {group.name}",
         "",

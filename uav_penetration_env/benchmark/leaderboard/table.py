@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.benchmark import stats
-from uav_penetration_env.benchmark.columns import Column, aggregated_columns
+from uav_penetration_env.benchmark.columns import SECTIONS, Column, aggregated_columns
 from uav_penetration_env.benchmark.leaderboard.groups import cost_table, prepare_episodes, resolve_reference
 
 ALPHA = 0.05  # significance level of the pairwise tests (after Holm's correction)
@@ -118,6 +118,13 @@ def leaderboard_table(
         row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
         rows.append(row)
     table = pd.DataFrame(rows)
+    unrecorded = [
+        column.out
+        for section in SECTIONS
+        for column in aggregated_columns(section)
+        if column.board.recorded_only and column.out in table and table[column.out].isna().all()
+    ]
+    table = table.drop(columns=unrecorded)  # columns.Board.recorded_only: an older store's table is unchanged
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
         ["friedman_rank", "total_cost_mean"], kind="mergesort", na_position="last"
