@@ -30,8 +30,11 @@ def test_glossary_lists_every_column():
         "Episode columns",
         "Step columns",
         "Leaderboard columns",
+        "Window-run columns",
     ]
-    for lines, table in zip(sections[:2], (columns.EPISODE, columns.STEP), strict=True):
+    for lines, table in zip(
+        [*sections[:2], sections[3]], (columns.EPISODE, columns.STEP, columns.WINDOW_RUN), strict=True
+    ):
         rows = [line for line in lines if line.startswith("| `")]
         assert [row.split("`")[1] for row in rows] == [column.name for column in table]
     rows = [line for line in sections[2] if line.startswith("| ")][2:]

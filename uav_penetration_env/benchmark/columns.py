@@ -40,7 +40,7 @@ import numpy as np
 
 from uav_penetration_env.types import FloatArray
 
-TABLES = ("episodes", "steps", "leaderboard")
+TABLES = ("episodes", "steps", "leaderboard", "window_runs")
 SECTIONS = ("outcomes", "means", "comparison", "training")
 AGGREGATES = ("mean", "mean_recorded", "statistic")
 STYLES = ("number", "count")
@@ -200,7 +200,7 @@ class Board:
         optional: shown only when some policy has a value.
         csv: the leaderboard CSV columns a statistic writes (default: its ``out`` alone).
         recorded_only: left out of the Markdown, its legend and the CSV when no policy has a value.
-            DECISION (issue 11): for columns declared after stores existed (the trace summaries),
+            DECISION (api.md §4.7): for columns declared after stores existed (the trace summaries),
             so the leaderboard of an older store stays the one it was.
     """
 
@@ -273,6 +273,10 @@ def _episode(name: str, sql: str, definition: str, summary=None, board: Board | 
 
 def _step(name: str, sql: str, definition: str, source: Source) -> Column:
     return Column(name, "steps", sql, definition, source=source)
+
+
+def _window(name: str, sql: str, definition: str) -> Column:
+    return Column(name, "window_runs", sql, definition)
 
 
 def _statistic(name: str, board: Board, definition: str | None = None) -> Column:
@@ -415,7 +419,35 @@ STATISTICS: tuple[Column, ...] = (
         section="comparison", aggregate="statistic", csv=("n_pairs", "wilcoxon_statistic", "pvalue", "pvalue_holm"))),
 )  # fmt: skip
 
-COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS)
+WINDOW_RUN: tuple[Column, ...] = (
+    _window("scenario", "TEXT NOT NULL", "the scenario's name"),
+    _window("scenario_hash", "TEXT NOT NULL", "16 hex digits of the scenario content"),
+    _window("source_policy", "TEXT NOT NULL", "the policy whose stored episode gave the window state"),
+    _window("source_policy_hash", "TEXT NOT NULL", "its configuration hash"),
+    _window("episode_seed", "INTEGER NOT NULL", "the seed of that episode"),
+    _window("step", "INTEGER NOT NULL", "the window's step index k (the state after k transitions)"),
+    _window("state", "TEXT", "JSON list: the exact state (x, y, z [m], v, φ, θ) the window starts from"),
+    _window("optimizer", "TEXT NOT NULL", "the optimiser's registry name"),
+    _window("optimizer_hash", "TEXT NOT NULL", "16 hex digits of the MPC configuration (optimiser, budget, H, γ, c_T)"),
+    _window("seed", "INTEGER NOT NULL", "the run's seed, shared by every optimiser on the window (api.md §4.7)"),
+    _window("max_evals", "INTEGER", "the run's evaluation budget"),
+    _window("horizon", "INTEGER", "MPC horizon H"),
+    _window("nfev", "INTEGER", "evaluations the run spent"),
+    _window("nit", "INTEGER", "iterations after initialisation"),
+    _window("fun", "REAL", "the best window cost J^(H) found"),
+    _window("stopped_early", "INTEGER", "1 when the run stopped before its budget"),
+    _window("switches", "INTEGER", "broad -> accurate switches (NULL for optimisers without them)"),
+    _window("reverse_switches", "INTEGER", "accurate -> broad switches (NULL for optimisers without them)"),
+    _window("extinctions", "INTEGER", "iterations in which species died out (NULL for optimisers without them)"),
+    _window("history", "TEXT", "JSON list: the best-so-far after initialisation and each iteration"),
+    _window("history_nfev", "TEXT", "JSON list: evaluations spent at each history entry"),
+    _window("message", "TEXT", "why the optimiser stopped"),
+    _window("seconds", "REAL", "wall-clock seconds of the run"),
+    _window("run_id", "INTEGER", "the `runs` row (provenance) of the command that wrote the row"),
+    _window("finished", "TEXT", "UTC time the run finished (ISO 8601)"),
+)  # fmt: skip
+
+COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS, *WINDOW_RUN)
 
 
 # --- what derives from the table -------------------------------------------------------------------------
@@ -494,7 +526,7 @@ def glossary_markdown() -> str:
     """Every column as Markdown: the README's column glossary (generated; paste it, do not edit it).
 
     Returns:
-        Three tables (episode, step and leaderboard columns), no trailing newline.
+        Four tables (episode, step, leaderboard and window-run columns), no trailing newline.
     """
 
     def escape(text: str) -> str:
@@ -533,6 +565,15 @@ def glossary_markdown() -> str:
         header = board.header.format(reference="reference")
         csv = ", ".join(f"`{name}`" for name in column.csv)
         lines.append(f"| {escape(header)} | {csv} | {escape(definition)} |")
+    lines += [
+        "",
+        "### Window-run columns (`window_runs` table, one row per optimiser run on a stored MPC window state; `uav-bench windows`)",
+        "",
+        "| column | type | definition |",
+        "| --- | --- | --- |",
+    ]
+    for column in WINDOW_RUN:
+        lines.append(f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} |")
     return "\n".join(lines)
 
 

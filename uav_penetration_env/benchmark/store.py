@@ -3,11 +3,12 @@
 Tables: ``schema_version``; ``runs`` (provenance of each ``evaluate`` call); ``policies`` and
 ``scenarios`` (configurations by hash, so a store is self-describing); ``episodes`` (one row per
 episode, unique by ``(policy_hash, scenario_hash, seed)``); ``steps`` (one row per track point,
-step 0 being the start state). The columns of ``episodes`` and ``steps`` are declared in
-:mod:`uav_penetration_env.benchmark.columns`.
+step 0 being the start state); ``window_runs`` (optimiser runs on MPC window states of stored
+episodes, ``uav-bench windows``, api.md §4.7). The columns of ``episodes``, ``steps`` and
+``window_runs`` are declared in :mod:`uav_penetration_env.benchmark.columns`.
 
-Opening a store upgrades it in place, once: columns declared since it was written are added
-(``ALTER TABLE ... ADD COLUMN``, NULL in old rows), and a version-1 store gains the step-0 row of
+Opening a store upgrades it in place, once: tables and columns declared since it was written are
+added (``CREATE TABLE IF NOT EXISTS``, ``ALTER TABLE ... ADD COLUMN``, NULL in old rows), and a version-1 store gains the step-0 row of
 every episode that has steps, computed from the scenario it names (:func:`migrate_start_rows`).
 
 Only the parent process writes, one transaction per finished episode (its row and all its steps
@@ -26,13 +27,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env.benchmark.columns import EPISODE, STEP, sql_types, start_row
+from uav_penetration_env.benchmark.columns import EPISODE, STEP, WINDOW_RUN, sql_types, start_row
 
 # Version 2 (this one) stores each episode's start state as a step-0 row; version 1 had none.
 SCHEMA_VERSION = 2
 
 EPISODE_COLUMNS: dict[str, str] = sql_types(EPISODE)  # name -> SQLite type, from benchmark.columns
 STEP_COLUMNS: dict[str, str] = sql_types(STEP)
+WINDOW_RUN_COLUMNS: dict[str, str] = sql_types(WINDOW_RUN)
+# A window run is unique by its window, its MPC configuration and its seed (a rerun skips it).
+WINDOW_RUN_KEY = ("scenario_hash", "source_policy_hash", "episode_seed", "step", "optimizer_hash", "seed")
 
 
 class StoreError(RuntimeError):
@@ -104,7 +108,16 @@ class ResultsStore:
                 "CREATE TABLE IF NOT EXISTS steps (episode_id INTEGER NOT NULL REFERENCES episodes(episode_id) "
                 f"ON DELETE CASCADE, {columns}, PRIMARY KEY (episode_id, step))"
             )
-            for table, declared in (("episodes", EPISODE_COLUMNS), ("steps", STEP_COLUMNS)):
+            columns = ", ".join(f"{name} {kind}" for name, kind in WINDOW_RUN_COLUMNS.items())
+            connection.execute(
+                "CREATE TABLE IF NOT EXISTS window_runs (window_run_id INTEGER PRIMARY KEY AUTOINCREMENT, "
+                f"{columns}, UNIQUE ({', '.join(WINDOW_RUN_KEY)}))"
+            )
+            for table, declared in (
+                ("episodes", EPISODE_COLUMNS),
+                ("steps", STEP_COLUMNS),
+                ("window_runs", WINDOW_RUN_COLUMNS),
+            ):
                 present = {r[1] for r in connection.execute(f"PRAGMA table_info({table})")}
                 for name, kind in declared.items():
                     if name not in present:  # a column declared after the store was written
@@ -166,7 +179,31 @@ class ResultsStore:
                 )
         return episode_id
 
+    def write_window_runs(self, rows: Sequence[Mapping[str, Any]]) -> None:
+        """Write optimiser runs on stored window states (``uav-bench windows``) in one transaction.
+
+        A row with the key of a stored one (:data:`WINDOW_RUN_KEY`) replaces it.
+        """
+        names = list(WINDOW_RUN_COLUMNS)
+        with self._connection:
+            self._connection.executemany(
+                f"INSERT OR REPLACE INTO window_runs ({', '.join(names)}) VALUES ({', '.join('?' for _ in names)})",
+                [tuple(_sql_value(row.get(name)) for name in names) for row in rows],
+            )
+
     # --- reading ---------------------------------------------------------------------------------------
+
+    def window_runs(self) -> pd.DataFrame:
+        """All window-run rows (``history``/``history_nfev``/``state`` as JSON text), in write order."""
+        return pd.read_sql_query(
+            f"SELECT {', '.join(['window_run_id', *WINDOW_RUN_COLUMNS])} FROM window_runs ORDER BY window_run_id",
+            self._connection,
+        )
+
+    def done_window_keys(self) -> set[tuple[Any, ...]]:
+        """Keys (:data:`WINDOW_RUN_KEY`) of the stored window runs (skipped on rerun)."""
+        rows = self._connection.execute(f"SELECT {', '.join(WINDOW_RUN_KEY)} FROM window_runs").fetchall()
+        return {(a, b, int(c), int(d), e, int(f)) for a, b, c, d, e, f in rows}
 
     def done_keys(self) -> set[tuple[str, str, int]]:
         """Keys of episodes that finished without error (these are skipped on rerun)."""
