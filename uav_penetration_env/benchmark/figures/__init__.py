@@ -12,9 +12,12 @@ For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scena
 * ``<stem>-convergence``: the optimisers' normalised best-so-far against evaluations, averaged
   over MPC steps (policies without an optimiser history, e.g. floors, are left out).
 * ``<stem>-timeline``: altitude above ground and detection probability per step, same seed as the tracks.
+* ``<stem>-runtime-ecdf``: when the store has window runs (``uav-bench windows``), the share of
+  (run, target) pairs each optimiser solved within x evaluations on identical MPC windows
+  (api.md §4.7).
 
 Each figure is one entry of :data:`FIGURES` (a draw function and whether it shows one
-scenario); the modules hold one idea each: :mod:`.common` (canvas, colours, bands),
+scenario) or, drawn from window runs, of :data:`WINDOW_FIGURES`; the modules hold one idea each: :mod:`.common` (canvas, colours, bands),
 :mod:`.tracks` (one seed's tracks over the scenario), :mod:`.costs` (costs over seeds),
 :mod:`.convergence` (optimiser histories).
 """
@@ -48,6 +51,7 @@ from uav_penetration_env.benchmark.figures.costs import (
     plot_j_per_point,
     plot_performance_profile,
 )
+from uav_penetration_env.benchmark.figures.runtime_ecdf import plot_runtime_ecdf
 from uav_penetration_env.benchmark.figures.tracks import (
     COVERAGE_LEVEL,
     SURFACE_NODES,
@@ -94,6 +98,11 @@ FIGURES: dict[str, FigureSpec] = {
         lambda group, steps, model, colours, starts: plot_timeline(group, steps, colours), per_scenario=True
     ),
 }
+# Figures of the window runs (``uav-bench windows``, api.md §4.7), drawn after the others for a scenario
+# whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
+WINDOW_FIGURES: dict[str, Callable[[ScenarioGroup, pd.DataFrame, dict[str, Any]], Any]] = {
+    "runtime-ecdf": plot_runtime_ecdf,
+}
 SCENARIO_FIGURES = tuple(name for name, spec in FIGURES.items() if spec.per_scenario)
 
 __all__ = [
@@ -103,6 +112,7 @@ __all__ = [
     "PNG_DPI",
     "SCENARIO_FIGURES",
     "SURFACE_NODES",
+    "WINDOW_FIGURES",
     "FigureSpec",
     "convergence_curves",
     "finished_steps",
@@ -114,6 +124,7 @@ __all__ = [
     "plot_cost_box",
     "plot_j_per_point",
     "plot_performance_profile",
+    "plot_runtime_ecdf",
     "plot_timeline",
     "plot_tracks_3d",
     "plot_tracks_top",
@@ -147,7 +158,8 @@ def write_figures(
 
     Returns:
         The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
-        by (name, hash) and figures in the order of :data:`FIGURES`.
+        by (name, hash) and figures in the order of :data:`FIGURES`, then :data:`WINDOW_FIGURES`
+        for a group whose window runs the store holds (not in a suite).
 
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
@@ -166,6 +178,7 @@ def write_figures(
     with ResultsStore(store_path) as store:
         episodes = store.episodes()
         scenarios = store.scenarios()
+        window_runs = store.window_runs()
         if suite is not None and not episodes.empty:
             groups, names = [suite_group(episodes, suite)], [f for f in FIGURES if f not in SCENARIO_FIGURES]
         else:
@@ -182,4 +195,9 @@ def write_figures(
             for name in names:
                 figure = FIGURES[name].draw(group, steps, model, colours, starts)
                 written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
+            runs = window_runs[window_runs["scenario_hash"].astype(str) == group.scenario_hash]
+            if suite is None and not runs.empty:
+                for name, draw in WINDOW_FIGURES.items():
+                    figure = draw(group, runs, policy_colours(runs["optimizer"].unique()))
+                    written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
     return written

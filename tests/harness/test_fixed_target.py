@@ -1,0 +1,201 @@
+"""Fixed-target analysis (issue 11, api.md §4.7): ERT, runtime ECDF, the windows command, ablations in a leaderboard."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import tiny_scenario
+
+from uav_penetration_env.benchmark import cli
+from uav_penetration_env.benchmark import fixedtarget as ft
+from uav_penetration_env.benchmark.store import ResultsStore
+
+
+@pytest.fixture(scope="module")
+def tiny_yaml(tmp_path_factory):
+    return str(
+        tiny_scenario(time={"max_steps": 20}).to_yaml(tmp_path_factory.mktemp("scenario") / "tiny.yaml")
+    )
+
+
+def run_cli(*argv):
+    return cli.main([str(a) for a in argv])
+
+
+# --- hand-made histories ------------------------------------------------------------------------------
+
+
+def test_runtime_and_budget_read_the_history():
+    history, nfev = [10.0, 6.0, 6.0, 3.0], [100, 200, 300, 400]
+    assert ft.runtime_to_target(history, nfev, 6.0) == 200  # first entry at or below
+    assert ft.runtime_to_target(history, nfev, 2.9) == math.inf
+    assert ft.value_at_budget(history, nfev, 350) == 6.0  # last entry within 350 evaluations
+    assert ft.value_at_budget(history, nfev, 400) == 3.0
+    assert ft.value_at_budget(history, nfev, 99) == math.inf
+
+
+def test_ert_on_a_hand_made_set_of_runs():
+    # Three runs: solved after 200 and 400 evaluations, one never (spent 1000): (200 + 400 + 1000) / 2.
+    assert ft.ert([200, 400, math.inf], [500, 400, 1000]) == 800.0
+    assert ft.ert([math.inf, math.inf], [10, 10]) == math.inf
+    assert ft.ert([300], [300]) == 300.0
+
+
+def test_ert_table_from_window_rows_by_hand():
+    # One window, two optimisers, two seeds; f* = 1.0 (b, seed 1).
+    def row(optimizer, seed, history, nfev):
+        return {
+            "scenario": "s", "scenario_hash": "ab", "source_policy": "greedy", "source_policy_hash": "g",
+            "episode_seed": 0, "step": 3, "optimizer": optimizer, "seed": seed, "max_evals": 400,
+            "fun": history[-1], "nfev": nfev[-1], "history": json.dumps(history), "history_nfev": json.dumps(nfev),
+        }  # fmt: skip
+
+    rows = pd.DataFrame(
+        [
+            row("a", 0, [5.0, 1.05, 1.05], [100, 200, 300]),  # Δ=0.1 target 1.1: 200; Δ=0.01 (1.01): never
+            row("a", 1, [2.0, 1.2, 1.08, 1.08], [100, 200, 300, 400]),  # 1.1: 300
+            row("b", 0, [3.0, 1.5, 1.1, 1.1], [100, 200, 300, 400]),  # 1.1: 300
+            row("b", 1, [1.0], [100]),  # 1.1 and 1.01: 100 (then stopped early)
+        ]
+    )
+    targets = ft.target_runs(rows, precisions=(0.1, 0.01))
+    table = ft.ert_table(targets, reference="a").set_index(["optimizer", "precision"])
+    assert table.loc[("a", 0.1), "ert"] == (200 + 300) / 2
+    assert table.loc[("a", 0.01), "ert"] == math.inf  # spent 300 + 400, no success
+    assert table.loc[("b", 0.1), "ert"] == (300 + 100) / 2
+    assert table.loc[("b", 0.01), "ert"] == (100 + 400) / 1  # seed 0 never reached 1.01, spent 400
+    assert table.loc[("b", 0.1), "ert_ratio"] == pytest.approx(200 / 250)
+    paired = ft.paired_table(rows, "a").set_index("comparison")
+    budget = paired.loc["fixed budget: J"]
+    # b at a's nfev (300, 400): seed 0 → 1.1 (entry at 300), seed 1 → 1.0; a's finals 1.05, 1.08.
+    assert (budget["reference_median"], budget["other_median"]) == (pytest.approx(1.065), pytest.approx(1.05))
+    assert (budget["reference_better"], budget["other_better"], budget["pairs"]) == (1, 1, 2)
+    target = paired.loc["fixed target: evaluations"]
+    # Worse final per seed: 1.1 (seed 0: a 200, b 300), 1.08 (seed 1: a 300, b 100).
+    assert (target["reference_median"], target["other_median"]) == (250.0, 200.0)
+
+
+def test_runtime_ecdf_is_monotone_and_ends_at_the_success_share():
+    runtimes = [100, 300, 300, math.inf, 700, math.inf, math.inf, 50]
+    grid = np.geomspace(1, 10_000, 50)
+    ecdf = ft.runtime_ecdf(runtimes, grid)
+    assert np.all(np.diff(ecdf) >= 0)
+    assert ecdf[0] == 0.0 and ecdf[-1] == 5 / 8  # five of eight solved
+    assert ft.runtime_ecdf(runtimes, [300])[0] == 4 / 8  # 50, 100, 300, 300
+
+
+# --- the command on the tiny scenario ----------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def window_store(tmp_path_factory, tiny_yaml):
+    folder = tmp_path_factory.mktemp("windows")
+    store = folder / "w.sqlite"
+    assert run_cli("run", "--policies", "greedy", "--scenarios", tiny_yaml, "--seeds", "1", "--store", store,
+                   "--jobs", "1", "--no-report", "--no-progress") == 0  # fmt: skip
+    argv = ["windows", "--store", store, "--from-policy", "greedy", "--scenario", "tiny", "--steps", "1,3",
+            "--optimizers", "ihpso", "hpso", "--seeds", "2", "--max-evals", "400", "--horizon", "3"]  # fmt: skip
+    assert run_cli(*argv) == 0
+    assert run_cli(*argv) == 0  # a rerun skips what is stored
+    return folder, store
+
+
+def test_windows_command_writes_two_optimisers_two_seeds_two_windows(window_store):
+    _, store = window_store
+    with ResultsStore(store) as s:
+        rows = s.window_runs()
+        steps = s.steps()
+    assert len(rows) == 2 * 2 * 2
+    assert sorted(set(rows["optimizer"])) == ["hpso", "ihpso"] and sorted(set(rows["step"])) == [1, 3]
+    for row in rows.itertuples():
+        history, nfev = json.loads(row.history), json.loads(row.history_nfev)
+        assert len(history) == len(nfev) == row.nit + 1 and nfev[-1] == row.nfev <= 400
+        assert history[-1] == row.fun and bool(row.stopped_early) == (row.nfev < 400)
+        assert np.all(np.diff(history) <= 0)
+    ihpso = rows[rows["optimizer"] == "ihpso"]
+    assert ihpso["switches"].notna().all() and rows[rows["optimizer"] == "hpso"]["switches"].isna().all()
+    # The window state is the stored track's state at that step (x in m, the store in km).
+    at_3 = json.loads(rows[rows["step"] == 3]["state"].iloc[0])
+    assert at_3[0] / 1000 == pytest.approx(steps[steps["step"] == 3]["x_km"].iloc[0], rel=1e-12)
+    # Same seed, same window: a rerun of the optimiser from the row's seed gives the stored cost.
+    pairs = rows.groupby(["step", "seed"])["optimizer"].nunique()
+    assert (pairs == 2).all()
+
+
+def test_the_window_objective_is_the_mpc_policys(window_store, tiny_yaml):
+    """A window run reproduces: same objective, same seed stream, same result."""
+    from optimizers import get_optimizer
+    from uav_penetration_env.benchmark.windows import collect_windows, run_seed, run_window
+
+    _, store = window_store
+    with ResultsStore(store) as s:
+        rows = s.window_runs()
+        (window,) = collect_windows(s, source_policy="greedy", scenario="tiny", steps=[3], horizon=3)
+    stored = rows[(rows["step"] == 3) & (rows["optimizer"] == "hpso") & (rows["seed"] == 1)].iloc[0]
+    result = run_window(get_optimizer("hpso"), window, np.random.default_rng(run_seed(window, 1)), 400)
+    assert result.fun == stored["fun"] and result.nfev == stored["nfev"]
+
+
+def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
+    folder, store = window_store
+    out = folder / "out"
+    assert run_cli("leaderboard", "--store", store, "--out", out, "--reference", "greedy") == 0
+    page = (out / "tiny-fixed-target.md").read_text()
+    assert (
+        "Expected running time" in page and "fixed budget: J" in page and "fixed target: evaluations" in page
+    )
+    table = pd.read_csv(out / "tiny-fixed-target.csv")
+    assert sorted(set(table["optimizer"])) == ["hpso", "ihpso"] and len(table) == 2 * len(
+        ft.TARGET_PRECISIONS
+    )
+    assert (table["successes"] <= table["runs"]).all() and (table["runs"] == 4).all()
+    # At the loosest target (f* + 10 %|f*|) the run that found f* solved it, so some optimiser has a finite ERT.
+    assert np.isfinite(table[table["precision"] == 0.1]["ert"]).any()
+    assert run_cli("plot", "--store", store, "--out", out) == 0
+    assert (out / "tiny-runtime-ecdf.png").is_file()
+
+
+def test_windows_command_rejects_bad_input(window_store, capsys):
+    _, store = window_store
+    assert (
+        run_cli("windows", "--store", store, "--steps", "1", "--scenario", "tiny", "--optimizers", "ihpsoo")
+        == 2
+    )
+    assert "--optimizers: unknown optimiser 'ihpsoo'" in capsys.readouterr().err
+    assert run_cli("windows", "--store", store, "--steps", "99", "--scenario", "tiny") == 2
+    assert "--steps: got [99]" in capsys.readouterr().err
+    assert run_cli("windows", "--store", store, "--steps", "a,b", "--scenario", "tiny") == 2
+    assert "--steps: got 'a,b'" in capsys.readouterr().err
+    assert (
+        run_cli("windows", "--store", store, "--steps", "1", "--scenario", "tiny", "--from-policy", "gredy")
+        == 2
+    )
+    assert "--from-policy: no finished episodes of 'gredy'" in capsys.readouterr().err
+
+
+# --- ablations through uav-bench run ---------------------------------------------------------------------
+
+
+ABLATIONS = ("ihpso-noterm", "ihpso-noswitch", "ihpso-noreverse", "ihpso-2022v0")
+
+
+def test_ablation_configurations_run_and_appear_in_a_leaderboard(tmp_path, tiny_yaml):
+    store, out = tmp_path / "a.sqlite", tmp_path / "out"
+    assert run_cli("run", "--policies", "ihpso", *ABLATIONS, "--scenarios", tiny_yaml, "--seeds", "1",
+                   "--max-evals", "200", "--horizon", "2", "--store", store, "--jobs", "1",
+                   "--no-report", "--no-progress") == 0  # fmt: skip
+    assert run_cli("leaderboard", "--store", store, "--out", out) == 0
+    table = pd.read_csv(out / "tiny.csv")
+    assert set(table["policy"]) == {"ihpso", *ABLATIONS}
+    assert table["nfev_per_step"].between(1, 200).all()
+    assert table["stopped_early_share"].between(0, 1).all()
+    # noterm never stops early (adaptive termination off); noswitch never switches.
+    row = table.set_index("policy")
+    assert row.loc["ihpso-noterm", "stopped_early_share"] == 0.0
+    assert row.loc["ihpso-noswitch", "switches_per_step"] == 0.0
+    assert row.loc["ihpso-noreverse", "reverse_switches_per_step"] == 0.0
+    assert "stopped early" in (out / "tiny.md").read_text()

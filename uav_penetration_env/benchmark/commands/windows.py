@@ -1,0 +1,155 @@
+"""``uav-bench windows``: rerun optimisers on MPC window states of stored episodes (api.md §4.7, issue 11).
+
+``uav-bench windows --store S --from-policy greedy --scenario paper --steps 4,10,16 --optimizers
+ihpso hpso --seeds 20 --max-evals 10000`` replays the stored episode of ``greedy`` on ``paper``,
+takes its states at steps 4, 10 and 16, and runs each optimiser on each state's MPC objective with
+seeds 0..19, writing one ``window_runs`` row per run with its per-iteration history. A rerun skips
+the runs already stored. ``uav-bench leaderboard`` and ``plot`` then add the fixed-target tables
+and the runtime-ECDF figure (:mod:`uav_penetration_env.benchmark.fixedtarget`).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from uav_penetration_env.benchmark.commands.common import (
+    CLIError,
+    Command,
+    add_store_argument,
+    command_line,
+    existing_store,
+    parse_seeds,
+    split_list,
+)
+from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+from uav_penetration_env.suggest import did_you_mean
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench windows``."""
+    add_store_argument(parser)
+    parser.add_argument(
+        "--from-policy",
+        default="greedy",
+        help="policy whose stored episodes give the states (default: greedy)",
+    )
+    parser.add_argument(
+        "--scenario", default="paper", help="stored scenario name or hash prefix (default: paper)"
+    )
+    parser.add_argument(
+        "--steps", required=True, help="window step indices, e.g. 4,10,16 (0 = the start state)"
+    )
+    parser.add_argument(
+        "--episode-seeds", help="seeds of the source episodes, N or START:STOP (default: the smallest stored)"
+    )
+    parser.add_argument(
+        "--optimizers", nargs="+", default=["ihpso", "hpso"], help="optimiser names (default: ihpso hpso)"
+    )
+    parser.add_argument("--seeds", default="20", help="run seeds per window, N or START:STOP (default: 20)")
+    parser.add_argument(
+        "--max-evals",
+        type=int,
+        default=MPC_DEFAULTS.max_evals,
+        help=f"evaluations per run (default: {MPC_DEFAULTS.max_evals})",
+    )
+    parser.add_argument(
+        "--horizon",
+        type=int,
+        default=MPC_DEFAULTS.horizon,
+        help=f"MPC horizon H (default: {MPC_DEFAULTS.horizon})",
+    )
+    parser.add_argument(
+        "--discount", type=float, default=MPC_DEFAULTS.discount, help="gamma of eq. 37 (default: 1.0)"
+    )
+    parser.add_argument(
+        "--terminal-cost",
+        type=float,
+        default=MPC_DEFAULTS.terminal_cost,
+        help=f"c_T (default: {MPC_DEFAULTS.terminal_cost})",
+    )
+
+
+def parse_steps(text: str) -> list[int]:
+    """``4,10,16`` -> [4, 10, 16] (sorted, unique).
+
+    Raises:
+        CLIError: not comma-separated integers >= 0.
+    """
+    try:
+        steps = sorted({int(part) for part in split_list(text)})
+    except ValueError:
+        steps = []
+    if not steps or steps[0] < 0:
+        raise CLIError(f"--steps: got {text!r}, expected comma-separated step indices >= 0, e.g. 4,10,16")
+    return steps
+
+
+def run(args: argparse.Namespace) -> int:
+    """Collect the windows, run the optimisers, store the rows and print one line per window."""
+    from optimizers import available_optimizers
+    from uav_penetration_env.benchmark.provenance import provenance
+    from uav_penetration_env.benchmark.store import ResultsStore
+    from uav_penetration_env.benchmark.windows import collect_windows, run_windows
+
+    steps = parse_steps(args.steps)
+    seeds = parse_seeds(args.seeds)
+    episode_seeds = parse_seeds(args.episode_seeds) if args.episode_seeds else None
+    optimizers = split_list(args.optimizers)
+    known = available_optimizers()
+    for name in optimizers:
+        if name not in known:
+            raise CLIError(
+                f"--optimizers: unknown optimiser {name!r} — {did_you_mean(name, known)}known: {', '.join(known)}"
+            )
+    for flag, value in (("--max-evals", args.max_evals), ("--horizon", args.horizon)):
+        if value < 1:
+            raise CLIError(f"{flag}: got {value}, expected an integer >= 1")
+    if not 0.0 < args.discount <= 1.0:
+        raise CLIError(f"--discount: got {args.discount}, expected a number in (0, 1]")
+    if not args.terminal_cost >= 0.0:
+        raise CLIError(f"--terminal-cost: got {args.terminal_cost}, expected a number >= 0")
+    with ResultsStore(existing_store(args.store)) as store:
+        try:
+            windows = collect_windows(
+                store,
+                source_policy=args.from_policy,
+                scenario=args.scenario,
+                steps=steps,
+                episode_seeds=episode_seeds,
+                horizon=args.horizon,
+                discount=args.discount,
+                terminal_cost=args.terminal_cost,
+            )
+        except ValueError as error:
+            raise CLIError(str(error)) from None
+        settings = {
+            "command": "windows",
+            "from_policy": args.from_policy,
+            "scenario": args.scenario,
+            "steps": steps,
+            "optimizers": optimizers,
+            "seeds": seeds,
+            "max_evals": args.max_evals,
+            "horizon": args.horizon,
+        }
+        run_id = store.start_run(provenance(command_line(args)), settings)
+        rows = run_windows(
+            windows,
+            optimizers,
+            seeds,
+            max_evals=args.max_evals,
+            done=store.done_window_keys(),
+            write=store.write_window_runs,
+            progress=print,
+            run_id=run_id,
+        )
+    print(f"{len(rows)} window runs written to {args.store}")
+    return 0
+
+
+COMMAND = Command(
+    name="windows",
+    help="rerun optimisers on MPC window states of stored episodes (fixed-target analysis)",
+    add_arguments=add_arguments,
+    run=run,
+)

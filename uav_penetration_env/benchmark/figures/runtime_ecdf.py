@@ -1,0 +1,54 @@
+"""Runtime ECDF of the optimisers on identical MPC windows (``window_runs``; api.md §4.7, COCO)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark.figures.common import new_figure, note_empty
+from uav_penetration_env.benchmark.fixedtarget import TARGET_PRECISIONS, runtime_ecdf, target_runs
+from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
+
+ECDF_NODES = 200  # points of the evaluation grid (log-spaced)
+
+
+def plot_runtime_ecdf(group: ScenarioGroup, windows: pd.DataFrame, colours: dict[str, Any]):
+    """Share of (run, target) pairs solved within x evaluations, per optimiser, over the group's windows.
+
+    Targets are f* + Δ|f*| for every Δ of :data:`~uav_penetration_env.benchmark.fixedtarget.TARGET_PRECISIONS`
+    (f* the best cost any run found on the window); each curve ends at its success share.
+
+    Args:
+        group: the scenario group (for the title).
+        windows: its ``window_runs`` rows.
+        colours: optimiser name -> colour (:func:`~.common.policy_colours`).
+    """
+    figure = new_figure(7.0, 4.5)
+    axes = figure.add_subplot(1, 1, 1)
+    if windows.empty:
+        note_empty(axes, "no window runs (uav-bench windows)")
+        return figure
+    targets = target_runs(windows)
+    budget = float(pd.to_numeric(windows["max_evals"]).max())
+    grid = np.geomspace(1.0, budget, ECDF_NODES)
+    for optimizer, rows in targets.groupby("optimizer", sort=True):
+        axes.step(grid, runtime_ecdf(rows["runtime"], grid), where="post", label=str(optimizer),
+                  color=colours.get(optimizer))  # fmt: skip
+    axes.set_xscale("log")
+    axes.set_ylim(0.0, 1.02)
+    axes.set_xlabel("objective evaluations")
+    axes.set_ylabel("share of (run, target) pairs solved")
+    n_windows = windows.drop_duplicates(
+        ["scenario_hash", "source_policy_hash", "episode_seed", "step"]
+    ).shape[0]
+    precisions = ", ".join(f"{p:g}" for p in TARGET_PRECISIONS)
+    axes.set_title(
+        f"{group.name}: runtime ECDF, {n_windows} windows x {windows['seed'].nunique()} seeds, "
+        f"targets f* + Δ|f*|, Δ ∈ {{{precisions}}}",
+        fontsize=9,
+    )
+    axes.legend(fontsize=8, loc="lower right")
+    axes.grid(True, alpha=0.3)
+    return figure

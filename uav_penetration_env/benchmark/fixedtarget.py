@@ -1,0 +1,397 @@
+"""Fixed-target and fixed-budget comparison of optimisers on identical MPC windows (api.md §4.7, issue 11).
+
+The COCO view of "fewer iterations": on each window (a stored MPC state, ``window_runs`` rows of
+``uav-bench windows``) the reference cost f* is the best cost any run of any optimiser found; the
+targets are f* + Δ·|f*| (:data:`TARGET_PRECISIONS`). A run's *runtime* for a target is the number
+of evaluations at the first ``history`` entry at or below it (from ``history_nfev``), infinite if it
+never got there. Per optimiser and target:
+
+* the expected running time ERT = (Σ runtimes of the successful runs + Σ ``nfev`` of the others) /
+  successes (Hansen et al., COCO; infinite without a success), :func:`ert`;
+* the runtime ECDF: the share of (run, target) pairs solved within x evaluations,
+  :func:`runtime_ecdf`, which ends at the success share.
+
+Paired per (window, seed), each other optimiser against a reference (IHPSO by default):
+
+* fixed budget: its J at the reference's evaluation count (:func:`value_at_budget`) against the
+  reference's final J;
+* fixed target: the evaluations each needed to reach the worse of the two final costs.
+
+Both are tested with the two-sided Wilcoxon signed-rank test (:mod:`~uav_penetration_env.benchmark.stats`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark import stats
+from uav_penetration_env.types import FloatArray
+
+TARGET_PRECISIONS = (1e-1, 1e-2, 1e-3, 1e-4)  # Δ: targets f* + Δ |f*| (DECISION api.md §4.7)
+WINDOW_KEY = ["scenario_hash", "source_policy_hash", "episode_seed", "step"]
+
+
+def runtime_to_target(history: Sequence[float], history_nfev: Sequence[int], target: float) -> float:
+    """Evaluations until the best-so-far first reached ``target``: ``history_nfev`` there, ``inf`` if never.
+
+    Args:
+        history: (n,) best-so-far cost after initialisation and after each iteration.
+        history_nfev: (n,) evaluations spent at each entry.
+        target: the cost to reach (at or below).
+    """
+    reached = np.flatnonzero(np.asarray(history, dtype=np.float64) <= target)
+    return float(np.asarray(history_nfev)[reached[0]]) if reached.size else math.inf
+
+
+def value_at_budget(history: Sequence[float], history_nfev: Sequence[int], budget: float) -> float:
+    """The best-so-far cost with at most ``budget`` evaluations: the last history entry within it.
+
+    ``inf`` when even the first entry (initialisation) needed more than ``budget``.
+    """
+    within = np.flatnonzero(np.asarray(history_nfev, dtype=np.float64) <= budget)
+    return float(np.asarray(history, dtype=np.float64)[within[-1]]) if within.size else math.inf
+
+
+def ert(runtimes: Sequence[float], spent: Sequence[float]) -> float:
+    """Expected running time: (Σ finite runtimes + Σ ``spent`` of the unsuccessful runs) / successes.
+
+    Args:
+        runtimes: (n,) per run, evaluations to the target (``inf``: not reached).
+        spent: (n,) per run, the evaluations it spent in total.
+
+    Returns:
+        The ERT in evaluations; ``inf`` when no run succeeded.
+    """
+    runtimes, spent = np.asarray(runtimes, dtype=np.float64), np.asarray(spent, dtype=np.float64)
+    solved = np.isfinite(runtimes)
+    if not solved.any():
+        return math.inf
+    return float((runtimes[solved].sum() + spent[~solved].sum()) / solved.sum())
+
+
+def runtime_ecdf(runtimes: Sequence[float], evaluations: Sequence[float]) -> FloatArray:
+    """The share of runtimes at or below each of ``evaluations`` (unsolved runtimes are ``inf``).
+
+    Returns:
+        (len(evaluations),) non-decreasing in ``evaluations``; at or beyond the largest finite
+        runtime it equals the success share.
+    """
+    runtimes = np.sort(np.asarray(runtimes, dtype=np.float64))
+    if runtimes.size == 0:
+        return np.full(len(evaluations), np.nan)
+    return np.searchsorted(runtimes, np.asarray(evaluations, dtype=np.float64), side="right") / runtimes.size
+
+
+def _parsed(rows: pd.DataFrame) -> pd.DataFrame:
+    frame = rows.copy()
+    for column in ("history", "history_nfev"):
+        frame[column] = [json.loads(v) if isinstance(v, str) else list(v) for v in frame[column]]
+    frame["fun"] = pd.to_numeric(frame["fun"]).astype(np.float64)
+    frame["nfev"] = pd.to_numeric(frame["nfev"]).astype(np.float64)
+    return frame
+
+
+def target_runs(rows: pd.DataFrame, precisions: Sequence[float] = TARGET_PRECISIONS) -> pd.DataFrame:
+    """The runtime of every window run for every target.
+
+    One row per (window run, target): ``optimizer``, the window key, ``seed``, ``precision``,
+    ``target``, ``runtime`` (``inf``: not reached) and ``nfev``.
+
+    Args:
+        rows: ``window_runs`` rows (one scenario, one budget).
+        precisions: the Δ of the targets f* + Δ|f*|, f* the best ``fun`` of the window over every row.
+    """
+    frame = _parsed(rows)
+    best = frame.groupby(WINDOW_KEY)["fun"].transform("min")
+    out = []
+    for (_, run), f_star in zip(frame.iterrows(), best, strict=True):
+        for precision in precisions:
+            target = f_star + precision * abs(f_star)
+            out.append(
+                {
+                    "optimizer": run["optimizer"],
+                    **{key: run[key] for key in WINDOW_KEY},
+                    "seed": int(run["seed"]),
+                    "precision": precision,
+                    "target": target,
+                    "runtime": runtime_to_target(run["history"], run["history_nfev"], target),
+                    "nfev": run["nfev"],
+                }
+            )
+    return pd.DataFrame(out)
+
+
+def ert_table(targets: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
+    """ERT per (optimiser, target precision) over every window and seed, from :func:`target_runs`.
+
+    Returns:
+        Columns ``optimizer``, ``precision``, ``runs``, ``successes``, ``ert`` and ``ert_ratio``
+        (ERT / the reference's ERT at the same precision; NaN without a reference).
+    """
+    rows = []
+    for (optimizer, precision), group in targets.groupby(["optimizer", "precision"], sort=True):
+        rows.append(
+            {
+                "optimizer": optimizer,
+                "precision": precision,
+                "runs": len(group),
+                "successes": int(np.isfinite(group["runtime"]).sum()),
+                "ert": ert(group["runtime"], group["nfev"]),
+            }
+        )
+    table = pd.DataFrame(rows).sort_values(
+        ["precision", "optimizer"], ascending=[False, True], kind="mergesort"
+    )
+    table["ert_ratio"] = np.nan
+    if reference is not None and reference in set(table["optimizer"]):
+        base = table[table["optimizer"] == reference].set_index("precision")["ert"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            table["ert_ratio"] = table["ert"].to_numpy() / base.reindex(table["precision"]).to_numpy()
+    return table.reset_index(drop=True)
+
+
+def _paired_test(a: np.ndarray, b: np.ndarray) -> dict[str, float]:
+    """Median of a − b, wins, and the two-sided Wilcoxon signed-rank test (stats.wilcoxon_vs_reference)."""
+    finite = np.isfinite(a) & np.isfinite(b)
+    test = stats.wilcoxon_vs_reference(
+        pd.DataFrame({"other": b[finite], "reference": a[finite]}), "reference"
+    )
+    row = test.loc["other"]
+    return {
+        "pairs": int(finite.sum()),
+        "reference_better": int(np.sum(a[finite] < b[finite])),
+        "other_better": int(np.sum(a[finite] > b[finite])),
+        "median_difference": float(row["median_difference"]),
+        "wilcoxon_statistic": float(row["statistic"]),
+        "pvalue": float(row["pvalue"]),
+    }
+
+
+def paired_table(rows: pd.DataFrame, reference: str) -> pd.DataFrame:
+    """Fixed-budget and fixed-target comparisons of every other optimiser with ``reference``, per (window, seed).
+
+    Returns:
+        One row per (other optimiser, comparison): ``comparison`` is ``fixed budget: J`` (the
+        other's J at the reference's ``nfev`` minus the reference's final J) or ``fixed target:
+        evaluations`` (to the worse of the two final costs, other minus reference), with
+        ``reference_median``, ``other_median``, and the columns of the paired test (``pairs``,
+        ``reference_better``, ``other_better``, ``median_difference`` other − reference,
+        ``wilcoxon_statistic``, ``pvalue``). Empty when ``reference`` has no rows.
+    """
+    frame = _parsed(rows)
+    keyed = frame.set_index([*WINDOW_KEY, "seed"])
+    ref = keyed[keyed["optimizer"] == reference]
+    out = []
+    for other in sorted(set(frame["optimizer"]) - {reference}):
+        mine = keyed[keyed["optimizer"] == other]
+        shared = ref.index.intersection(mine.index)
+        if len(shared) == 0:
+            continue
+        a_final = ref.loc[shared, "fun"].to_numpy(dtype=np.float64)
+        budgets = ref.loc[shared, "nfev"].to_numpy(dtype=np.float64)
+        b_budget = np.array(
+            [
+                value_at_budget(h, n, budget)
+                for h, n, budget in zip(
+                    mine.loc[shared, "history"], mine.loc[shared, "history_nfev"], budgets, strict=True
+                )
+            ]
+        )
+        b_final = mine.loc[shared, "fun"].to_numpy(dtype=np.float64)
+        targets = np.maximum(a_final, b_final)
+        a_evals = np.array(
+            [
+                runtime_to_target(h, n, t)
+                for h, n, t in zip(
+                    ref.loc[shared, "history"], ref.loc[shared, "history_nfev"], targets, strict=True
+                )
+            ]
+        )
+        b_evals = np.array(
+            [
+                runtime_to_target(h, n, t)
+                for h, n, t in zip(
+                    mine.loc[shared, "history"], mine.loc[shared, "history_nfev"], targets, strict=True
+                )
+            ]
+        )
+        for comparison, a, b in (
+            ("fixed budget: J", a_final, b_budget),
+            ("fixed target: evaluations", a_evals, b_evals),
+        ):
+            out.append(
+                {
+                    "reference": reference,
+                    "other": other,
+                    "comparison": comparison,
+                    "reference_median": float(np.median(a[np.isfinite(a)]))
+                    if np.isfinite(a).any()
+                    else np.nan,
+                    "other_median": float(np.median(b[np.isfinite(b)])) if np.isfinite(b).any() else np.nan,
+                    **_paired_test(a, b),
+                }
+            )
+    return pd.DataFrame(out)
+
+
+def trace_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per optimiser: runs, evaluations used (mean), share stopped early, switches and reverse switches per run."""
+    frame = rows.copy()
+    for column in ("nfev", "stopped_early", "switches", "reverse_switches", "fun"):
+        frame[column] = pd.to_numeric(frame[column], errors="coerce").astype(np.float64)
+    return (
+        frame.groupby("optimizer", sort=True)
+        .agg(
+            runs=("nfev", "size"),
+            nfev_mean=("nfev", "mean"),
+            stopped_early_share=("stopped_early", "mean"),
+            switches_mean=("switches", "mean"),
+            reverse_switches_mean=("reverse_switches", "mean"),
+            fun_median=("fun", "median"),
+        )
+        .reset_index()
+    )
+
+
+def _number(value: Any, digits: int = 4) -> str:
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_number
+
+    if isinstance(value, float) and math.isinf(value):
+        return "∞"
+    return format_number(value, digits)
+
+
+def fixed_target_markdown(
+    rows: pd.DataFrame, reference: str, name: str, command: str
+) -> tuple[str, pd.DataFrame]:
+    """The Markdown page and the CSV table (ERT rows) of one scenario's window runs."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_table
+
+    ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
+    targets = target_runs(rows)
+    table = ert_table(targets, ref)
+    paired = paired_table(rows, ref)
+    traces = trace_table(rows)
+    windows = rows.drop_duplicates(WINDOW_KEY)
+    budgets = sorted(set(pd.to_numeric(rows["max_evals"]).astype(int)))
+    lines = [
+        f"# Fixed-target and fixed-budget comparison: {name}",
+        "",
+        f"Generated by `{command}` from the store's `window_runs` (api.md §4.7); do not edit.",
+        f"{len(windows)} window states (source {', '.join(sorted(set(rows['source_policy'].astype(str))))}, "
+        f"episode seeds {', '.join(map(str, sorted(set(windows['episode_seed'].astype(int)))))}, steps "
+        f"{', '.join(map(str, sorted(set(windows['step'].astype(int)))))}), "
+        f"{rows['seed'].nunique()} seeds, budget {', '.join(f'{b:,}' for b in budgets)} evaluations; reference {ref}.",
+        "",
+        "## Expected running time (ERT) to the targets f* + Δ|f*|",
+        "",
+        "f* is the best cost any run found on the window. ERT = (evaluations of the successful runs to the "
+        "target + evaluations of the unsuccessful runs) / successes, over every window and seed; ∞: no run "
+        f"reached it. Ratio: ERT / {ref}'s ERT.",
+        "",
+    ]
+    body = [
+        [
+            f"{row.precision:.0e}",
+            str(row.optimizer),
+            f"{row.successes}/{row.runs}",
+            _number(row.ert),
+            _number(row.ert_ratio, 3),
+        ]
+        for row in table.itertuples()
+    ]
+    lines += [
+        markdown_table(["Δ", "optimizer", "solved", "ERT [evals]", "ratio"], body, ["r", "l", "r", "r", "r"]),
+        "",
+    ]
+    if not paired.empty:
+        lines += [
+            f"## Paired per (window, seed) against {ref}",
+            "",
+            f"Fixed budget: the other optimiser's best-so-far J at {ref}'s evaluation count of the same run, "
+            f"against {ref}'s final J. Fixed target: evaluations each needed to reach the worse of the two final "
+            "costs. Δ = other − reference (positive: the other is costlier / slower); two-sided Wilcoxon "
+            "signed-rank test.",
+            "",
+        ]
+        body = [
+            [
+                str(r.comparison),
+                str(r.other),
+                _number(r.reference_median, 6),
+                _number(r.other_median, 6),
+                _number(r.median_difference, 4),
+                f"{r.reference_better} / {r.other_better} of {r.pairs}",
+                format_pvalue(r.pvalue),
+            ]
+            for r in paired.itertuples()
+        ]
+        header = [
+            "comparison",
+            "other",
+            f"{ref} median",
+            "other median",
+            "median Δ",
+            f"{ref} better / other better",
+            "p",
+        ]
+        lines += [markdown_table(header, body, ["l", "l", "r", "r", "r", "r", "r"]), ""]
+    lines += ["## Evaluations and the optimisers' state machines", ""]
+    body = [
+        [
+            str(r.optimizer),
+            str(r.runs),
+            _number(r.nfev_mean),
+            _number(r.stopped_early_share, 3),
+            _number(r.switches_mean, 3),
+            _number(r.reverse_switches_mean, 3),
+            _number(r.fun_median, 6),
+        ]
+        for r in traces.itertuples()
+    ]
+    header = ["optimizer", "runs", "evals/run", "stopped early", "switches/run", "reverse/run", "median J"]
+    lines += [markdown_table(header, body, ["l", "r", "r", "r", "r", "r", "r"]), ""]
+    return "\n".join(lines), table
+
+
+def write_fixed_target(
+    store: Any, out_dir: Path, stems: dict[str, str], *, reference: str = "ihpso", command: str = ""
+) -> list[Path]:
+    """Write ``<stem>-fixed-target.md`` and ``.csv`` per scenario hash with window runs.
+
+    Args:
+        store: an open results store.
+        out_dir: output folder.
+        stems: scenario hash -> file stem (the leaderboard's); other hashes use their scenario name.
+        reference: the optimiser the others are paired with (default IHPSO; the first name if absent).
+        command: the command line recorded in the page.
+
+    Returns:
+        The written paths (Markdown then CSV per scenario, sorted by stem).
+    """
+    from uav_penetration_env.benchmark.leaderboard.groups import sanitize
+
+    rows = store.window_runs()
+    written: list[Path] = []
+    if rows.empty:
+        return written
+    groups = sorted(
+        rows.groupby("scenario_hash"),
+        key=lambda item: stems.get(item[0], sanitize(str(item[1]["scenario"].iloc[0]))),
+    )
+    for scenario_hash, group in groups:
+        stem = stems.get(scenario_hash) or sanitize(str(group["scenario"].iloc[0]))
+        markdown, table = fixed_target_markdown(group, reference, str(group["scenario"].iloc[0]), command)
+        path = out_dir / f"{stem}-fixed-target.md"
+        path.write_text(markdown, encoding="utf-8")
+        csv = out_dir / f"{stem}-fixed-target.csv"
+        table.to_csv(csv, index=False, lineterminator="\n")
+        written += [path, csv]
+    return written
