@@ -199,3 +199,16 @@ def test_ablation_configurations_run_and_appear_in_a_leaderboard(tmp_path, tiny_
     assert row.loc["ihpso-noswitch", "switches_per_step"] == 0.0
     assert row.loc["ihpso-noreverse", "reverse_switches_per_step"] == 0.0
     assert "stopped early" in (out / "tiny.md").read_text()
+
+
+def test_ert_ratio_is_blank_where_an_ert_is_infinite():
+    targets = pd.DataFrame(
+        {
+            "optimizer": ["a", "b"],
+            "precision": [0.1, 0.1],
+            "runtime": [math.inf, 300.0],
+            "nfev": [400.0, 400.0],
+        }
+    )
+    table = ft.ert_table(targets, reference="a").set_index("optimizer")
+    assert table.loc["b", "ert"] == 300.0 and np.isnan(table.loc["b", "ert_ratio"])

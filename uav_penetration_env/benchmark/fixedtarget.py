@@ -133,7 +133,8 @@ def ert_table(targets: pd.DataFrame, reference: str | None = None) -> pd.DataFra
 
     Returns:
         Columns ``optimizer``, ``precision``, ``runs``, ``successes``, ``ert`` and ``ert_ratio``
-        (ERT / the reference's ERT at the same precision; NaN without a reference).
+        (ERT / the reference's ERT at the same precision; NaN without a reference or where either
+        ERT is infinite).
     """
     rows = []
     for (optimizer, precision), group in targets.groupby(["optimizer", "precision"], sort=True):
@@ -152,8 +153,9 @@ def ert_table(targets: pd.DataFrame, reference: str | None = None) -> pd.DataFra
     table["ert_ratio"] = np.nan
     if reference is not None and reference in set(table["optimizer"]):
         base = table[table["optimizer"] == reference].set_index("precision")["ert"]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            table["ert_ratio"] = table["ert"].to_numpy() / base.reindex(table["precision"]).to_numpy()
+        mine, theirs = table["ert"].to_numpy(), base.reindex(table["precision"]).to_numpy()
+        both = np.isfinite(mine) & np.isfinite(theirs)  # a ratio with an infinite ERT says nothing
+        table["ert_ratio"] = np.where(both, mine / np.where(both, theirs, 1.0), np.nan)
     return table.reset_index(drop=True)
 
 

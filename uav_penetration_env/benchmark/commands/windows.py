@@ -22,6 +22,9 @@ from uav_penetration_env.benchmark.commands.common import (
     split_list,
 )
 from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+from uav_penetration_env.catalogue import UnknownScenarioError
+from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+from uav_penetration_env.scenario import ScenarioError
 from uav_penetration_env.suggest import did_you_mean
 
 
@@ -109,11 +112,19 @@ def run(args: argparse.Namespace) -> int:
     if not args.terminal_cost >= 0.0:
         raise CLIError(f"--terminal-cost: got {args.terminal_cost}, expected a number >= 0")
     with ResultsStore(existing_store(args.store)) as store:
+        scenario = args.scenario
+        if scenario not in set(store.episodes()["scenario"].astype(str)):
+            # A catalogue name (``paper``) stands for the name of the scenario it resolves to.
+            try:
+                (resolved,) = resolve_catalogue(scenario)
+                scenario = resolved.name
+            except (UnknownScenarioError, ScenarioError, ValueError):
+                pass  # not a catalogue name: a stored hash prefix, or an error collect_windows words
         try:
             windows = collect_windows(
                 store,
                 source_policy=args.from_policy,
-                scenario=args.scenario,
+                scenario=scenario,
                 steps=steps,
                 episode_seeds=episode_seeds,
                 horizon=args.horizon,

@@ -25,7 +25,7 @@ def plot_runtime_ecdf(group: ScenarioGroup, windows: pd.DataFrame, colours: dict
         windows: its ``window_runs`` rows.
         colours: optimiser name -> colour (:func:`~.common.policy_colours`).
     """
-    figure = new_figure(7.0, 4.5)
+    figure = new_figure(7.5, 4.8)
     axes = figure.add_subplot(1, 1, 1)
     if windows.empty:
         note_empty(axes, "no window runs (uav-bench windows)")
@@ -45,8 +45,8 @@ def plot_runtime_ecdf(group: ScenarioGroup, windows: pd.DataFrame, colours: dict
     ).shape[0]
     precisions = ", ".join(f"{p:g}" for p in TARGET_PRECISIONS)
     axes.set_title(
-        f"{group.name}: runtime ECDF, {n_windows} windows x {windows['seed'].nunique()} seeds, "
-        f"targets f* + Δ|f*|, Δ ∈ {{{precisions}}}",
+        f"{group.name}: runtime ECDF, {n_windows} windows x {windows['seed'].nunique()} seeds\n"
+        f"targets f* + Δ|f*|, Δ ∈ {{{precisions}}}, f* the best cost found on the window",
         fontsize=9,
     )
     axes.legend(fontsize=8, loc="lower right")
