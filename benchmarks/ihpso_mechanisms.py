@@ -1,10 +1,12 @@
 """IHPSO's adaptive mechanisms on MPC window states of the paper scenario (issue 11, optimizers.md §5.6).
 
 Window states come from a greedy episode of the paper scenario through the env
-(``UAVPenetrationEnv(paper_scenario())``); each chosen state is restored with ``env.unwrapped.set_state``
-and its MPC objective is the one :class:`~uav_penetration_env.benchmark.policies.MPCPolicy` builds
-(captured from ``MPCPolicy.act`` through a recording optimiser, not rebuilt here). The warm start is the
-greedy episode's own next H controls from that state (as the harness's shifted previous plan would be).
+(``UAVPenetrationEnv(paper_scenario())``); each chosen state's window is built by the harness's
+:func:`~uav_penetration_env.benchmark.windows.window_at`, whose objective is
+:func:`~uav_penetration_env.benchmark.policies.mpc_objective`, the one ``MPCPolicy`` plans on. The warm
+start is the greedy episode's own next H controls from that state (as the harness's shifted previous
+plan would be). ``uav-bench windows`` does the same from a results store and keeps every run's history
+(api.md §4.7); this script adds the tolerance and ablation tables.
 
 On each (state, seed) pair the script runs ``ihpso``, ``hpso`` and ``ihpso-2022v0`` with the full budget,
 HPSO again with IHPSO's evaluation count (fixed budget), and IHPSO with a few other "slope = 0"
@@ -35,12 +37,13 @@ import argparse
 import math
 import sys
 import time
-from dataclasses import dataclass, replace
-from types import SimpleNamespace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from scipy.stats import wilcoxon
+
+from uav_penetration_env.benchmark.windows import Window
 
 HORIZON = 5
 TOLERANCES = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)  # 1e-4 is the default (optimizers.md D15)
@@ -114,28 +117,6 @@ def swarm_table(draws: int) -> None:
     print()
 
 
-@dataclass
-class Window:
-    """One MPC window: the step index, the objective MPCPolicy builds, its bounds and the warm start."""
-
-    step: int
-    objective: Any
-    bounds: Any
-    x0: np.ndarray
-
-
-class CaptureObjective:
-    """A stand-in optimiser: ``MPCPolicy.act`` hands it the window's objective and bounds, which it keeps."""
-
-    def __init__(self) -> None:
-        self.captured: tuple[Any, Any] | None = None
-
-    def minimize(self, fun: Any, bounds: Any, *, rng: Any = None, max_evals: int = 1) -> SimpleNamespace:
-        """Keep ``fun`` and ``bounds``; return a result with no finite plan (MPCPolicy then holds course)."""
-        self.captured = (fun, bounds)
-        return SimpleNamespace(fun=math.inf, x=None, nfev=0, history=[], history_nfev=[])
-
-
 # ----------------------------------------------------------------------------------------------
 # MPC window states
 # ----------------------------------------------------------------------------------------------
@@ -170,7 +151,7 @@ def collect_windows(
     Raises:
         ValueError: If a step is outside the episode.
     """
-    from uav_penetration_env.benchmark.policies import MPCPolicy
+    from uav_penetration_env.benchmark.windows import window_at
 
     env, states, actions = greedy_episode(episode_seed)
     if steps:
@@ -182,34 +163,25 @@ def collect_windows(
         picks = np.array(sorted(set(steps)))
     else:
         picks = np.unique(np.linspace(1, len(states) - 1, n_states).astype(int))
-    windows = []
-    for index in picks:
-        state, step = states[int(index)]
-        observation, info = env.unwrapped.set_state(state, step)
-        capture = CaptureObjective()
-        policy = MPCPolicy(capture, horizon=HORIZON, max_evals=max_evals)
-        policy.reset(env.unwrapped.model, 0)
-        policy.act(observation, info)
-        fun, bounds = capture.captured
-        plan = np.zeros((HORIZON, 3))
-        following = actions[int(index) : int(index) + HORIZON]
-        plan[: len(following)] = following
-        high = np.asarray(bounds.ub, dtype=np.float64)
-        windows.append(Window(step, fun, bounds, np.clip(plan.reshape(-1), -high, high)))
-    return windows
+    model = env.unwrapped.model
+    return [
+        window_at(model, states[int(i)][0], states[int(i)][1], actions[int(i) :], horizon=HORIZON)
+        for i in picks
+    ]
 
 
-def evals_to_target(result: Any, target: float) -> int:
-    """Evaluations until the best-so-far first reaches ``target`` (``history_nfev``); -1 if never."""
-    history = np.asarray(result.history)
-    reached = np.flatnonzero(history <= target)
-    return int(np.asarray(result.history_nfev)[reached[0]]) if reached.size else -1
+def evals_to_target(result: Any, target: float) -> float:
+    """Evaluations until the best-so-far first reaches ``target`` (``history_nfev``); inf if never."""
+    from uav_penetration_env.benchmark.fixedtarget import runtime_to_target
+
+    return runtime_to_target(result.history, result.history_nfev, target)
 
 
 def run(optimizer: Any, window: Window, seed: int, max_evals: int) -> Any:
-    return optimizer.minimize(
-        window.objective, window.bounds, rng=np.random.default_rng(seed), max_evals=max_evals, x0=window.x0
-    )
+    """One run on the window, seeded with ``default_rng(seed)``, warm-started with ``window.x0``."""
+    from uav_penetration_env.benchmark.windows import run_window
+
+    return run_window(optimizer, window, np.random.default_rng(seed), max_evals)
 
 
 def paired(label: str, a: np.ndarray, b: np.ndarray) -> str:
