@@ -8,18 +8,13 @@ with the array formulation, so a parity test can call the same method on both.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from uav_penetration_env import rcs
-from uav_penetration_env.cost import (
-    failure_penalty,
-    fuel_burned,
-    normalise,
-    terminal_cost_to_go,
-    third_term,
-    weighted_cost,
-)
-from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, step_kinematics
+from uav_penetration_env.cost import FuelParams
+from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, UAVLimits, X, Y, Z
 from uav_penetration_env.model import (
     FAR_RANGE_RATIO,
     OBSERVATION_LIMIT,
@@ -31,15 +26,201 @@ from uav_penetration_env.model import (
     PenetrationModel,
     StepResult,
 )
-from uav_penetration_env.radar import (
-    detection_ratio,
-    fuse,
-    horizon_range,
-    swerling1_detection_probability,
-    visibility_probability,
-)
-from uav_penetration_env.terrain import bilinear, terrain_threat
+from uav_penetration_env.terrain import bilinear, mountain_shape
 from uav_penetration_env.types import FloatArray, IntArray
+
+# --- the physics as numpy functions over batches (moved here from the runtime modules) ------------
+
+# kinematics.py
+
+
+def wrap_angle(angle: FloatArray) -> FloatArray:
+    """Wrap angles to (-pi, pi]."""
+    wrapped = np.mod(angle + np.pi, 2.0 * np.pi) - np.pi  # [-pi, pi)
+    return np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
+
+
+def clip_action(control: FloatArray, limits: UAVLimits) -> FloatArray:
+    """Clip controls (..., 3) to the per-step action box."""
+    high = limits.action_high
+    return np.clip(control, -high, high)
+
+
+def step_kinematics(state: FloatArray, control: FloatArray, limits: UAVLimits) -> FloatArray:
+    """Advance UAV states one step, action-then-move (model.md §1, DECISION A2).
+
+    The control first updates speed, heading and pitch; the UAV then flies the whole step with
+    the updated values, so every input affects the very next track point.
+
+    Args:
+        state: (..., 6) [x, y, z, v, phi, theta] in m, m, m, m/s, rad, rad.
+        control: (..., 3) [dv, dphi, dtheta] in m/s, rad, rad; clipped to ``limits``.
+        limits: flight envelope and step limits.
+
+    Returns:
+        (..., 6) next states.
+    """
+    control = clip_action(control, limits)
+    speed = np.clip(state[..., SPEED] + control[..., 0], limits.speed_min, limits.speed_max)
+    heading = wrap_angle(state[..., HEADING] + control[..., 1])
+    pitch = np.clip(state[..., PITCH] + control[..., 2], -limits.pitch_max, limits.pitch_max)
+    step = speed * limits.dt
+    horizontal = step * np.cos(pitch)
+    return np.stack(
+        (
+            state[..., X] + horizontal * np.cos(heading),
+            state[..., Y] + horizontal * np.sin(heading),
+            state[..., Z] + step * np.sin(pitch),
+            speed,
+            heading,
+            pitch,
+        ),
+        axis=-1,
+    )
+
+
+# terrain.py
+
+
+def terrain_threat(
+    x_km: FloatArray,
+    y_km: FloatArray,
+    centres_km: FloatArray,
+    decay_per_km2: float,
+    present: FloatArray | None = None,
+) -> FloatArray:
+    """Th_e(k) = max_i f_i(x_k, y_k) in [0, 1] (eq. 6, index typo fixed; model.md §3).
+
+    Args:
+        x_km: (...) UAV x [km].
+        y_km: (...) UAV y [km].
+        centres_km: (..., I, 2) peak centres [km].
+        decay_per_km2: lambda [km^-2].
+        present: optional (..., I) 1/0 mask for padded peak lists.
+
+    Returns:
+        (...) threat in [0, 1]; 0 with no peaks.
+    """
+    if centres_km.shape[-2] == 0:
+        return np.zeros(np.broadcast(np.asarray(x_km), np.asarray(y_km)).shape)
+    shape = mountain_shape(x_km, y_km, centres_km, decay_per_km2)
+    if present is not None:
+        shape = shape * present
+    return np.max(shape, axis=-1)
+
+
+# radar.py
+
+
+def detection_ratio(
+    rcs_m2: FloatArray, ref_rcs_m2: FloatArray, ref_range_m: FloatArray, range_m: FloatArray
+) -> FloatArray:
+    """D = P_r / S = (sigma / sigma_ref) (R_ref / R)^4 (model.md §4.2): 1 for sigma_ref at R_ref."""
+    ratio = ref_range_m / range_m
+    ratio = ratio * ratio
+    return (rcs_m2 / ref_rcs_m2) * (ratio * ratio)
+
+
+def swerling1_detection_probability(ratio: FloatArray, false_alarm_prob: float, snr_ref: float) -> FloatArray:
+    """Single-look Swerling-I, square-law P_d = P_fa^(1 / (1 + SNR)) with SNR = SNR_ref D (model.md §4.6).
+
+    Computed as exp(ln P_fa / (1 + SNR)) so the huge D near a radar stays finite.
+    """
+    return np.exp(math.log(false_alarm_prob) / (1.0 + snr_ref * ratio))
+
+
+def horizon_range(radar_alt_m: FloatArray, target_alt_m: FloatArray, earth_radius_m: float) -> FloatArray:
+    """Radar horizon R_lim = sqrt(2 R_eff) (sqrt(z_m) + sqrt(max(z, 0))) [m] (eq. 12).
+
+    With R_eff = 8487.2 km, sqrt(2 R_eff * 1 m) = 4.12 km, the paper's constant (model.md §4.3).
+    """
+    scale = math.sqrt(2.0 * earth_radius_m)
+    return scale * (np.sqrt(np.maximum(radar_alt_m, 0.0)) + np.sqrt(np.maximum(target_alt_m, 0.0)))
+
+
+def visibility_probability(altitude_m: FloatArray, floor_m: FloatArray, softness_m: float) -> FloatArray:
+    """P_vis = 1 / (1 + exp(-(z - V) / s)) (model.md §4.4); ``softness_m = 0`` is the hard step z >= V."""
+    if softness_m <= 0.0:
+        return (altitude_m >= floor_m).astype(np.float64)
+    # tanh form of the logistic: no overflow for any margin.
+    return 0.5 + 0.5 * np.tanh((altitude_m - floor_m) / (2.0 * softness_m))
+
+
+def fuse(per_radar: FloatArray, rule: str) -> FloatArray:
+    """Network threat over the last axis: ``max`` (eq. 14) or ``or`` = 1 - prod(1 - P_d)."""
+    if per_radar.shape[-1] == 0:
+        return np.zeros(per_radar.shape[:-1])
+    if rule == "or":
+        return 1.0 - np.prod(1.0 - per_radar, axis=-1)
+    return np.max(per_radar, axis=-1)
+
+
+# cost.py
+
+
+def thrust(pitch: FloatArray, params: FuelParams) -> FloatArray:
+    """Steady-flight thrust T = W (1/E + sin theta) clipped to [T_idle, T_max] [N] (model.md §6.1).
+
+    theta > 0 is eq. 17's ascent state, theta = 0 level flight and theta < 0 descent down to idle.
+    """
+    raw = params.level_thrust_n + params.weight_n * np.sin(pitch)
+    return np.clip(raw, params.idle_thrust_n, params.max_thrust_n)
+
+
+def fuel_burned(pitch: FloatArray, params: FuelParams) -> FloatArray:
+    """Fuel for one step, C_fuel = eta T dt [kg]."""
+    return params.tsfc * params.dt * thrust(pitch, params)
+
+
+def third_term(
+    third: str,
+    fuel_kg: FloatArray,
+    step_length_m: FloatArray,
+    goal_distance_before_m: FloatArray,
+    goal_distance_after_m: FloatArray,
+    params: FuelParams,
+) -> FloatArray:
+    """The third objective C(k) with its progress (cost-to-go) shaping (model.md §6.2, A22/A24).
+
+    ``fuel``: C = C_fuel + G(p_{k+1}) - G(p_k) with G = eta T_level d_goal / v_max, so straight level
+    flight at v_max toward the goal costs 0. ``length``: C = s + d_goal(p_{k+1}) - d_goal(p_k) >= 0.
+    Either way the sum over an episode telescopes: shaping never changes which complete
+    trajectory is cheaper among those ending at the same distance from the goal.
+    """
+    change = goal_distance_after_m - goal_distance_before_m
+    if third == "length":
+        return step_length_m + change
+    return fuel_kg + params.potential_per_m * change
+
+
+def normalise(value: FloatArray, bounds: tuple[float, float]) -> FloatArray:
+    """(x - lo) / (hi - lo)."""
+    low, high = bounds
+    return (value - low) / (high - low)
+
+
+def weighted_cost(
+    terrain_n: FloatArray, radar_n: FloatArray, third_n: FloatArray, weights: tuple[float, float, float]
+) -> FloatArray:
+    """J(k) = w_e Th_e^n + w_r Th_r^n + w_C C^n (eq. 19)."""
+    return weights[0] * terrain_n + weights[1] * radar_n + weights[2] * third_n
+
+
+def failure_penalty(
+    failed: FloatArray, step_index: FloatArray, max_steps: int, per_step: float
+) -> FloatArray:
+    """Penalty for ending the episode by failure at step k: per_step (K_max - k + 1) (model.md §7a).
+
+    DECISION: charging every remaining step (the + 1 counts the failing step itself) makes an early
+    crash never cheaper than flying on, since J(k) <= per_step in the benchmark profile.
+    """
+    remaining = np.maximum(max_steps - np.asarray(step_index) + 1, 0)
+    return np.where(failed, per_step * remaining, 0.0)
+
+
+def terminal_cost_to_go(goal_distance_m: FloatArray, step_length_m: float, per_step: float) -> FloatArray:
+    """MPC cost-to-go: c_T d_goal / (v_max dt), the remaining steps at full speed (model.md §7)."""
+    return per_step * goal_distance_m / step_length_m
 
 
 class NumpyPenetrationModel(PenetrationModel):

@@ -32,7 +32,7 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, vectorize
 
 from uav_penetration_env import cache
 
@@ -741,3 +741,16 @@ def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahea
         obs[66] = step_fraction[b]
         for i in range(OBSERVATION_SIZE):
             out[b, i] = clip(obs[i], -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+
+
+@njit(cache=True)
+def fuse_rows(per_radar, rule, out):
+    """Network threat of each row of ``per_radar`` (B, M) into ``out`` (B,) (:func:`fuse`)."""
+    for b in range(per_radar.shape[0]):
+        out[b] = fuse(per_radar[b], rule)
+
+
+@vectorize(["float64(float64)"], cache=True)
+def wrap_angles(angle):
+    """:func:`wrap_angle` as a ufunc (any shape)."""
+    return wrap_angle(angle)
