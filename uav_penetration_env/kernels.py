@@ -73,6 +73,25 @@ def configure_compile_cache() -> str | None:
 COMPILE_CACHE_DIR = configure_compile_cache()
 
 
+# DECISION (issue 10): batches smaller than this run on the calling thread alone. Waking the thread
+# pool costs more than a few rows of physics (a single env's step), and on a busy machine a
+# parallel launch can wait milliseconds for a core; results are the same either way.
+SERIAL_BELOW_ROWS = 32
+
+
+def run_kernel(kernel, rows: int, *args) -> None:
+    """Call a parallel batch kernel, on the calling thread alone when ``rows < SERIAL_BELOW_ROWS``."""
+    threads = numba.get_num_threads()
+    if rows >= SERIAL_BELOW_ROWS or threads == 1:
+        kernel(*args)
+        return
+    numba.set_num_threads(1)
+    try:
+        kernel(*args)
+    finally:
+        numba.set_num_threads(threads)
+
+
 def limit_worker_threads() -> int:
     """One compiled thread per worker process unless the user set ``NUMBA_NUM_THREADS``.
 
@@ -640,10 +659,10 @@ def rollout_batch(arrays, state, controls, step, discount, terminal_cost, p, tot
         total[b] = cost
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def threats_batch(arrays, states, index, terrain, per_radar, visible, detection, altitude_agl):
     """State-only threats of a batch: Th_e (B,), per-radar threat and visibility (B, M), P_d (B,), z_agl (B,)."""
-    for b in prange(states.shape[0]):
+    for b in range(states.shape[0]):
         s = states[b]
         p = index[b]
         agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
@@ -652,10 +671,10 @@ def threats_batch(arrays, states, index, terrain, per_radar, visible, detection,
         detection[b] = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def heights_batch(arrays, x, y, index, out):
     """Terrain height [m] at points (x, y) [m] of pool scenario ``index`` (all (N,))."""
-    for n in prange(x.shape[0]):
+    for n in range(x.shape[0]):
         out[n] = grid_value(arrays.terrain, index[n], x[n], y[n], arrays.params)
 
 

@@ -397,7 +397,9 @@ class PenetrationModel:
         visible = np.empty((batch, slots))
         scalars = np.empty((batch, kernels.N_SCALARS))
         flags = np.empty((batch, kernels.N_FLAGS), dtype=np.bool_)
-        kernels.transition_batch(
+        kernels.run_kernel(
+            kernels.transition_batch,
+            batch,
             self.arrays,
             states,
             moves,
@@ -512,7 +514,9 @@ class PenetrationModel:
                 f"scenario_index: got {scenario_index}, expected an integer in [0, {self.pool_size})"
             )
         total = np.empty(controls.shape[0])
-        kernels.rollout_batch(
+        kernels.run_kernel(
+            kernels.rollout_batch,
+            controls.shape[0],
             self.arrays,
             state,
             controls,
@@ -557,7 +561,17 @@ class PenetrationModel:
             np.broadcast_to(np.asarray(step_index) / self.max_steps, (batch,)), dtype=np.float64
         )
         out = np.empty((batch, OBSERVATION_SIZE), dtype=np.float32)
-        kernels.observe_batch(
-            self.arrays, states, fraction, index, per_radar, visible, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, out
+        kernels.run_kernel(
+            kernels.observe_batch,
+            batch,
+            self.arrays,
+            states,
+            fraction,
+            index,
+            per_radar,
+            visible,
+            TERRAIN_AHEAD_M,
+            TERRAIN_ACROSS_M,
+            out,
         )
         return out

@@ -33,6 +33,7 @@ from uav_penetration_env.benchmark.provenance import provenance as run_provenanc
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
 from uav_penetration_env.build import build_scenario
 from uav_penetration_env.env import UAVPenetrationEnv
+from uav_penetration_env.kernels import limit_worker_threads
 from uav_penetration_env.scenario import Scenario, load_scenario
 
 BACKENDS = ("loky", "dask", "sequential")
@@ -90,6 +91,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
     Returns:
         The episode row (the ``episodes`` columns) and one dict per step.
     """
+    limit_worker_threads()  # issue 10: one compiled thread per worker process unless NUMBA_NUM_THREADS is set
     started = time.perf_counter()
     scenario = task.scenario
     row: dict[str, Any] = {
