@@ -36,7 +36,7 @@ from uav_penetration_env import PenetrationModel, cache, dem_scenario, paper_sce
 from uav_penetration_env.build import build_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.append(str(ROOT / "tests"))  # appended: tests/optimizers must not shadow optimizers
 from numpy_model import NumpyPenetrationModel  # noqa: E402  (the oracle lives under tests/)
 
 FIRST_CALLS = """
