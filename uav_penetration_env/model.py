@@ -11,6 +11,11 @@ optional ``scenario_index`` ``(B,)`` into the pool.
 * :meth:`rollout_cost` scores ``(B, H, 3)`` control sequences from one state with the very same
   code, so it equals the summed ``-(reward)`` of the env flying the same controls.
 * :meth:`observe` packs the 67-slot observation of §7a.
+
+The physics itself is compiled (``kernels.py``, issue 10): every method above hands its batch to
+one of a few numba loop kernels built from the same scalar functions, with the scenario passed as
+typed arrays (:class:`kernels.ModelArrays`). Results do not depend on the thread count; batches of
+fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 """
 
 from __future__ import annotations
