@@ -73,23 +73,19 @@ def configure_compile_cache() -> str | None:
 COMPILE_CACHE_DIR = configure_compile_cache()
 
 
-# DECISION (issue 10): batches smaller than this run on the calling thread alone. Waking the thread
-# pool costs more than a few rows of physics (a single env's step), and on a busy machine a
-# parallel launch can wait milliseconds for a core; results are the same either way.
+# DECISION (issue 10): batches smaller than this run on the calling thread alone (the serial twin
+# of a kernel: the same row function in a plain loop). Waking the thread pool costs more than a
+# few rows of physics (a single env's step), and on a busy machine a parallel launch can wait
+# milliseconds for a core; results are the same either way.
 SERIAL_BELOW_ROWS = 32
 
 
-def run_kernel(kernel, rows: int, *args) -> None:
-    """Call a parallel batch kernel, on the calling thread alone when ``rows < SERIAL_BELOW_ROWS``."""
-    threads = numba.get_num_threads()
-    if rows >= SERIAL_BELOW_ROWS or threads == 1:
-        kernel(*args)
-        return
-    numba.set_num_threads(1)
-    try:
-        kernel(*args)
-    finally:
-        numba.set_num_threads(threads)
+def run_kernel(parallel_kernel, serial_kernel, rows: int, *args) -> None:
+    """Call the parallel batch kernel, or its serial twin when ``rows < SERIAL_BELOW_ROWS``."""
+    if rows < SERIAL_BELOW_ROWS:
+        serial_kernel(*args)
+    else:
+        parallel_kernel(*args)
 
 
 def limit_worker_threads() -> int:
@@ -561,11 +557,44 @@ def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags
 # --- batch kernels ---------------------------------------------------------------------------------
 
 
+@njit(inline="always", cache=True)
+def transition_row(
+    arrays,
+    b,
+    states,
+    moves,
+    moves_are_controls,
+    k_next,
+    index,
+    next_states,
+    per_radar,
+    visible,
+    scalars,
+    flags,
+):
+    """Row ``b`` of :func:`transition_batch`: kinematics (or the given next state), then :func:`transition`."""
+    s = states[b]
+    if moves_are_controls:
+        x, y, z, v, h, pt = kinematics(
+            s[0], s[1], s[2], s[3], s[4], s[5], moves[b, 0], moves[b, 1], moves[b, 2], arrays.params
+        )
+        next_states[b, 0] = x
+        next_states[b, 1] = y
+        next_states[b, 2] = z
+        next_states[b, 3] = v
+        next_states[b, 4] = h
+        next_states[b, 5] = pt
+    else:
+        for i in range(6):
+            next_states[b, i] = moves[b, i]
+    transition(arrays, index[b], s, next_states[b], k_next[b], per_radar[b], visible[b], scalars[b], flags[b])
+
+
 @njit(parallel=True, cache=True)
 def transition_batch(
     arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
 ):
-    """Transitions of a batch (``PenetrationModel.step`` / ``costs``).
+    """Transitions of a batch (``PenetrationModel.step`` / ``costs``), rows spread over the threads.
 
     Args:
         arrays: the :class:`ModelArrays`.
@@ -580,24 +609,42 @@ def transition_batch(
         scalars: (B, N_SCALARS) out.
         flags: (B, N_FLAGS) out (bool).
     """
-    params = arrays.params
     for b in prange(states.shape[0]):
-        s = states[b]
-        if moves_are_controls:
-            x, y, z, v, h, pt = kinematics(
-                s[0], s[1], s[2], s[3], s[4], s[5], moves[b, 0], moves[b, 1], moves[b, 2], params
-            )
-            next_states[b, 0] = x
-            next_states[b, 1] = y
-            next_states[b, 2] = z
-            next_states[b, 3] = v
-            next_states[b, 4] = h
-            next_states[b, 5] = pt
-        else:
-            for i in range(6):
-                next_states[b, i] = moves[b, i]
-        transition(
-            arrays, index[b], s, next_states[b], k_next[b], per_radar[b], visible[b], scalars[b], flags[b]
+        transition_row(
+            arrays,
+            b,
+            states,
+            moves,
+            moves_are_controls,
+            k_next,
+            index,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
+        )
+
+
+@njit(cache=True)
+def transition_rows(
+    arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
+):
+    """:func:`transition_batch` on the calling thread (small batches: a single env's step)."""
+    for b in range(states.shape[0]):
+        transition_row(
+            arrays,
+            b,
+            states,
+            moves,
+            moves_are_controls,
+            k_next,
+            index,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
         )
 
 
@@ -678,88 +725,102 @@ def heights_batch(arrays, x, y, index, out):
         out[n] = grid_value(arrays.terrain, index[n], x[n], y[n], arrays.params)
 
 
-@njit(parallel=True, cache=True)
-def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
-    """The 67-slot observation of model.md §7a, clipped to +-10, into ``out`` (B, 67) float32.
-
-    ``per_radar`` / ``visible`` (B, M) are the threat and visibility of each radar at the state;
-    ``step_fraction`` (B,) is k / K_max; ``ahead`` / ``across`` (5,) the terrain sample offsets [m].
-    """
+@njit(inline="always", cache=True)
+def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """Row ``b`` of :func:`observe_batch`."""
     params = arrays.params
     ratio_detection = arrays.options[O_DETECTION] == 0
     radars = arrays.radar_xyz.shape[1]
     x_span = params[P_X_MAX] - params[P_X_MIN]
     y_span = params[P_Y_MAX] - params[P_Y_MIN]
     side = params[P_MAP_SIDE]
-    for b in prange(states.shape[0]):
-        obs = np.zeros(OBSERVATION_SIZE)
-        p = index[b]
-        x = states[b, 0]
-        y = states[b, 1]
-        z = states[b, 2]
-        heading = states[b, 4]
-        cos_h = math.cos(heading)
-        sin_h = math.sin(heading)
-        ground = grid_value(arrays.terrain, p, x, y, params)
-        obs[0] = (x - params[P_X_MIN]) / x_span
-        obs[1] = (y - params[P_Y_MIN]) / y_span
-        obs[2] = (z - ground) / 1000.0
-        obs[3] = z / params[P_CEILING]
-        obs[4] = (states[b, 3] - params[P_SPEED_MIN]) / (params[P_SPEED_MAX] - params[P_SPEED_MIN])
-        obs[5] = cos_h
-        obs[6] = sin_h
-        obs[7] = states[b, 5] / params[P_PITCH_MAX]
-        gx = arrays.goal[p, 0] - x
-        gy = arrays.goal[p, 1] - y
-        obs[8] = gx / side
-        obs[9] = gy / side
-        obs[10] = math.hypot(gx, gy) / side
-        relative = math.atan2(gy, gx) - heading
-        obs[11] = math.cos(relative)
-        obs[12] = math.sin(relative)
-        # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
-        for a in range(ahead.shape[0]):
-            for c in range(across.shape[0]):
-                px = x + ahead[a] * cos_h - across[c] * sin_h
-                py = y + ahead[a] * sin_h + across[c] * cos_h
-                height = grid_value(arrays.terrain, p, px, py, params)
-                obs[13 + a * across.shape[0] + c] = (height - z) / 1000.0
-        # The nearest radars (stable order by range; absent slots last), 7 features each.
-        taken = np.zeros(radars, dtype=np.bool_)
-        distance = np.empty(radars)
+    obs = np.zeros(OBSERVATION_SIZE)
+    p = index[b]
+    x = states[b, 0]
+    y = states[b, 1]
+    z = states[b, 2]
+    heading = states[b, 4]
+    cos_h = math.cos(heading)
+    sin_h = math.sin(heading)
+    ground = grid_value(arrays.terrain, p, x, y, params)
+    obs[0] = (x - params[P_X_MIN]) / x_span
+    obs[1] = (y - params[P_Y_MIN]) / y_span
+    obs[2] = (z - ground) / 1000.0
+    obs[3] = z / params[P_CEILING]
+    obs[4] = (states[b, 3] - params[P_SPEED_MIN]) / (params[P_SPEED_MAX] - params[P_SPEED_MIN])
+    obs[5] = cos_h
+    obs[6] = sin_h
+    obs[7] = states[b, 5] / params[P_PITCH_MAX]
+    gx = arrays.goal[p, 0] - x
+    gy = arrays.goal[p, 1] - y
+    obs[8] = gx / side
+    obs[9] = gy / side
+    obs[10] = math.hypot(gx, gy) / side
+    relative = math.atan2(gy, gx) - heading
+    obs[11] = math.cos(relative)
+    obs[12] = math.sin(relative)
+    # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
+    for a in range(ahead.shape[0]):
+        for c in range(across.shape[0]):
+            px = x + ahead[a] * cos_h - across[c] * sin_h
+            py = y + ahead[a] * sin_h + across[c] * cos_h
+            height = grid_value(arrays.terrain, p, px, py, params)
+            obs[13 + a * across.shape[0] + c] = (height - z) / 1000.0
+    # The nearest radars (stable order by range; absent slots last), 7 features each.
+    taken = np.zeros(radars, dtype=np.bool_)
+    distance = np.empty(radars)
+    for m in range(radars):
+        ox = arrays.radar_xyz[p, m, 0] - x
+        oy = arrays.radar_xyz[p, m, 1] - y
+        oz = arrays.radar_xyz[p, m, 2] - z
+        distance[m] = math.sqrt(ox * ox + oy * oy + oz * oz) if arrays.radar_present[p, m] > 0 else np.inf
+    for slot in range(OBSERVED_RADARS):
+        base = 38 + slot * RADAR_FEATURES
+        obs[base + 1] = FAR_RANGE_RATIO
+        best = -1
         for m in range(radars):
-            ox = arrays.radar_xyz[p, m, 0] - x
-            oy = arrays.radar_xyz[p, m, 1] - y
-            oz = arrays.radar_xyz[p, m, 2] - z
-            distance[m] = math.sqrt(ox * ox + oy * oy + oz * oz) if arrays.radar_present[p, m] > 0 else np.inf
-        for slot in range(OBSERVED_RADARS):
-            base = 38 + slot * RADAR_FEATURES
-            obs[base + 1] = FAR_RANGE_RATIO
-            best = -1
-            for m in range(radars):
-                if not taken[m] and (best < 0 or distance[m] < distance[best]):
-                    best = m
-            if best < 0:
-                continue
-            taken[best] = True
-            if not arrays.radar_present[p, best] > 0:
-                continue
-            ox = arrays.radar_xyz[p, best, 0] - x
-            oy = arrays.radar_xyz[p, best, 1] - y
-            bearing = math.atan2(oy, ox) - heading
-            threat = per_radar[b, best]
-            if ratio_detection:
-                threat = min(threat, 1.0)
-            obs[base] = arrays.radar_present[p, best]
-            obs[base + 1] = min(distance[best] / arrays.ref_range[p, best], FAR_RANGE_RATIO)
-            obs[base + 2] = math.cos(bearing)
-            obs[base + 3] = math.sin(bearing)
-            obs[base + 4] = (arrays.radar_xyz[p, best, 2] - z) / 1000.0
-            obs[base + 5] = visible[b, best]
-            obs[base + 6] = threat
-        obs[66] = step_fraction[b]
-        for i in range(OBSERVATION_SIZE):
-            out[b, i] = clip(obs[i], -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+            if not taken[m] and (best < 0 or distance[m] < distance[best]):
+                best = m
+        if best < 0:
+            continue
+        taken[best] = True
+        if not arrays.radar_present[p, best] > 0:
+            continue
+        ox = arrays.radar_xyz[p, best, 0] - x
+        oy = arrays.radar_xyz[p, best, 1] - y
+        bearing = math.atan2(oy, ox) - heading
+        threat = per_radar[b, best]
+        if ratio_detection:
+            threat = min(threat, 1.0)
+        obs[base] = arrays.radar_present[p, best]
+        obs[base + 1] = min(distance[best] / arrays.ref_range[p, best], FAR_RANGE_RATIO)
+        obs[base + 2] = math.cos(bearing)
+        obs[base + 3] = math.sin(bearing)
+        obs[base + 4] = (arrays.radar_xyz[p, best, 2] - z) / 1000.0
+        obs[base + 5] = visible[b, best]
+        obs[base + 6] = threat
+    obs[66] = step_fraction[b]
+    for i in range(OBSERVATION_SIZE):
+        out[b, i] = clip(obs[i], -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+
+
+@njit(parallel=True, cache=True)
+def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """The 67-slot observation of model.md §7a, clipped to +-10, into ``out`` (B, 67) float32.
+
+    ``per_radar`` / ``visible`` (B, M) are the threat and visibility of each radar at the state;
+    ``step_fraction`` (B,) is k / K_max; ``ahead`` / ``across`` (5,) the terrain sample offsets [m].
+    Rows are spread over the threads.
+    """
+    for b in prange(states.shape[0]):
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
+
+
+@njit(cache=True)
+def observe_rows(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """:func:`observe_batch` on the calling thread (small batches)."""
+    for b in range(states.shape[0]):
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
 
 
 @njit(cache=True)

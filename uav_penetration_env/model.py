@@ -394,7 +394,12 @@ class PenetrationModel:
             raise ValueError(
                 f"controls/next_states: got {moves.shape[0]} rows, expected {batch} (one per state)"
             )
-        k_next = np.ascontiguousarray(np.broadcast_to(np.asarray(step_index, dtype=np.int64) + 1, (batch,)))
+        if isinstance(step_index, (int, np.integer)):
+            k_next = np.full(batch, int(step_index) + 1, dtype=np.int64)
+        else:
+            k_next = np.ascontiguousarray(
+                np.broadcast_to(np.asarray(step_index, dtype=np.int64) + 1, (batch,))
+            )
         index = self._rows(scenario_index, batch)
         slots = self.radar_slots
         next_states = np.empty((batch, 6))
@@ -404,6 +409,7 @@ class PenetrationModel:
         flags = np.empty((batch, kernels.N_FLAGS), dtype=np.bool_)
         kernels.run_kernel(
             kernels.transition_batch,
+            kernels.transition_rows,
             batch,
             self.arrays,
             states,
@@ -519,9 +525,7 @@ class PenetrationModel:
                 f"scenario_index: got {scenario_index}, expected an integer in [0, {self.pool_size})"
             )
         total = np.empty(controls.shape[0])
-        kernels.run_kernel(
-            kernels.rollout_batch,
-            controls.shape[0],
+        kernels.rollout_batch(
             self.arrays,
             state,
             controls,
@@ -568,6 +572,7 @@ class PenetrationModel:
         out = np.empty((batch, OBSERVATION_SIZE), dtype=np.float32)
         kernels.run_kernel(
             kernels.observe_batch,
+            kernels.observe_rows,
             batch,
             self.arrays,
             states,
