@@ -55,7 +55,8 @@ def ackley(x: np.ndarray) -> np.ndarray:
     """Shifted Ackley with a = 20, b = 0.2, c = 2 pi."""
     z = x - SHIFT
     a, b, c = 20.0, 0.2, 2.0 * np.pi
-    return -a * np.exp(-b * np.sqrt((z * z).mean(axis=1))) - np.exp(np.cos(c * z).mean(axis=1)) + a + math.e
+    return (-a * np.exp(-b * np.sqrt((z * z).mean(axis=1))) - np.exp(np.cos(c * z).mean(axis=1))
+            + a + math.e)
 
 
 def griewank(x: np.ndarray) -> np.ndarray:
@@ -93,15 +94,8 @@ def run_one(optimizer: str, problem: str, dim: int, seed: int, max_evals: int) -
     res = get_optimizer(optimizer).minimize(spec.fun, bounds, rng=seed, max_evals=max_evals)
     seconds = time.perf_counter() - start
     return {
-        "optimizer": optimizer,
-        "problem": problem,
-        "dim": dim,
-        "seed": seed,
-        "max_evals": max_evals,
-        "error": float(res.fun),
-        "nfev": int(res.nfev),
-        "nit": int(res.nit),
-        "seconds": seconds,
+        "optimizer": optimizer, "problem": problem, "dim": dim, "seed": seed, "max_evals": max_evals,
+        "error": float(res.fun), "nfev": int(res.nfev), "nit": int(res.nit), "seconds": seconds,
         "message": res.message,
     }
 
@@ -144,14 +138,11 @@ def fmt(value: float) -> str:
     return f"{value:.1e}"
 
 
-def print_results_table(
-    rows: list[dict], optimizers: Sequence[str], problems: Sequence[str], dim: int, budget: int, seeds: int
-) -> None:
+def print_results_table(rows: list[dict], optimizers: Sequence[str], problems: Sequence[str], dim: int,
+                        budget: int, seeds: int) -> None:
     """Median final error [25 %, 75 %] per optimiser and problem, plus the median evaluations used."""
-    print(
-        f"\n{dim}-D, budget {budget} evaluations, {seeds} seeds: median final error f - f* [IQR]; "
-        "evals = median evaluations used (min-max over all runs)"
-    )
+    print(f"\n{dim}-D, budget {budget} evaluations, {seeds} seeds: median final error f - f* [IQR]; "
+          "evals = median evaluations used (min-max over all runs)")
     width = 27
     header = f"{'optimizer':<15}" + "".join(f"{p:<{width}}" for p in problems) + "evals"
     print(header)
@@ -169,37 +160,20 @@ def print_results_table(
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="smoke run: 5-D, 2 seeds, 200 evaluations per dimension, short overhead runs",
-    )
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke run: 5-D, 2 seeds, 200 evaluations per dimension, short overhead runs")
     parser.add_argument("--dims", type=int, nargs="+", default=None, help="dimensions (default: 10 30)")
-    parser.add_argument(
-        "--seeds", type=int, default=None, help="seeds per (optimiser, function) (default 10)"
-    )
+    parser.add_argument("--seeds", type=int, default=None, help="seeds per (optimiser, function) (default 10)")
     parser.add_argument("--optimizers", nargs="+", default=None, help="registered names (default: all)")
-    parser.add_argument(
-        "--functions",
-        nargs="+",
-        default=None,
-        choices=[p.name for p in PROBLEMS],
-        help="test functions (default: all five)",
-    )
-    parser.add_argument(
-        "--evals-per-dim",
-        type=int,
-        default=None,
-        help="budget = this x dimension (default 1000: 10,000 in 10-D, 30,000 in 30-D)",
-    )
+    parser.add_argument("--functions", nargs="+", default=None, choices=[p.name for p in PROBLEMS],
+                        help="test functions (default: all five)")
+    parser.add_argument("--evals-per-dim", type=int, default=None,
+                        help="budget = this x dimension (default 1000: 10,000 in 10-D, 30,000 in 30-D)")
     parser.add_argument("--n-jobs", type=int, default=2, help="joblib workers (default 2)")
     parser.add_argument("--no-overhead", action="store_true", help="skip the overhead table")
-    parser.add_argument(
-        "--overhead-repeats", type=int, default=None, help="seeds per overhead figure (default 3)"
-    )
+    parser.add_argument("--overhead-repeats", type=int, default=None, help="seeds per overhead figure (default 3)")
     parser.add_argument("--csv", default=None, help="also write every run as a CSV row to this file")
     return parser.parse_args(argv)
 
@@ -218,18 +192,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     repeats = args.overhead_repeats or (1 if args.quick else 3)
     overhead_evals = 2_000 if args.quick else 10_000
 
-    tasks = [
-        (name, problem, dim, seed, per_dim * dim)
-        for dim in dims
-        for name in names
-        for problem in problems
-        for seed in range(seeds)
-    ]
-    print(
-        f"{len(tasks)} runs: {len(names)} optimisers x {len(problems)} functions x dims {dims} x {seeds} seeds, "
-        f"{args.n_jobs} worker(s)",
-        flush=True,
-    )
+    tasks = [(name, problem, dim, seed, per_dim * dim)
+             for dim in dims for name in names for problem in problems for seed in range(seeds)]
+    print(f"{len(tasks)} runs: {len(names)} optimisers x {len(problems)} functions x dims {dims} x {seeds} seeds, "
+          f"{args.n_jobs} worker(s)", flush=True)
     start = time.perf_counter()
     if args.n_jobs == 1:
         rows = [run_one(*task) for task in tasks]
@@ -243,10 +209,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print_results_table(rows, names, problems, dim, per_dim * dim, seeds)
 
     if not args.no_overhead:
-        print(
-            f"\nOptimiser overhead per iteration at 100 particles x 15 dimensions (sphere, {overhead_evals} "
-            f"evaluations, median of {repeats} seed(s)); objective time excluded, one process"
-        )
+        print(f"\nOptimiser overhead per iteration at 100 particles x 15 dimensions (sphere, {overhead_evals} "
+              f"evaluations, median of {repeats} seed(s)); objective time excluded, one process")
         print(f"{'optimizer':<15}{'ms/iteration':>14}")
         for name in names:
             ms = 1e3 * overhead_per_iteration(name, 15, overhead_evals, repeats)
