@@ -15,6 +15,6 @@ policy = load_policy("leaderboards/models/ppo-paper-s0.zip")    # a Policy for e
 from __future__ import annotations
 
 from baselines.policy import SB3Policy, load_policy
-from baselines.train import KNOWN_ALGORITHMS, TrainResult, train_agent
+from baselines.train import KNOWN_ALGORITHMS, TrainConfig, TrainResult, train_agent
 
-__all__ = ["KNOWN_ALGORITHMS", "SB3Policy", "TrainResult", "load_policy", "train_agent"]
+__all__ = ["KNOWN_ALGORITHMS", "SB3Policy", "TrainConfig", "TrainResult", "load_policy", "train_agent"]

@@ -1,6 +1,7 @@
 """``uav-bench train``: train an SB3 agent from the command line (api.md; issue 6).
 
-``uav_penetration_env.benchmark.cli`` builds the ``train`` sub-parser with
+A plug-in command (:data:`baselines.plugin.TRAIN_COMMAND`, entry-point group
+``uav_penetration.commands``): ``uav-bench`` builds the ``train`` sub-parser with
 :func:`add_train_arguments` and hands the parsed flags to :func:`train_command`. Every input is
 checked before training starts; problems exit with status 2 (``CLIError``), Ctrl-C saves the
 partly trained model and exits with 130.
@@ -9,28 +10,33 @@ partly trained model and exits with 130.
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from pathlib import Path
 from typing import Any
 
-DEFAULT_MODELS = Path("leaderboards/models")
+from baselines.plan import DEFAULT_MODELS, TrainConfig, default_model_path, vector_class
+from uav_penetration_env.benchmark.commands.common import CLIError, resolve_scenarios
+from uav_penetration_env.catalogue import SCENARIO_HELP
+
+DEFAULTS = TrainConfig()  # every default of the flags below is TrainConfig's
 
 
 def add_train_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags of ``uav-bench train``."""
+    """The flags of ``uav-bench train`` (defaults: :class:`~baselines.plan.TrainConfig`'s)."""
     parser.add_argument(
-        "--algo", default="ppo", help="ppo, sac, td3 (tuned), a2c, ddpg (SB3 defaults); default: ppo"
+        "--algo",
+        default=DEFAULTS.algo,
+        help=f"ppo, sac, td3 (tuned), a2c, ddpg (SB3 defaults); default: {DEFAULTS.algo}",
     )
     parser.add_argument(
         "--env-id",
         dest="env_id",
-        default="UAVPenetration-v0",
+        default=DEFAULTS.env_id,
         help="UAVPenetration-v0 (default), UAVPenetrationPaper-v0, UAVPenetrationRandom-v0, UAVPenetrationDEM-v0",
     )
     parser.add_argument(
         "--scenario",
-        help="for the fixed ids: paper, paper-w2, dem, random:SEED or a YAML path (default: the id's own)",
+        help=f"for the fixed ids: {SCENARIO_HELP}, one scenario (default: the id's own)",
     )
     parser.add_argument(
         "--profile", choices=["benchmark", "paper"], help="physics profile (default: the id's)"
@@ -40,9 +46,22 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         help="difficulty of the Random id or of a random:SEED scenario (default: 0.5)",
     )
-    parser.add_argument("--timesteps", type=int, default=200_000, help="environment steps (default: 200000)")
-    parser.add_argument("--seed", type=int, default=0, help="training seed (default: 0)")
-    parser.add_argument("--n-envs", dest="n_envs", type=int, default=8, help="batched sub-envs (default: 8)")
+    parser.add_argument(
+        "--timesteps",
+        type=int,
+        default=DEFAULTS.total_timesteps,
+        help=f"environment steps (default: {DEFAULTS.total_timesteps})",
+    )
+    parser.add_argument(
+        "--seed", type=int, default=DEFAULTS.seed, help=f"training seed (default: {DEFAULTS.seed})"
+    )
+    parser.add_argument(
+        "--n-envs",
+        dest="n_envs",
+        type=int,
+        default=DEFAULTS.n_envs,
+        help=f"batched sub-envs (default: {DEFAULTS.n_envs})",
+    )
     parser.add_argument(
         "--out",
         help=f"model .zip (default: {DEFAULT_MODELS}/ALGO-SCENARIO-sSEED.zip); sidecars go beside it",
@@ -52,52 +71,41 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         "--eval-freq",
         dest="eval_freq",
         type=int,
-        default=10_000,
-        help="evaluate every N environment steps (0: never; default: 10000)",
+        default=DEFAULTS.eval_freq,
+        help=f"evaluate every N environment steps (0: never; default: {DEFAULTS.eval_freq})",
     )
     parser.add_argument(
         "--eval-episodes",
         dest="eval_episodes",
         type=int,
-        default=10,
-        help="episodes per evaluation (default: 10)",
+        default=DEFAULTS.eval_episodes,
+        help=f"episodes per evaluation (default: {DEFAULTS.eval_episodes})",
     )
     parser.add_argument(
         "--checkpoint-freq",
         dest="checkpoint_freq",
         type=int,
-        default=50_000,
-        help="save a checkpoint every N environment steps (0: never; default: 50000)",
+        default=DEFAULTS.checkpoint_freq,
+        help=f"save a checkpoint every N environment steps (0: never; default: {DEFAULTS.checkpoint_freq})",
     )
     parser.add_argument(
-        "--torch-threads", dest="torch_threads", type=int, default=1, help="torch threads (default: 1)"
+        "--torch-threads",
+        dest="torch_threads",
+        type=int,
+        default=DEFAULTS.torch_threads,
+        help=f"torch threads (default: {DEFAULTS.torch_threads})",
     )
-    parser.add_argument("--verbose", type=int, default=0, help="SB3 verbosity (default: 0)")
+    parser.add_argument(
+        "--verbose", type=int, default=DEFAULTS.verbose, help=f"SB3 verbosity (default: {DEFAULTS.verbose})"
+    )
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
 
-def default_out(algo: str, env_id: str, scenario: str | None, seed: int) -> Path:
-    """``leaderboards/models/ALGO-NAME-sSEED.zip``; NAME from the scenario flag or the id."""
-    from baselines.train import DEFAULT_NAMES
-
-    if scenario is None:
-        name = DEFAULT_NAMES.get(env_id, env_id)
-    else:
-        name = Path(scenario).stem if scenario.endswith((".yaml", ".yml")) else scenario
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
-    return DEFAULT_MODELS / f"{algo.lower()}-{name}-s{seed}.zip"
-
-
 def _scenario(args: argparse.Namespace) -> Any:
-    from uav_penetration_env.benchmark.cli import CLIError, resolve_scenarios
-
     if args.scenario is None:
         return None
     difficulty = 0.5 if args.difficulty is None else args.difficulty
-    try:
-        scenarios = resolve_scenarios([args.scenario], args.profile, None, difficulty)
-    except CLIError as error:  # the shared parser names run's plural flag
-        raise CLIError(str(error).replace("--scenarios", "--scenario")) from None
+    scenarios = resolve_scenarios([args.scenario], args.profile, None, difficulty, flag="--scenario")
     if len(scenarios) != 1:
         raise CLIError(
             f"--scenario: got {args.scenario!r} ({len(scenarios)} scenarios), expected one scenario"
@@ -106,7 +114,6 @@ def _scenario(args: argparse.Namespace) -> Any:
 
 
 def _is_random(env_id: str) -> bool:
-    from baselines.train import vector_class
     from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
 
     cls = vector_class(env_id)
@@ -122,8 +129,8 @@ def train_command(args: argparse.Namespace) -> int:
     Raises:
         CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
     """
-    from baselines.train import prepare_training, run_training
-    from uav_penetration_env.benchmark.cli import CLIError
+    from baselines.plan import prepare_training
+    from baselines.run import run_training
 
     scenario = _scenario(args)
     difficulty = args.difficulty
@@ -134,15 +141,16 @@ def train_command(args: argparse.Namespace) -> int:
             f"--difficulty: applies to --env-id UAVPenetrationRandom-v0 or a --scenario random:SEED, "
             f"not to {args.scenario or args.env_id}"
         )
-    out = Path(args.out) if args.out else default_out(args.algo, args.env_id, args.scenario, args.seed)
+    # The default file is named after the scenario as typed (``paper``), not the resolved name.
+    out = Path(args.out) if args.out else default_model_path(args.algo, args.env_id, args.scenario, args.seed)
+    config = TrainConfig(
+        algo=args.algo, env_id=args.env_id, scenario=scenario, total_timesteps=args.timesteps, seed=args.seed,
+        n_envs=args.n_envs, out=out, hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,
+        eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
+        progress_bar=args.progress, verbose=args.verbose, torch_threads=args.torch_threads,
+    )  # fmt: skip
     try:
-        plan = prepare_training(
-            args.algo, args.env_id, scenario, args.timesteps, args.seed, args.n_envs, out,
-            hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,
-            eval_freq=args.eval_freq, eval_episodes=args.eval_episodes,
-            checkpoint_freq=args.checkpoint_freq, progress_bar=args.progress, verbose=args.verbose,
-            torch_threads=args.torch_threads,
-        )  # fmt: skip
+        plan = prepare_training(config)
     except (ValueError, FileNotFoundError) as error:
         raise CLIError(str(error)) from None
     where = f"scenario {args.scenario}" if args.scenario else args.env_id

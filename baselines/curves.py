@@ -1,5 +1,7 @@
 """Learning curves of trained agents: evaluation cost against timesteps, mean and spread over seeds.
 
+``uav-bench plot --models DIR`` (a plug-in extension of ``plot``, :mod:`baselines.plugin`) draws them.
+
 Reads the ``<model>.evaluations.csv`` files and ``<model>.json`` sidecars that :func:`train_agent`
 writes (no torch needed) and draws one panel per training regime (the env id and scenario the
 agents trained on) with one line per algorithm: the mean over training seeds of the mean
@@ -9,6 +11,7 @@ between the best and worst seed.
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -131,3 +134,55 @@ def write_learning_curves(
         figure.savefig(path, metadata={"CreationDate": None} if fmt == "pdf" else None)
         written.append(path)
     return written
+
+
+# --- `uav-bench plot --models` ----------------------------------------------------------------------
+
+
+def add_curve_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags ``--models`` and ``--reference-line`` of ``uav-bench plot``."""
+    parser.add_argument("--models", help="instead: learning curves of the trained models in this folder")
+    parser.add_argument(
+        "--reference-line",
+        dest="reference_line",
+        action="append",
+        help="with --models: SCENARIO:LABEL=VALUE dashed line (repeatable)",
+    )
+
+
+def parse_reference(text: str) -> tuple[str, float]:
+    """``SCENARIO:LABEL=VALUE`` (a dashed reference line on learning-curve panels of that scenario).
+
+    Raises:
+        CLIError: another form.
+    """
+    from uav_penetration_env.benchmark.commands.common import CLIError
+
+    try:
+        key, value = text.rsplit("=", 1)
+        return key, float(value)
+    except ValueError:
+        raise CLIError(
+            f"--reference-line: got {text!r}, expected SCENARIO:LABEL=VALUE, e.g. paper-2022-sec5:greedy=17.2"
+        ) from None
+
+
+def curves_command(args: argparse.Namespace) -> int:
+    """Draw ``learning-curves.{png,pdf}`` from ``--models`` into ``--out`` and print the paths.
+
+    Raises:
+        CLIError: ``--models`` is not a folder or holds no evaluations, a bad ``--reference-line``,
+            an unwritable ``--out``.
+    """
+    from uav_penetration_env.benchmark.commands.common import CLIError, check_writable_folder
+
+    check_writable_folder(Path(args.out), "--out")
+    if not Path(args.models).is_dir():
+        raise CLIError(f"--models: {args.models} is not a folder of trained models")
+    references = dict(parse_reference(r) for r in args.reference_line or [])
+    written = write_learning_curves(args.models, Path(args.out), references=references)
+    if not written:
+        raise CLIError(f"--models: no *.evaluations.csv with a .json sidecar in {args.models}")
+    for path in written:
+        print(path)
+    return 0

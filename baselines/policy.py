@@ -170,7 +170,7 @@ class SB3Policy:
         try:
             import torch
 
-            from baselines.train import algorithm_class
+            from baselines.hyperparameters import algorithm_class
         except ImportError as error:  # pragma: no cover - depends on the installed extras
             raise ImportError(f"sb3 policies need the RL extra: pip install -e '.[rl]' ({error})") from error
         # One intra-op thread: evaluation workers run one per core, and a 64x64 MLP gains nothing

@@ -30,9 +30,9 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices,
 
 import uav_penetration_env  # noqa: F401  (importing registers the env ids)
 
-# Attributes that differ per sub-env: read from the batched env's per-row arrays. Every other
-# attribute is the batched env's own, shared by all sub-envs.
-PER_ENV_ATTRIBUTES = {"scenario": "_scenarios", "state": "_states", "step_index": "_steps"}
+# Attributes that differ per sub-env: read from the batched env's read-only per-env view. Every
+# other attribute is the batched env's own, shared by all sub-envs.
+PER_ENV_ATTRIBUTES = {"scenario": "scenarios", "state": "states", "step_index": "step_indices"}
 # Keys of the native env's info that are SAME_STEP bookkeeping, not per-transition data.
 _AUTORESET_KEYS = ("final_obs", "final_info")
 

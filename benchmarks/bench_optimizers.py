@@ -6,12 +6,18 @@ dimension, the median final error ``f - f*`` with its interquartile range and th
 A second table gives each optimiser's own overhead per iteration (wall time outside the objective)
 at 100 particles x 15 dimensions, the MPC planner's batch shape.
 
+``--biased`` runs the biased-initialisation case instead (issue 17, docs/swarm.md): the sphere
+``sum x^2`` in [-100, 100]^d with every swarm started in [50, 100]^d, under each boundary rule, 30-D,
+30,000 evaluations, 10 seeds; it prints per swarm optimiser and rule the median final error and the share
+of runs that end with a coordinate exactly on a wall (stuck).
+
 Usage::
 
     python benchmarks/bench_optimizers.py                 # full: 10-D and 30-D, 10 seeds
     python benchmarks/bench_optimizers.py --dims 10       # 10-D only
     python benchmarks/bench_optimizers.py --quick         # smoke run: 5-D, 2 seeds, small budgets
     python benchmarks/bench_optimizers.py --optimizers ihpso pso --seeds 3 --csv results.csv
+    python benchmarks/bench_optimizers.py --biased           # biased start, every swarm x every rule
 
 This is a script, not a test: the numbers are for orientation (compare with optimizers.md §12).
 """
@@ -29,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optimizers import available_optimizers, get_optimizer
+from optimizers.swarm import BOUNDARY_RULES, SwarmOptimizer
 
 SHIFT = 1.5
 
@@ -98,6 +105,89 @@ def run_one(optimizer: str, problem: str, dim: int, seed: int, max_evals: int) -
         "error": float(res.fun), "nfev": int(res.nfev), "nit": int(res.nit), "seconds": seconds,
         "message": res.message,
     }
+
+
+BIASED_BOUNDS = (-100.0, 100.0)
+BIASED_START = (50.0, 100.0)
+
+
+def plain_sphere(x: np.ndarray) -> np.ndarray:
+    """Sphere ``sum x^2`` (minimum 0 at the origin): the biased-initialisation case."""
+    return (x * x).sum(axis=1)
+
+
+def run_biased(optimizer: str, rule: str, dim: int, seed: int, max_evals: int) -> dict:
+    """One biased-start run: sphere in [-100, 100]^d, swarm initialised in [50, 100]^d, one boundary rule.
+
+    A run is *stuck* when its best point has a coordinate exactly on a wall: with the optimum at the
+    origin, such a coordinate alone costs 100^2 = 10^4.
+    """
+    lower, upper = BIASED_BOUNDS
+    opt = get_optimizer(optimizer, boundary=rule, init_bounds=[BIASED_START] * dim)
+    res = opt.minimize(plain_sphere, [BIASED_BOUNDS] * dim, rng=seed, max_evals=max_evals)
+    return {
+        "optimizer": optimizer, "boundary": rule, "dim": dim, "seed": seed, "max_evals": max_evals,
+        "error": float(res.fun), "stuck": bool(np.any((res.x == lower) | (res.x == upper))),
+        "nfev": int(res.nfev),
+    }
+
+
+def print_biased_table(rows: list[dict], optimizers: Sequence[str], dim: int, budget: int, seeds: int) -> None:
+    """Median final error and share of stuck runs per swarm optimiser and boundary rule."""
+    print(f"\nBiased start: sphere in [{BIASED_BOUNDS[0]:g}, {BIASED_BOUNDS[1]:g}]^{dim} initialised in "
+          f"[{BIASED_START[0]:g}, {BIASED_START[1]:g}]^{dim}, budget {budget} evaluations, {seeds} seeds: "
+          "median final error / share of runs with a coordinate stuck on a wall")
+    width = 18
+    header = f"{'optimizer':<15}" + "".join(f"{rule:<{width}}" for rule in BOUNDARY_RULES)
+    print(header)
+    print("-" * len(header))
+    for name in optimizers:
+        cells = []
+        for rule in BOUNDARY_RULES:
+            sel = [r for r in rows if r["optimizer"] == name and r["boundary"] == rule]
+            errors = np.array([r["error"] for r in sel])
+            stuck = sum(r["stuck"] for r in sel)
+            cells.append(f"{fmt(float(np.median(errors)))} {stuck}/{len(sel)}")
+        print(f"{name:<15}" + "".join(f"{c:<{width}}" for c in cells))
+
+
+def run_tasks(function: Callable[..., dict], tasks: list[tuple], n_jobs: int) -> list[dict]:
+    """Run ``function(*task)`` for every task, in ``n_jobs`` joblib workers (1 = in this process)."""
+    start = time.perf_counter()
+    if n_jobs == 1:
+        rows = [function(*task) for task in tasks]
+    else:
+        from joblib import Parallel, delayed
+
+        rows = Parallel(n_jobs=n_jobs)(delayed(function)(*task) for task in tasks)
+    print(f"done in {time.perf_counter() - start:.0f} s", flush=True)
+    return rows
+
+
+def write_csv(path: str, rows: list[dict]) -> None:
+    """Write every run as a CSV row."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"\nwrote {len(rows)} rows to {path}")
+
+
+def biased_main(args: argparse.Namespace) -> int:
+    """The ``--biased`` run: every swarm optimiser under every boundary rule."""
+    dim = (args.dims or ([5] if args.quick else [30]))[0]
+    seeds = args.seeds or (2 if args.quick else 10)
+    budget = (args.evals_per_dim or (200 if args.quick else 1_000)) * dim
+    names = [n for n in (args.optimizers or available_optimizers())
+             if isinstance(get_optimizer(n), SwarmOptimizer)]
+    tasks = [(name, rule, dim, seed, budget) for name in names for rule in BOUNDARY_RULES for seed in range(seeds)]
+    print(f"{len(tasks)} runs: {len(names)} swarm optimisers x {len(BOUNDARY_RULES)} boundary rules x {seeds} "
+          f"seeds, {dim}-D, {args.n_jobs} worker(s)", flush=True)
+    rows = run_tasks(run_biased, tasks, args.n_jobs)
+    print_biased_table(rows, names, dim, budget, seeds)
+    if args.csv:
+        write_csv(args.csv, rows)
+    return 0
 
 
 class TimedObjective:
@@ -175,6 +265,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--no-overhead", action="store_true", help="skip the overhead table")
     parser.add_argument("--overhead-repeats", type=int, default=None, help="seeds per overhead figure (default 3)")
     parser.add_argument("--csv", default=None, help="also write every run as a CSV row to this file")
+    parser.add_argument("--biased", action="store_true",
+                        help="run the biased-initialisation case instead (first of --dims, default 30)")
     return parser.parse_args(argv)
 
 
@@ -189,6 +281,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     unknown = sorted(set(names) - set(available_optimizers()))
     if unknown:
         get_optimizer(unknown[0])  # raises KeyError with suggestions
+    if args.biased:
+        return biased_main(args)
     repeats = args.overhead_repeats or (1 if args.quick else 3)
     overhead_evals = 2_000 if args.quick else 10_000
 
@@ -196,14 +290,7 @@ def main(argv: Sequence[str] | None = None) -> int:
              for dim in dims for name in names for problem in problems for seed in range(seeds)]
     print(f"{len(tasks)} runs: {len(names)} optimisers x {len(problems)} functions x dims {dims} x {seeds} seeds, "
           f"{args.n_jobs} worker(s)", flush=True)
-    start = time.perf_counter()
-    if args.n_jobs == 1:
-        rows = [run_one(*task) for task in tasks]
-    else:
-        from joblib import Parallel, delayed
-
-        rows = Parallel(n_jobs=args.n_jobs)(delayed(run_one)(*task) for task in tasks)
-    print(f"done in {time.perf_counter() - start:.0f} s")
+    rows = run_tasks(run_one, tasks, args.n_jobs)
 
     for dim in dims:
         print_results_table(rows, names, problems, dim, per_dim * dim, seeds)
@@ -217,11 +304,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{name:<15}{ms:>14.3f}")
 
     if args.csv:
-        with open(args.csv, "w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-        print(f"\nwrote {len(rows)} rows to {args.csv}")
+        write_csv(args.csv, rows)
     return 0
 
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -34,6 +34,34 @@ MESSAGE_INIT_EXHAUSTED = "budget exhausted during initialisation"
 NO_FINITE_SUFFIX = "; no finite cost found"
 
 
+class ReadOnlyMapping(Mapping[str, Any]):
+    """A read-only mapping that pickles and deep-copies (``OptimizeResult.trace``).
+
+    ``types.MappingProxyType`` would be read-only too, but it cannot be pickled, and results travel
+    between worker processes.
+
+    Args:
+        data: The items (copied).
+    """
+
+    __slots__ = ("_data",)
+
+    def __init__(self, data: Mapping[str, Any] | None = None) -> None:
+        self._data = dict(data or {})
+
+    def __getitem__(self, key: str) -> Any:
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._data!r})"
+
+
 @dataclass(frozen=True, eq=False)
 class OptimizeResult:
     """What an optimiser returns (scipy's names; optimizers.md §1).
@@ -49,6 +77,11 @@ class OptimizeResult:
         history: (nit + 1,) best-so-far cost after initialisation and after each iteration.
         history_nfev: (nit + 1,) evaluations spent at each history entry.
         message: Why the optimiser stopped.
+        trace: A read-only record of the run's state machine, for optimisers with phases (empty for the
+            others). Keys per optimiser (docs/swarm.md §6): HPSO ``stage1_iterations``,
+            ``stage2_start``, ``regroup_iterations``; IHPSO ``mode``, ``switch_iterations``,
+            ``reverse_switch_iterations``, ``termination_tests``, ``locked_at``, ``stopped_by``; PS2O
+            ``extinctions``; LPSO ``global_best_from``. Sequences are tuples; iterations count from 1.
     """
 
     x: FloatArray
@@ -58,6 +91,11 @@ class OptimizeResult:
     history: FloatArray
     history_nfev: IntArray
     message: str
+    trace: Mapping[str, Any] = field(default_factory=ReadOnlyMapping)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.trace, ReadOnlyMapping):
+            object.__setattr__(self, "trace", ReadOnlyMapping(self.trace))
 
 
 @runtime_checkable
@@ -362,13 +400,14 @@ class BudgetedObjective:
         self._history.append(self.best_f)
         self._history_nfev.append(self.nfev)
 
-    def result(self, nit: int, message: str) -> OptimizeResult:
+    def result(self, nit: int, message: str, trace: Mapping[str, Any] | None = None) -> OptimizeResult:
         """Build the :class:`OptimizeResult` from the tracker and the recorded history.
 
         Args:
             nit: Iterations after initialisation; the history must hold ``nit + 1`` entries.
             message: Why the run stopped; ``"; no finite cost found"`` is appended when no cost was
                 finite.
+            trace: The run's state-machine trace (see :class:`OptimizeResult`); empty if ``None``.
 
         Returns:
             The result, with ``x`` the best evaluated row (or the first evaluated row if none was finite).
@@ -394,6 +433,7 @@ class BudgetedObjective:
             history=np.array(self._history, dtype=np.float64),
             history_nfev=np.array(self._history_nfev, dtype=np.int64),
             message=message,
+            trace=ReadOnlyMapping(trace),
         )
 
 
@@ -463,3 +503,34 @@ def replace_params(instance: object, **overrides: object) -> object:
             f"{type(instance).__name__} has no parameter {unknown[0]!r}; parameters: {', '.join(names)}"
         )
     return dataclasses.replace(instance, **overrides)
+
+
+class OptimizerBase:
+    """The ``minimize`` every optimiser of this package shares: validate, then :meth:`solve` (§1).
+
+    A subclass (usually a frozen dataclass of hyper-parameters) implements only :meth:`solve`, which
+    receives the validated :class:`Problem` (bounds, clipped warm start, budgeted objective) and the
+    run's Generator. The swarms implement it once, in :class:`optimizers.swarm.SwarmOptimizer`.
+    """
+
+    def minimize(
+        self,
+        fun: BatchObjective,
+        bounds: BoundsLike,
+        *,
+        rng: RNGLike | None = None,
+        max_evals: int = 10_000,
+        x0: ArrayLike | None = None,
+    ) -> OptimizeResult:
+        """Minimise ``fun`` inside ``bounds`` (see :class:`Optimizer`; the details are in :meth:`solve`).
+
+        Raises:
+            ValueError: For bad bounds, ``max_evals`` or ``x0`` (and the optimiser's own checks).
+            TypeError: If ``fun`` is not callable.
+        """
+        generator = np.random.default_rng(rng)
+        return self.solve(prepare(fun, bounds, max_evals, x0), generator)
+
+    def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:
+        """Run the optimiser on a validated problem; the only source of randomness is ``rng``."""
+        raise NotImplementedError

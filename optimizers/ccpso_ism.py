@@ -12,36 +12,16 @@ Slow convergence at 10^4 evaluations is the design, not a bug (§9).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import count
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optimizers.base import (
-    MESSAGE_INIT_EXHAUSTED,
-    MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
-    FloatArray,
-    IntArray,
-    OptimizeResult,
-    RNGLike,
-    is_int,
-    is_real,
-    prepare,
-    require,
-)
+from optimizers.base import FloatArray, IntArray, is_int, is_real, require
 from optimizers.registry import register_optimizer
-from optimizers.swarm import (
-    attractor_velocity,
-    clamp_velocity,
-    cost_rank,
-    init_positions,
-    move_within_bounds,
-    planned_iterations,
-    update_personal_best,
-    velocity_limit,
-)
+from optimizers.swarm import Swarm, SwarmOptimizer, attractor_velocity, cost_rank
 
 
 def competition_size(t: int, planned: int, n: int) -> int:
@@ -118,7 +98,7 @@ def refresh_exemplar(
 
 @register_optimizer("ccpso-ism")
 @dataclass(frozen=True)
-class CCPSOISM:
+class CCPSOISM(SwarmOptimizer):
     """Competitive and cooperative PSO with information sharing (optimizers.md §9).
 
     Attributes:
@@ -127,6 +107,8 @@ class CCPSOISM:
         acceleration: c.
         refreshing_gap: G_r, stalled iterations before the exemplar is refreshed.
         learning_probability: p_l, per dimension.
+
+    The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`.
     """
 
     swarm_size: int = 100  # N (budget fairness)
@@ -136,6 +118,7 @@ class CCPSOISM:
     learning_probability: float = 0.05  # p_l, [S] implementation
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         name = type(self).__name__
         require(is_int(self.swarm_size) and self.swarm_size >= 1, name, "swarm_size", self.swarm_size,
                 "an integer >= 1")
@@ -147,47 +130,20 @@ class CCPSOISM:
         require(is_real(self.learning_probability) and 0 <= self.learning_probability <= 1, name,
                 "learning_probability", self.learning_probability, "a number in [0, 1]")
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`)."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
-        objective, lo, hi = problem.objective, problem.lo, problem.hi
-        n, d = self.swarm_size, problem.dim
-        vmax = velocity_limit(lo, hi)
-        planned = planned_iterations(objective.max_evals, n)
-
-        x = init_positions(rng.random((n, d)), lo, hi, problem.x0)
-        v = np.zeros_like(x)
-        f = objective(x)
-        pbest, f_pbest = x.copy(), f.copy()
-        objective.record()
-        if objective.max_evals < n:
-            return objective.result(0, MESSAGE_INIT_EXHAUSTED)
-        exemplar = x.copy()  # E_i = the initial pbest
+    def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[None]:
+        """One iteration per ``next``: the CC operator on stalled particles, velocity, move (§9 step 1)."""
+        n, d = swarm.n, swarm.d
+        exemplar = swarm.x.copy()  # E_i = the initial pbest
         stall = np.zeros(n, dtype=np.int64)  # s_i
-
-        t = 0
-        while objective.remaining > 0:
-            t += 1
-            k = competition_size(t, planned, n)
+        for t in count(1):
+            k = competition_size(t, swarm.planned, n)
             refresh = stall >= self.refreshing_gap
             if refresh.any():  # the CC operator; s_i is not reset by a refresh
                 learn = learning_slots(refresh, rng.random((n, d)), self.learning_probability)
                 candidates = random_candidates(rng.random((int(learn.sum()), n)), k)
-                exemplar = refresh_exemplar(exemplar, pbest, f_pbest, refresh, learn, candidates)
+                exemplar = refresh_exemplar(exemplar, swarm.pbest, swarm.f_pbest, refresh, learn, candidates)
             r = rng.random((1, n, d))
-            v = attractor_velocity(v, x, (exemplar,), (self.acceleration,), r, self.inertia)
-            x, v = move_within_bounds(x, clamp_velocity(v, vmax), lo, hi)
-            f = objective(x)
-            pbest, f_pbest, improved = update_personal_best(x, f, pbest, f_pbest)
-            objective.record()
+            improved = swarm.fly(attractor_velocity(swarm.v, swarm.x, (exemplar,), (self.acceleration,), r,
+                                                    self.inertia))
             stall = np.where(improved, 0, stall + 1)
-        return objective.result(t, MESSAGE_MAX_EVALS)
+            yield None

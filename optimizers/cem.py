@@ -12,19 +12,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from optimizers.base import (
     MESSAGE_INIT_EXHAUSTED,
     MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
     FloatArray,
+    OptimizerBase,
     OptimizeResult,
-    RNGLike,
+    Problem,
     is_int,
     is_real,
-    prepare,
     require,
 )
 from optimizers.registry import register_optimizer
@@ -77,7 +74,7 @@ def cem_update(
 
 @register_optimizer("cem")
 @dataclass(frozen=True)
-class CEM:
+class CEM(OptimizerBase):
     """Cross-entropy method in normalised coordinates (optimizers.md §3b, D31).
 
     Attributes:
@@ -112,18 +109,8 @@ class CEM:
         """Number of elite samples, ``max(1, round(elite_fraction · population_size))`` (10 by default)."""
         return max(1, round(self.elite_fraction * self.population_size))
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); ``x0`` is the first mean and sample."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
+    def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:
+        """Minimise ``fun`` (see :meth:`optimizers.base.OptimizerBase.minimize`); ``x0`` is the first mean and sample."""
         objective, lo, hi = problem.objective, problem.lo, problem.hi
         n, d = self.population_size, problem.dim
         start = None if problem.x0 is None else np.clip(normalise(problem.x0, lo, hi), 0.0, 1.0)

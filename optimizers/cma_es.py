@@ -15,18 +15,15 @@ from functools import partial
 
 import numpy as np
 from cmaes import CMA
-from numpy.typing import ArrayLike
 
 from optimizers.base import (
     MESSAGE_INIT_EXHAUSTED,
     MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
+    OptimizerBase,
     OptimizeResult,
-    RNGLike,
+    Problem,
     is_int,
     is_real,
-    prepare,
     require,
 )
 from optimizers.registry import register_optimizer
@@ -35,7 +32,7 @@ from optimizers.swarm import normalise
 
 @register_optimizer("cmaes")
 @dataclass(frozen=True)
-class CMAES:
+class CMAES(OptimizerBase):
     """CMA-ES (``cmaes.CMA``) in normalised coordinates with IPOP restarts (optimizers.md §3b).
 
     Attributes:
@@ -59,24 +56,14 @@ class CMAES:
                 "an integer >= 1")
         require(isinstance(self.restart, bool), name, "restart", self.restart, "True or False")
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); ``x0`` is the first mean and solution.
+    def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:
+        """Minimise ``fun`` (see :meth:`optimizers.base.OptimizerBase.minimize`); ``x0`` is the first mean and solution.
 
         DECISION: an IPOP restart starts from a mean drawn uniformly in the box (the usual IPOP
         practice; the spec names only the doubled population), with ``sigma`` as at the start and a
         fresh package seed. A generation whose evaluation the budget cuts short is not told to CMA-ES.
         Without ``restart`` the run still spends the whole budget: the stopped state keeps sampling.
         """
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
         objective, lo, hi = problem.objective, problem.lo, problem.hi
         d = problem.dim
         unit_box = np.tile([0.0, 1.0], (d, 1))

@@ -14,22 +14,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
 from scipy.optimize import Bounds, differential_evolution
 from scipy.stats import qmc
 
 from optimizers.base import (
     MESSAGE_INIT_EXHAUSTED,
     MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
     FloatArray,
+    OptimizerBase,
     OptimizeResult,
-    RNGLike,
+    Problem,
     coerce_pair,
     is_int,
     is_real,
-    prepare,
     require,
 )
 from optimizers.registry import register_optimizer
@@ -70,7 +67,7 @@ def latin_hypercube(
 
 @register_optimizer("de")
 @dataclass(frozen=True)
-class DE:
+class DE(OptimizerBase):
     """scipy's differential evolution, budgeted and restarted (optimizers.md §3b).
 
     Attributes:
@@ -96,24 +93,14 @@ class DE:
         require(is_real(self.recombination) and 0 <= self.recombination <= 1, name, "recombination",
                 self.recombination, "a number in [0, 1]")
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); ``x0`` is row 0 of the first population.
+    def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:
+        """Minimise ``fun`` (see :meth:`optimizers.base.OptimizerBase.minimize`); ``x0`` is row 0 of the first population.
 
         DECISION: scipy evaluates its population through an internal ``[0, 1]`` scaling that
         round-trips points only to within rounding. The wrapper therefore clips every row into the
         bounds (so ``fun`` sees exactly in-bounds rows, §1) and evaluates ``x0`` itself, exactly, as row 0
         of the first batch. Restarts draw a fresh Latin-hypercube population without ``x0``.
         """
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
         objective, lo, hi = problem.objective, problem.lo, problem.hi
         n, d = self.population_size, problem.dim
         sampler = qmc.LatinHypercube(d, rng=rng)

@@ -1,7 +1,7 @@
 """IHPSO: improved holonic PSO (Luo, Liang & Li 2022, the seed paper §3.2-3.3).
 
-optimizers.md §5. IHPSO keeps HPSO's three holonic levels and velocity rules (§4: D8, D9, D10, D12)
-and replaces three things:
+optimizers.md §5. IHPSO keeps HPSO's three holonic levels and velocity rules (§4: D8, D9, D10, D12;
+shared through ``swarm.py``) and replaces three things:
 
 1. random grouping, by clustering (near particles together) and information-entropy grouping (far
    particles together), both cut from one average-linkage dendrogram (§5.1, D13, D14);
@@ -16,42 +16,27 @@ accurate search. IHPSO has no planned-iteration schedule: it runs until eq. 33 h
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import lru_cache, partial
+from itertools import count
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.cluster.hierarchy import leaves_list, linkage
 from scipy.spatial.distance import pdist
 
-from optimizers.base import (
-    MESSAGE_INIT_EXHAUSTED,
-    MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
-    FloatArray,
-    IntArray,
-    OptimizeResult,
-    RNGLike,
-    coerce_pair,
-    is_int,
-    is_real,
-    prepare,
-    require,
-)
-from optimizers.hpso import holonic_attractors, holonic_velocity, validate_holonic
+from optimizers.base import FloatArray, IntArray, coerce_pair, is_int, is_real, require
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
-    clamp_velocity,
+    Swarm,
+    SwarmOptimizer,
     group_sizes,
-    init_positions,
+    holonic_attractors,
+    holonic_velocity,
     labels_from_order,
-    move_within_bounds,
-    normalise,
     random_equal_groups,
-    update_personal_best,
-    velocity_limit,
+    validate_holonic,
 )
 
 MESSAGE_TERMINATED = "adaptive termination (eqs. 29-33)"
@@ -299,7 +284,7 @@ def slope_is_zero(slope: float, level: float | None, atol: float = 1e-12, rtol: 
 
 @register_optimizer("ihpso")
 @dataclass(frozen=True)
-class IHPSO:
+class IHPSO(SwarmOptimizer):
     """Improved holonic PSO (Luo, Liang & Li 2022; optimizers.md §5).
 
     Attributes:
@@ -319,6 +304,9 @@ class IHPSO:
         terminate: Stop when eq. 33 holds (else lock accurate mode, D20).
         linkage: Agglomerative linkage method (D13).
         entropy_eps: ε in ``1 / (distance + ε)`` (D14).
+
+    The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`. ``minimize`` may
+    stop before the budget is spent (eq. 33, message ``"adaptive termination (eqs. 29-33)"``).
     """
 
     swarm_size: int = 100  # N, seed §5
@@ -339,6 +327,7 @@ class IHPSO:
     entropy_eps: float = 1e-12  # DECISION: optimizers.md D14
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         validate_holonic(self)
         name = type(self).__name__
         scheme = coerce_pair(self, "scheme")
@@ -374,83 +363,80 @@ class IHPSO:
         return dendrogram_groups(U, self.n_groups, inverse=method == "entropy", method=self.linkage,
                                  eps=self.entropy_eps)
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); may stop early (eq. 33)."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
-        objective, lo, hi = problem.objective, problem.lo, problem.hi
-        n, d = self.swarm_size, problem.dim
-        vmax = velocity_limit(lo, hi)
+    def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[str | None]:
+        """One iteration per ``next`` (§5.4 steps 1.1-1.5); yields the stop message on eq. 33.
+
+        Trace (docs/swarm.md §6): ``mode`` (the search mode each iteration moved in, ``"broad"`` or
+        ``"accurate"``), ``switch_iterations`` (iterations after which broad search switched to accurate,
+        eqs. 25-28), ``reverse_switch_iterations`` (accurate back to broad: zero slope but eq. 33 false),
+        ``termination_tests`` (``(t, passed)`` for every evaluation of eq. 33), ``locked_at`` (the
+        iteration accurate mode was locked, ``ihpso-noterm`` only) and ``stopped_by``
+        (``"termination"`` for eq. 33, ``"max_evals"`` otherwise).
+        """
+        n, d = swarm.n, swarm.d
         w_low, w_high = self.inertia_range
         broad_method, accurate_method = self.scheme
+        trace = swarm.trace
+        modes: list[str] = []
+        switches: list[int] = []
+        reverse_switches: list[int] = []
+        tests: list[tuple[int, bool]] = []
+        trace.update(mode=modes, switch_iterations=switches, reverse_switch_iterations=reverse_switches,
+                     termination_tests=tests, locked_at=None, stopped_by="max_evals")
 
-        # Step 0 (§5.4): initialise, J(0), broad mode grouped by scheme[0].
-        x = init_positions(rng.random((n, d)), lo, hi, problem.x0)
-        v = np.zeros_like(x)
-        f = objective(x)
-        pbest, f_pbest = x.copy(), f.copy()
-        objective.record()
-        if objective.max_evals < n:
-            return objective.result(0, MESSAGE_INIT_EXHAUSTED)
-        level = fitness_level(f_pbest)
+        # Step 0 (§5.4) after initialisation: J(0), broad mode grouped by scheme[0].
+        level = fitness_level(swarm.f_pbest)
         slopes: list[float] = [math.inf]  # slopes[t] = k_t; k_0 is never used
         accurate = False
         locked = False
-        labels = self.group(broad_method, normalise(x, lo, hi), rng)
+        labels = self.group(broad_method, swarm.normalised(), rng)
         phase_start = 0  # t0 (D18)
         since_grouping = 0
 
-        t = 0
-        message = MESSAGE_MAX_EVALS
-        while objective.remaining > 0:
-            t += 1
+        for t in count(1):
             # Step 1.1: periodic regrouping, broad mode only.
             if not accurate and since_grouping == self.regroup_period:
-                labels = self.group(broad_method, normalise(x, lo, hi), rng)  # DECISION: optimizers.md D11
+                labels = self.group(broad_method, swarm.normalised(), rng)  # DECISION: optimizers.md D11
                 since_grouping = 0
             # Step 1.2: attractors and velocity (eq. 22 broad, eq. 23 accurate).
-            attractors = holonic_attractors(pbest, f_pbest, labels)
+            attractors = holonic_attractors(swarm.pbest, swarm.f_pbest, labels)
             w = rng.uniform(w_low, w_high, size=(n, 1))  # DECISION: optimizers.md D28
             r = rng.random((3, n, d))
             sign = float(self.stage2_sign) if accurate else 1.0
-            v = holonic_velocity(v, x, attractors, r, w, acceleration=self.acceleration,
-                                 constriction=self.constriction, sign=sign)
-            # Step 1.3: clamp, move, evaluate, pbest, history, fitness level and slope.
-            x, v = move_within_bounds(x, clamp_velocity(v, vmax), lo, hi)
-            f = objective(x)
-            pbest, f_pbest, _ = update_personal_best(x, f, pbest, f_pbest)
-            objective.record()
+            # Step 1.3: clamp, move, evaluate, pbest (the loop records the history), level and slope.
+            swarm.fly(holonic_velocity(swarm.v, swarm.x, attractors, r, w, acceleration=self.acceleration,
+                                       constriction=self.constriction, sign=sign))
+            modes.append("accurate" if accurate else "broad")
             since_grouping += 1
-            previous, level = level, fitness_level(f_pbest)  # DECISION: optimizers.md D16
+            previous, level = level, fitness_level(swarm.f_pbest)  # DECISION: optimizers.md D16
             slopes.append(fitness_slope(level, previous))
+            stop = None
             # Step 1.4: broad -> accurate (eqs. 25-28, window D18).
             if not accurate:
                 if switch_due(slopes, t, phase_start, self.switch_lag, self.switch_weight, self.jump_factor):
                     accurate = True
-                    labels = self.group(accurate_method, normalise(x, lo, hi), rng)
+                    switches.append(t)
+                    labels = self.group(accurate_method, swarm.normalised(), rng)
                     since_grouping = 0
             # Step 1.5: accurate mode with a zero slope: terminate, lock, or go back to broad search.
             elif not locked and slope_is_zero(slopes[t], level, self.slope_atol, self.slope_rtol):
-                U = normalise(x, lo, hi)
-                if termination_test(U, self.n_groups, method=self.linkage, eps=self.entropy_eps):
+                U = swarm.normalised()
+                converged = termination_test(U, self.n_groups, method=self.linkage, eps=self.entropy_eps)
+                tests.append((t, converged))
+                if converged:
                     if self.terminate:
-                        message = MESSAGE_TERMINATED  # DECISION: optimizers.md D20
-                        break
-                    locked = True
+                        trace["stopped_by"] = "termination"
+                        stop = MESSAGE_TERMINATED  # DECISION: optimizers.md D20
+                    else:
+                        locked = True
+                        trace["locked_at"] = t
                 else:
                     accurate = False
                     phase_start = t
+                    reverse_switches.append(t)
                     labels = self.group(broad_method, U, rng)
                     since_grouping = 0
-        return objective.result(t, message)
+            yield stop
 
 
 register_optimizer("ihpso-scheme1")(partial(IHPSO, scheme=("cluster", "cluster")))

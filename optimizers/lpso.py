@@ -9,39 +9,23 @@ iterations; afterwards LPSO is a global-best PSO with these coefficients. That i
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import count
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.distance import pdist, squareform
 
-from optimizers.base import (
-    MESSAGE_INIT_EXHAUSTED,
-    MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
-    FloatArray,
-    IntArray,
-    OptimizeResult,
-    RNGLike,
-    coerce_pair,
-    is_int,
-    is_real,
-    prepare,
-    require,
-)
-from optimizers.pso import pso_velocity
+from optimizers.base import FloatArray, IntArray, is_int, is_real, require
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
-    clamp_velocity,
+    Swarm,
+    SwarmOptimizer,
     cost_rank,
-    init_positions,
     linear_schedule,
-    move_within_bounds,
-    normalise,
-    planned_iterations,
-    update_personal_best,
-    velocity_limit,
+    pso_velocity,
+    validate_schedule,
 )
 
 
@@ -91,7 +75,7 @@ def spatial_neighbourhood_best(U: ArrayLike, f_pbest: ArrayLike, frac: float) ->
 
 @register_optimizer("lpso")
 @dataclass(frozen=True)
-class LPSO:
+class LPSO(SwarmOptimizer):
     """PSO with a growing spatial neighbourhood (Suganthan 1999; optimizers.md §6).
 
     Attributes:
@@ -102,6 +86,8 @@ class LPSO:
         frac_intercept: neighbourhood fraction at the first iteration.
         frac_slope: its growth, ``frac(l) = (slope · l + intercept · T) / T``.
         gbest_threshold: use the global best once ``frac`` exceeds this.
+
+    The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`.
     """
 
     swarm_size: int = 100  # N (budget fairness)
@@ -113,55 +99,32 @@ class LPSO:
     gbest_threshold: float = 0.9  # [R]
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         name = type(self).__name__
         require(is_int(self.swarm_size) and self.swarm_size >= 1, name, "swarm_size", self.swarm_size,
                 "an integer >= 1")
-        inertia = coerce_pair(self, "inertia")
-        require(all(is_real(w) for w in inertia), name, "inertia", inertia,
-                "a pair (w_start, w_end) of finite numbers")
+        validate_schedule(self, "inertia")
         for field in ("cognitive", "social", "frac_intercept", "frac_slope", "gbest_threshold"):
             value = getattr(self, field)
             require(is_real(value) and value >= 0, name, field, value, "a finite number >= 0")
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`)."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
-        objective, lo, hi = problem.objective, problem.lo, problem.hi
-        n, d = self.swarm_size, problem.dim
-        vmax = velocity_limit(lo, hi)
-        planned = planned_iterations(objective.max_evals, n)
+    def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[None]:
+        """One iteration per ``next``: neighbourhood bests, velocity, move (§6 steps 1-3).
 
-        x = init_positions(rng.random((n, d)), lo, hi, problem.x0)
-        v = np.zeros_like(x)
-        f = objective(x)
-        pbest, f_pbest = x.copy(), f.copy()
-        objective.record()
-        if objective.max_evals < n:
-            return objective.result(0, MESSAGE_INIT_EXHAUSTED)
-
-        t = 0
-        while objective.remaining > 0:
-            t += 1
-            frac = neighbourhood_fraction(t - 1, planned, self.frac_intercept, self.frac_slope)
+        Trace: ``global_best_from``, the first iteration that used the global best (``None`` while
+        every iteration so far used spatial neighbourhoods).
+        """
+        swarm.trace["global_best_from"] = None
+        for t in count(1):
+            frac = neighbourhood_fraction(t - 1, swarm.planned, self.frac_intercept, self.frac_slope)
             if frac > self.gbest_threshold:
-                local_best: FloatArray = pbest[np.argmin(f_pbest)]
+                local_best: FloatArray = swarm.pbest[np.argmin(swarm.f_pbest)]
+                if swarm.trace["global_best_from"] is None:
+                    swarm.trace["global_best_from"] = t
             else:
-                local_best = pbest[spatial_neighbourhood_best(normalise(x, lo, hi), f_pbest, frac)]
-            w = linear_schedule(self.inertia[0], self.inertia[1], t, planned)
-            r1, r2 = rng.random((2, n, d))
-            v = pso_velocity(v, x, pbest, local_best, r1, r2, inertia=w, cognitive=self.cognitive,
-                             social=self.social, constriction=1.0)
-            x, v = move_within_bounds(x, clamp_velocity(v, vmax), lo, hi)
-            f = objective(x)
-            pbest, f_pbest, _ = update_personal_best(x, f, pbest, f_pbest)
-            objective.record()
-        return objective.result(t, MESSAGE_MAX_EVALS)
+                local_best = swarm.pbest[spatial_neighbourhood_best(swarm.normalised(), swarm.f_pbest, frac)]
+            w = linear_schedule(self.inertia[0], self.inertia[1], t, swarm.planned)
+            r1, r2 = rng.random((2, swarm.n, swarm.d))
+            swarm.fly(pso_velocity(swarm.v, swarm.x, swarm.pbest, local_best, r1, r2, inertia=w,
+                                   cognitive=self.cognitive, social=self.social, constriction=1.0))
+            yield None

@@ -10,39 +10,24 @@ the slaves first, then the master, so the master sees the updated slave informat
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import partial
+from itertools import count
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from optimizers.base import (
-    MESSAGE_INIT_EXHAUSTED,
-    MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
-    FloatArray,
-    OptimizeResult,
-    RNGLike,
-    coerce_pair,
-    is_int,
-    is_real,
-    prepare,
-    require,
-)
-from optimizers.pso import pso_velocity
+from optimizers.base import FloatArray, is_int, is_real, require
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
+    Swarm,
+    SwarmOptimizer,
     attractor_velocity,
-    clamp_velocity,
     group_best_index,
     group_sizes,
-    init_positions,
     linear_schedule,
-    move_within_bounds,
-    planned_iterations,
-    update_personal_best,
-    velocity_limit,
+    pso_velocity,
+    validate_schedule,
 )
 
 VERSIONS = ("col", "com")
@@ -109,7 +94,7 @@ def master_velocity(
 
 @register_optimizer("mcpso")
 @dataclass(frozen=True)
-class MCPSO:
+class MCPSO(SwarmOptimizer):
     """Master-slave multi-swarm cooperative PSO (optimizers.md §8).
 
     Attributes:
@@ -120,6 +105,9 @@ class MCPSO:
         cognitive: c1.
         social: c2.
         migration: c3.
+
+    The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`; ``x0`` seeds master
+    particle 0.
     """
 
     swarm_size: int = 100  # budget fairness
@@ -131,76 +119,44 @@ class MCPSO:
     migration: float = 2.0  # c3, [S] implementation
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         name = type(self).__name__
         require(is_int(self.n_slaves) and self.n_slaves >= 1, name, "n_slaves", self.n_slaves,
                 "an integer >= 1")
         require(is_int(self.swarm_size) and self.swarm_size >= self.n_slaves + 1, name, "swarm_size",
                 self.swarm_size, f"an integer >= n_slaves + 1 = {self.n_slaves + 1}")
         require(self.version in VERSIONS, name, "version", self.version, f"one of {VERSIONS}")
-        inertia = coerce_pair(self, "inertia")
-        require(all(is_real(w) for w in inertia), name, "inertia", inertia,
-                "a pair (w_start, w_end) of finite numbers")
+        validate_schedule(self, "inertia")
         for field in ("cognitive", "social", "migration"):
             value = getattr(self, field)
             require(is_real(value) and value >= 0, name, field, value, "a finite number >= 0")
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); ``x0`` seeds master particle 0."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
-        objective, lo, hi = problem.objective, problem.lo, problem.hi
-        n, d = self.swarm_size, problem.dim
-        vmax = velocity_limit(lo, hi)
-        planned = planned_iterations(objective.max_evals, n)
+    def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[None]:
+        """One iteration per ``next``: the slaves' batch, then the master's (§8 steps 1-2)."""
+        n, d = swarm.n, swarm.d
         sizes = group_sizes(n, self.n_slaves + 1)  # DECISION: optimizers.md D25 (master gets any extra)
         n_master = sizes[0]
         master = slice(0, n_master)
         slaves = slice(n_master, n)
         slave_labels = np.repeat(np.arange(self.n_slaves), sizes[1:])
-
-        x = init_positions(rng.random((n, d)), lo, hi, problem.x0)
-        v = np.zeros_like(x)
-        f = objective(x)
-        pbest, f_pbest = x.copy(), f.copy()
-        objective.record()
-        if objective.max_evals < n:
-            return objective.result(0, MESSAGE_INIT_EXHAUSTED)
-
-        t = 0
-        while objective.remaining > 0:
-            t += 1
-            w = linear_schedule(self.inertia[0], self.inertia[1], t, planned)
+        for t in count(1):
+            w = linear_schedule(self.inertia[0], self.inertia[1], t, swarm.planned)
             # Step 1: the slaves, one batch; each follows its own swarm's best.
-            xs, vs, ps, fps = x[slaves], v[slaves], pbest[slaves], f_pbest[slaves]
+            ps, fps = swarm.pbest[slaves], swarm.f_pbest[slaves]
             g_k = ps[group_best_index(fps, slave_labels)]
             r1, r2 = rng.random((2, n - n_master, d))
-            vs = pso_velocity(vs, xs, ps, g_k, r1, r2, inertia=w, cognitive=self.cognitive,
-                              social=self.social, constriction=1.0)
-            xs, vs = move_within_bounds(xs, clamp_velocity(vs, vmax), lo, hi)
-            ps, fps, _ = update_personal_best(xs, objective(xs), ps, fps)
-            x[slaves], v[slaves], pbest[slaves], f_pbest[slaves] = xs, vs, ps, fps
+            swarm.fly(pso_velocity(swarm.v[slaves], swarm.x[slaves], ps, g_k, r1, r2, inertia=w,
+                                   cognitive=self.cognitive, social=self.social, constriction=1.0), slaves)
             # Step 2: the master, a second batch that sees the updated slaves (skipped if no budget is left).
-            if objective.remaining > 0:
-                xm, vm, pm, fpm = x[master], v[master], pbest[master], f_pbest[master]
+            if swarm.objective.remaining > 0:
+                pm, fpm = swarm.pbest[master], swarm.f_pbest[master]
                 i_master, i_slave = int(np.argmin(fpm)), int(np.argmin(fps))
                 phi = None if self.version == "col" else migration_factor(fps[i_slave], fpm[i_master])
                 r = rng.random((3, n_master, d))
-                vm = master_velocity(vm, xm, pm, pm[i_master], ps[i_slave], r, inertia=w,
-                                     cognitive=self.cognitive, social=self.social, migration=self.migration,
-                                     phi=phi)
-                xm, vm = move_within_bounds(xm, clamp_velocity(vm, vmax), lo, hi)
-                pm, fpm, _ = update_personal_best(xm, objective(xm), pm, fpm)
-                x[master], v[master], pbest[master], f_pbest[master] = xm, vm, pm, fpm
-            objective.record()
-        return objective.result(t, MESSAGE_MAX_EVALS)
+                swarm.fly(master_velocity(swarm.v[master], swarm.x[master], pm, pm[i_master], ps[i_slave], r,
+                                          inertia=w, cognitive=self.cognitive, social=self.social,
+                                          migration=self.migration, phi=phi), master)
+            yield None
 
 
 register_optimizer("mcpso-com")(partial(MCPSO, version="com"))

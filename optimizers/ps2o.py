@@ -9,36 +9,17 @@ and is re-seeded at random (D23). Flat order: species ``k`` holds particles ``k�
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import partial
+from itertools import count
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optimizers.base import (
-    MESSAGE_INIT_EXHAUSTED,
-    MESSAGE_MAX_EVALS,
-    BatchObjective,
-    BoundsLike,
-    FloatArray,
-    IntArray,
-    OptimizeResult,
-    RNGLike,
-    is_int,
-    is_real,
-    prepare,
-    require,
-)
+from optimizers.base import FloatArray, IntArray, is_int, is_real, require
 from optimizers.registry import register_optimizer
-from optimizers.swarm import (
-    attractor_velocity,
-    clamp_velocity,
-    cost_rank,
-    init_positions,
-    move_within_bounds,
-    update_personal_best,
-    velocity_limit,
-)
+from optimizers.swarm import Swarm, SwarmOptimizer, attractor_velocity, cost_rank, init_positions
 
 
 def species_best(f_pbest: FloatArray, n_species: int) -> tuple[IntArray, FloatArray]:
@@ -160,7 +141,7 @@ def reseed(
 
 @register_optimizer("ps2o")
 @dataclass(frozen=True)
-class PS2O:
+class PS2O(SwarmOptimizer):
     """Symbiotic multi-species PSO (optimizers.md §7).
 
     Attributes:
@@ -170,6 +151,8 @@ class PS2O:
         acceleration: c1 = c2 = c3.
         link_probability: p_link of the random symbiosis graph (D22).
         extinction_patience: iterations without species improvement before re-seeding; ``None`` = off (D23).
+
+    The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`.
     """
 
     n_species: int = 5  # M, DECISION: optimizers.md D24
@@ -180,6 +163,7 @@ class PS2O:
     extinction_patience: int | None = 30  # DECISION: optimizers.md D23
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         name = type(self).__name__
         require(is_int(self.n_species) and self.n_species >= 2, name, "n_species", self.n_species,
                 "an integer >= 2 (a species needs a symbiotic partner)")
@@ -200,67 +184,52 @@ class PS2O:
         """Total population ``M · n``."""
         return self.n_species * self.species_size
 
-    def minimize(
-        self,
-        fun: BatchObjective,
-        bounds: BoundsLike,
-        *,
-        rng: RNGLike | None = None,
-        max_evals: int = 10_000,
-        x0: ArrayLike | None = None,
-    ) -> OptimizeResult:
-        """Minimise ``fun`` (see :class:`optimizers.base.Optimizer`); ``x0`` seeds species 0 particle 0."""
-        rng = np.random.default_rng(rng)
-        problem = prepare(fun, bounds, max_evals, x0)
-        objective, lo, hi = problem.objective, problem.lo, problem.hi
+    def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[None]:
+        """One iteration per ``next`` (§7 steps 1-4); ``x0`` seeds species 0 particle 0.
+
+        Trace: ``extinctions``, one ``(t, species)`` pair per iteration in which species died out
+        (``species`` a tuple of species indices, re-seeded in the bounds at iteration ``t``).
+        """
         m, size = self.n_species, self.species_size
-        n, d = m * size, problem.dim
-        vmax = velocity_limit(lo, hi)
+        n, d = swarm.n, swarm.d
         species_of = np.repeat(np.arange(m), size)
         c = self.acceleration
-
-        x = init_positions(rng.random((n, d)), lo, hi, problem.x0)
-        v = np.zeros_like(x)
-        f = objective(x)
-        pbest, f_pbest = x.copy(), f.copy()
-        objective.record()
-        if objective.max_evals < n:
-            return objective.result(0, MESSAGE_INIT_EXHAUSTED)
-        remembered = species_best(f_pbest, m)[1]  # each species' best cost so far
+        remembered = species_best(swarm.f_pbest, m)[1]  # each species' best cost so far
         counters = np.zeros(m, dtype=np.int64)
-
-        t = 0
-        while objective.remaining > 0:
-            t += 1
+        extinctions: list[tuple[int, tuple[int, ...]]] = []
+        swarm.trace["extinctions"] = extinctions
+        for t in count(1):
             # Steps 1-2: species bests and this iteration's symbiotic partners.
-            best_index, f_species = species_best(f_pbest, m)
+            best_index, f_species = species_best(swarm.f_pbest, m)
             adjacency = partner_graph(rng.random((m, m)), rng.random(m), self.link_probability)
             partner = partner_best_index(adjacency, f_species)
-            s_k = pbest[best_index][species_of]
-            q_k = pbest[best_index[partner]][species_of]
+            s_k = swarm.pbest[best_index][species_of]
+            q_k = swarm.pbest[best_index[partner]][species_of]
             # Step 3: extinction (D23), decided before the velocity update. The attractors above were
             # computed first (the spec's step order), so a species that dies this iteration may still
             # be some survivor's partner best for this one move: its best is an evaluated point.
-            dead = species_to_reseed(counters, self.extinction_patience, int(np.argmin(f_pbest)) // size)
+            dead = species_to_reseed(counters, self.extinction_patience, int(np.argmin(swarm.f_pbest)) // size)
             # Step 4: velocity, clamp and move (re-seeded particles' moves are replaced below).
             r = rng.random((3, n, d))
-            v = attractor_velocity(v, x, (pbest, s_k, q_k), (c, c, c), r, 1.0, self.constriction)
-            x, v = move_within_bounds(x, clamp_velocity(v, vmax), lo, hi)
+            swarm.move(attractor_velocity(swarm.v, swarm.x, (swarm.pbest, s_k, q_k), (c, c, c), r, 1.0,
+                                          self.constriction))
             if dead.any():  # re-seeded particles skip step 4 and are evaluated in the same batch
                 reborn = dead[species_of]
-                positions = init_positions(rng.random((int(reborn.sum()), d)), lo, hi)
-                x, v, pbest, f_pbest = reseed(x, v, pbest, f_pbest, reborn, positions)
+                # DECISION: re-seeded in the bounds, not in init_bounds (docs/swarm.md §4): the region
+                # only sets where the run starts.
+                positions = init_positions(rng.random((int(reborn.sum()), d)), swarm.lo, swarm.hi)
+                swarm.x, swarm.v, swarm.pbest, swarm.f_pbest = reseed(swarm.x, swarm.v, swarm.pbest,
+                                                                      swarm.f_pbest, reborn, positions)
                 counters[dead] = 0
                 remembered[dead] = np.inf
-            f = objective(x)
-            pbest, f_pbest, _ = update_personal_best(x, f, pbest, f_pbest)
-            objective.record()
+                extinctions.append((t, tuple(np.flatnonzero(dead).tolist())))
+            swarm.evaluate()
             # Species stagnation counters.
-            now = species_best(f_pbest, m)[1]
+            now = species_best(swarm.f_pbest, m)[1]
             improved = now < remembered
             counters = np.where(improved, 0, counters + 1)
             remembered = np.minimum(now, remembered)
-        return objective.result(t, MESSAGE_MAX_EVALS)
+            yield None
 
 
 register_optimizer("ps2o-noext")(partial(PS2O, extinction_patience=None))

@@ -14,6 +14,7 @@ import numpy as np
 
 from uav_penetration_env import dem, rcs
 from uav_penetration_env.cache import cached_arrays
+from uav_penetration_env.files import file_digest
 from uav_penetration_env.radar import visibility_floor
 from uav_penetration_env.scenario import (
     ConstantRCS,
@@ -76,7 +77,11 @@ def _terrain_inputs(scenario: Scenario) -> dict:
     terrain.pop("randomize_terrain")
     if isinstance(scenario.terrain.natural, (FlatTerrain, GaussianHill, DEMTerrain)):
         terrain.pop("seed")  # deterministic surfaces: share one cache entry across seeds
-    return {"terrain": terrain, "map": dataclasses.asdict(scenario.map)}
+    inputs = {"terrain": terrain, "map": dataclasses.asdict(scenario.map)}
+    if isinstance(scenario.terrain.natural, DEMTerrain):
+        # Keyed by the raster's content, not its name: a file rewritten in place is rebuilt.
+        inputs["raster_sha256"] = file_digest(scenario.terrain.natural.file)
+    return inputs
 
 
 def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from uav_penetration_env import __version__
+from uav_penetration_env._version import __version__
 
 ENV_VAR = "UAV_PENETRATION_CACHE"
 _MEMORY_ENTRIES = 128

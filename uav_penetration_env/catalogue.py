@@ -1,4 +1,9 @@
-"""Scenario generators: procedural scenarios (model.md §7c) and the real-terrain DEM scenario (§7d).
+"""The scenario catalogue: names, procedural scenarios (model.md §7c) and the real-terrain DEM scenario (§7d).
+
+Scenario names resolve here and only here (:func:`resolve_scenarios`, :func:`resolve_scenario`):
+the envs, ``uav-bench`` and ``uav-bench train`` all accept ``paper``, ``paper-w2``, ``dem``,
+``random:SEED``, ``random:A-B`` (the CLI's plural flags) or a YAML path, and their help strings
+come from :data:`SCENARIO_HELP`.
 
 Both are rules written as code. ``random_scenario`` draws everything from one
 ``numpy.random.Generator`` (same generator state, same scenario, bit for bit) and rejects drafts
@@ -10,7 +15,10 @@ reproduces from matplotlib's bundled DEM.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -29,8 +37,12 @@ from uav_penetration_env.scenario import (
     ScenarioError,
     StartConfig,
     TerrainConfig,
+    TimeConfig,
     _load_bundled,
+    load_scenario,
+    paper_scenario,
 )
+from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.terrain import GridSpec, bilinear
 from uav_penetration_env.types import FloatArray
 
@@ -235,3 +247,98 @@ def generate_dem_scenario() -> Scenario:
 def dem_scenario() -> Scenario:
     """The shipped real-terrain scenario (``scenarios/dem.yaml``; see :func:`generate_dem_scenario`)."""
     return _load_bundled("dem.yaml")
+
+
+# --- names --------------------------------------------------------------------------------------------
+
+NAMED_SCENARIOS: dict[str, Callable[[], Scenario]] = {
+    "paper": lambda: paper_scenario("w1"),
+    "paper-w2": lambda: paper_scenario("w2"),
+    "dem": dem_scenario,
+}
+RANDOM_PREFIX = "random:"
+RANDOM_FORMS = ("random:SEED", "random:A-B")
+SCENARIO_HELP = f"{', '.join([*NAMED_SCENARIOS, *RANDOM_FORMS])} or a YAML path"
+
+ScenarioSpec = Scenario | Mapping[str, Any] | str | Path
+
+
+class UnknownScenarioError(ScenarioError):
+    """A scenario name that is neither in the catalogue nor an existing file."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__("scenario", name, SCENARIO_HELP)
+        hint = did_you_mean(name, [*NAMED_SCENARIOS, *RANDOM_FORMS])
+        self.args = (f"unknown scenario {name!r} — {hint}expected {SCENARIO_HELP}",)
+
+
+def default_max_steps(name: str | None) -> int:
+    """K_max (``time.max_steps``) of a catalogue scenario, or of a procedural one when ``name`` is None.
+
+    The env ids register it as ``max_episode_steps`` (model.md §7a). Procedural scenarios keep the
+    default time settings (:class:`TimeConfig`), so no scenario is generated to read it.
+    """
+    if name is None:
+        return TimeConfig().max_steps
+    return resolve_scenario(name).time.max_steps
+
+
+def scenario_names() -> list[str]:
+    """Every scenario name :func:`resolve_scenarios` accepts (the ``random:`` forms as patterns)."""
+    return [*NAMED_SCENARIOS, *RANDOM_FORMS]
+
+
+def random_seeds(spec: str) -> list[int]:
+    """The seeds of ``random:SEED`` (one) or ``random:A-B`` (A..B inclusive).
+
+    Raises:
+        ScenarioError: not of either form, or A > B.
+    """
+    body = spec[len(RANDOM_PREFIX) :]
+    low, _, high = body.partition("-")
+    try:
+        seeds = list(range(int(low), int(high) + 1)) if high else [int(low)]
+    except ValueError:
+        raise ScenarioError("scenario", spec, "random:SEED or random:A-B (integers, A-B inclusive)") from None
+    if not seeds or seeds[0] < 0:
+        raise ScenarioError("scenario", spec, "random:SEED or random:A-B with 0 <= A <= B")
+    return seeds
+
+
+def resolve_scenarios(spec: ScenarioSpec, difficulty: float = 0.5) -> list[Scenario]:
+    """The scenarios a name, a ``random:`` form, a YAML path, a mapping or a Scenario stands for.
+
+    ``random:SEED`` is ``random_scenario(default_rng(SEED), difficulty, name="random-SEED")``;
+    ``random:A-B`` is one such scenario per seed A..B.
+
+    DECISION (api.md §4.6): a catalogue name always means the catalogue's scenario, even when a
+    file of that name exists in the working folder (``./paper`` reaches the file), so that a command
+    line means the same thing in every folder.
+
+    Raises:
+        UnknownScenarioError: a string that is neither a name, a ``random:`` form nor an existing
+            file (with a did-you-mean).
+        ScenarioError: a broken file, mapping or ``random:`` form, or ``difficulty`` outside [0, 1].
+    """
+    if isinstance(spec, str) and spec in NAMED_SCENARIOS:
+        return [NAMED_SCENARIOS[spec]()]
+    if isinstance(spec, str) and spec.startswith(RANDOM_PREFIX):
+        return [
+            random_scenario(np.random.default_rng(seed), difficulty, name=f"random-{seed}")
+            for seed in random_seeds(spec)
+        ]
+    if isinstance(spec, str) and not Path(spec).is_file():
+        raise UnknownScenarioError(str(spec))
+    return [load_scenario(spec)]
+
+
+def resolve_scenario(spec: ScenarioSpec, difficulty: float = 0.5) -> Scenario:
+    """The one scenario ``spec`` stands for (see :func:`resolve_scenarios`).
+
+    Raises:
+        ScenarioError: as :func:`resolve_scenarios`, or ``random:A-B`` naming several scenarios.
+    """
+    scenarios = resolve_scenarios(spec, difficulty)
+    if len(scenarios) != 1:
+        raise ScenarioError("scenario", spec, f"one scenario, not {len(scenarios)} (use random:SEED)")
+    return scenarios[0]

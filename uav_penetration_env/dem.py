@@ -1,88 +1,209 @@
 """Real terrain from an elevation raster and the DEM scenario (model.md §2.5, §7d).
 
-The default raster is matplotlib's bundled ``topobathy.npz`` (Vancouver Island / Coast Mountains;
-no download). A geographic window is projected to local metres by an equirectangular projection
-about its centre (error negligible over 100 km), with the map origin at the window's south-west
-corner, and resampled bilinearly to the scenario grid.
+Rasters come as ``.npz`` (the default is matplotlib's bundled ``topobathy.npz``: Vancouver Island /
+Coast Mountains, no download) or GeoTIFF (``.tif``/``.tiff``, the format public DEMs are
+distributed in; read with ``rasterio``, extra ``geo``). A geographic window is projected to local
+metres by an equirectangular projection about its centre (error negligible over 100 km), with the
+map origin at the window's south-west corner, and resampled bilinearly to the scenario grid.
+
+Longitudes (model.md §2.5, "longitude convention"): inside the project a raster's longitudes are
+one strictly increasing axis that starts in [-180, 180) and may run past 180 (a raster that crosses
+the antimeridian, stored either as 179..181 or as 179..180, -180..-179, becomes 179..181). The
+window ``lon_deg`` is shifted by a whole number of turns (360 deg) into that frame, so a window
+written in [-180, 180) or in [0, 360) selects the same terrain.
+
+Missing data (model.md §2.5, "missing data"): a cell is missing when it is NaN or infinite, equals
+the file's declared nodata value or the scenario's ``nodata``, or lies outside the heights any
+terrain can have (below the deepest ocean trench or above the highest summit: ``[-11 000, 9 000]
+m``; this catches sentinels such as -9999 or -32768 that a file does not declare). Holes of at most
+``fill_max_cells`` raster cells that the map touches are filled with the nearest valid cell's
+height; any other missing cell the map touches is refused with a ``ScenarioError`` naming the
+cells.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 
+from uav_penetration_env.files import resolve_data_file
 from uav_penetration_env.scenario import DEMTerrain, ScenarioError
 from uav_penetration_env.terrain import GridSpec
 from uav_penetration_env.types import FloatArray
 
 EARTH_RADIUS_M = 6_371_000.0  # mean earth radius for the local projection [m]
+# DECISION (model.md §2.5): the heights any terrain on Earth can have [m]: the Challenger Deep is about -10 935 m
+# and Everest 8 849 m. Values outside are missing-data sentinels (-9999, -32768, 32767, ...).
+VALID_HEIGHT_RANGE_M = (-11_000.0, 9_000.0)
+GEOTIFF_SUFFIXES = (".tif", ".tiff")
+_MAX_LISTED_CELLS = 5
 
 
-def _resolve(file: str) -> Path:
-    path = Path(file).expanduser()
-    if path.exists():
-        return path
-    from matplotlib import cbook
+@dataclass(frozen=True)
+class Raster:
+    """An elevation raster in the project's conventions.
 
-    try:
-        return Path(cbook.get_sample_data(file, asfileobj=False))
-    except (OSError, ValueError) as error:
+    Attributes:
+        heights: (n_lat, n_lon) heights [m], latitude ascending along axis 0, NaN where missing.
+        latitude: (n_lat,) strictly increasing cell-centre latitudes [deg].
+        longitude: (n_lon,) strictly increasing cell-centre longitudes [deg]; the first in
+            [-180, 180), later ones may exceed 180 (antimeridian crossing).
+        path: the file read.
+    """
+
+    heights: FloatArray
+    latitude: FloatArray
+    longitude: FloatArray
+    path: Path
+
+    def extent(self) -> str:
+        """The raster's coverage, for error messages."""
+        return (
+            f"lon {self.longitude[0]:.4f}..{self.longitude[-1]:.4f}, "
+            f"lat {self.latitude[0]:.4f}..{self.latitude[-1]:.4f}"
+        )
+
+
+def resolve_raster_path(file: str) -> Path:
+    """The raster's path: a file on disk, else a matplotlib sample file of that name.
+
+    Raises:
+        ScenarioError: ``terrain.natural.file`` names neither.
+    """
+    path = resolve_data_file(file)
+    if path is None:
         raise ScenarioError(
-            "terrain.natural.file", file, f"an existing .npz path or a matplotlib sample file ({error})"
+            "terrain.natural.file", file, "an existing .npz or GeoTIFF path or a matplotlib sample file"
+        )
+    return path
+
+
+def _read_npz(path: Path, config: DEMTerrain) -> tuple[FloatArray, FloatArray, FloatArray, float | None]:
+    with np.load(path, allow_pickle=False) as data:
+        if config.array not in data.files:
+            raise ScenarioError(
+                "terrain.natural.array",
+                config.array,
+                f"one of the arrays in {path.name}: {', '.join(data.files)}",
+            )
+        heights = np.asarray(data[config.array], dtype=np.float64)
+        if "latitude" in data.files and "longitude" in data.files:
+            latitude = np.asarray(data["latitude"], dtype=np.float64)
+            longitude = np.asarray(data["longitude"], dtype=np.float64)
+        elif {"xmin", "xmax", "ymin", "ymax"} <= set(data.files):
+            longitude = np.linspace(float(data["xmin"]), float(data["xmax"]), heights.shape[-1])
+            latitude = np.linspace(float(data["ymin"]), float(data["ymax"]), heights.shape[0])
+        else:
+            raise ScenarioError(
+                "terrain.natural.file",
+                str(path),
+                "an .npz with latitude/longitude vectors or xmin/xmax/ymin/ymax",
+            )
+    return heights, latitude, longitude, None
+
+
+def _read_geotiff(path: Path, config: DEMTerrain) -> tuple[FloatArray, FloatArray, FloatArray, float | None]:
+    try:
+        import rasterio
+    except ImportError:  # pragma: no cover - depends on the installed extras
+        raise ScenarioError(
+            "terrain.natural.file", str(path), "rasterio to read GeoTIFF: pip install -e '.[geo]'"
         ) from None
+    with rasterio.open(path) as source:
+        crs = source.crs
+        if crs is None or not crs.is_geographic:
+            raise ScenarioError(
+                "terrain.natural.file",
+                f"{path.name} (CRS {crs})",
+                "a raster in geographic coordinates (degrees, e.g. EPSG:4326); reproject it first, "
+                "e.g. gdalwarp -t_srs EPSG:4326",
+            )
+        if not 1 <= config.band <= source.count:
+            raise ScenarioError(
+                "terrain.natural.band", config.band, f"a band of {path.name}: 1..{source.count}"
+            )
+        transform = source.transform
+        if transform.b != 0 or transform.d != 0:
+            raise ScenarioError("terrain.natural.file", path.name, "a north-up raster (no rotation or shear)")
+        heights = source.read(config.band).astype(np.float64)
+        scale, offset = source.scales[config.band - 1], source.offsets[config.band - 1]
+        nodata = source.nodatavals[config.band - 1]
+    rows, cols = heights.shape
+    longitude = transform.c + (np.arange(cols) + 0.5) * transform.a  # cell centres
+    latitude = transform.f + (np.arange(rows) + 0.5) * transform.e
+    if nodata is not None:
+        heights[heights == nodata] = np.nan  # before scaling: the sentinel is a stored value
+    return heights * scale + offset, latitude, longitude, None
 
 
-def load_raster(config: DEMTerrain) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Read heights [m] and their latitude/longitude vectors [deg] from the configured file.
+def _unwrap_longitudes(longitude: FloatArray, path: Path) -> FloatArray:
+    """One strictly increasing longitude axis starting in [-180, 180) (the project's convention)."""
+    longitude = np.mod(longitude + 180.0, 360.0) - 180.0
+    longitude = np.unwrap(longitude, period=360.0)
+    longitude = longitude - 360.0 * math.floor((longitude[0] + 180.0) / 360.0)
+    if longitude.size > 1 and not (np.all(np.diff(longitude) > 0) and longitude[-1] - longitude[0] < 360.0):
+        raise ScenarioError(
+            "terrain.natural.file",
+            str(path),
+            "a raster whose longitudes are evenly ordered and span less than 360 deg",
+        )
+    return longitude
 
-    Two layouts are read: ``latitude``/``longitude`` coordinate vectors (``topobathy.npz``), or the
-    scalar extent ``xmin, xmax, ymin, ymax`` in degrees (``jacksboro_fault_dem.npz``, whose rows
-    run north to south when ``ymin > ymax``). Longitudes in [0, 360) are mapped to [-180, 180).
+
+def load_raster(config: DEMTerrain) -> Raster:
+    """Read the configured raster into the project's conventions (see the module docstring).
 
     Returns:
-        heights (n_lat, n_lon) with latitude ascending along axis 0, latitude (n_lat,), longitude (n_lon,).
+        The raster, latitude ascending, longitudes unwrapped, missing cells NaN.
+
+    Raises:
+        ScenarioError: an unreadable or malformed file, a missing array or band, a projected CRS.
     """
-    path = _resolve(config.file)
+    path = resolve_raster_path(config.file)
+    reader = _read_geotiff if path.suffix.lower() in GEOTIFF_SUFFIXES else _read_npz
     try:
-        with np.load(path, allow_pickle=False) as data:
-            if config.array not in data.files:
-                raise ScenarioError(
-                    "terrain.natural.array",
-                    config.array,
-                    f"one of the arrays in {path.name}: {', '.join(data.files)}",
-                )
-            heights = np.asarray(data[config.array], dtype=np.float64)
-            if "latitude" in data.files and "longitude" in data.files:
-                latitude = np.asarray(data["latitude"], dtype=np.float64)
-                longitude = np.asarray(data["longitude"], dtype=np.float64)
-            elif {"xmin", "xmax", "ymin", "ymax"} <= set(data.files):
-                longitude = np.linspace(float(data["xmin"]), float(data["xmax"]), heights.shape[1])
-                latitude = np.linspace(float(data["ymin"]), float(data["ymax"]), heights.shape[0])
-            else:
-                raise ScenarioError(
-                    "terrain.natural.file",
-                    str(path),
-                    "an .npz with latitude/longitude vectors or xmin/xmax/ymin/ymax",
-                )
-    except (OSError, ValueError) as error:
-        if isinstance(error, ScenarioError):
-            raise
-        raise ScenarioError("terrain.natural.file", str(path), f"a readable .npz raster ({error})") from None
-    if heights.ndim != 2 or heights.shape != (latitude.size, longitude.size):
+        heights, latitude, longitude, _ = reader(path, config)
+    except ScenarioError:
+        raise
+    except Exception as error:  # any reader failure on a damaged or foreign file
+        raise ScenarioError(
+            "terrain.natural.file",
+            str(path),
+            f"a readable .npz or GeoTIFF raster ({type(error).__name__}: {error})",
+        ) from None
+    if heights.ndim != 2 or heights.shape != (latitude.size, longitude.size) or min(heights.shape) < 2:
         raise ScenarioError(
             "terrain.natural.array",
             config.array,
-            f"a 2-D raster matching its coordinate vectors, got {heights.shape}",
+            f"a 2-D raster of at least 2 x 2 cells matching its coordinate vectors, got {heights.shape}",
         )
-    longitude = np.mod(longitude + 180.0, 360.0) - 180.0
+    if not (np.all(np.isfinite(latitude)) and np.all(np.isfinite(longitude))):
+        raise ScenarioError("terrain.natural.file", str(path), "finite latitude and longitude coordinates")
     if latitude[0] > latitude[-1]:
         latitude, heights = latitude[::-1], heights[::-1]
-    if longitude[0] > longitude[-1]:
+    if longitude[0] > longitude[-1] and np.all(np.diff(longitude) < 0):
         longitude, heights = longitude[::-1], heights[:, ::-1]
-    return heights, latitude, longitude
+    if not np.all(np.diff(latitude) > 0):
+        raise ScenarioError("terrain.natural.file", str(path), "strictly ordered latitudes")
+    longitude = _unwrap_longitudes(longitude, path)
+    missing = ~np.isfinite(heights)
+    missing |= (heights < VALID_HEIGHT_RANGE_M[0]) | (heights > VALID_HEIGHT_RANGE_M[1])
+    if config.nodata is not None:
+        missing |= heights == config.nodata
+    heights = np.where(missing, np.nan, heights)
+    return Raster(np.ascontiguousarray(heights), latitude, longitude, path)
+
+
+def window_longitudes(config: DEMTerrain, raster: Raster) -> tuple[float, float]:
+    """The window's longitudes shifted by whole turns into the raster's frame (nearest its centre)."""
+    west, east = config.lon_deg
+    offset = 0.5 * (raster.longitude[0] + raster.longitude[-1]) - 0.5 * (west + east)
+    turns = round(offset / 360.0)
+    return west + 360.0 * turns, east + 360.0 * turns
 
 
 def window_extent_km(config: DEMTerrain) -> tuple[float, float]:
@@ -93,18 +214,73 @@ def window_extent_km(config: DEMTerrain) -> tuple[float, float]:
     return width / 1000.0, height / 1000.0
 
 
+def _fill_holes(
+    heights: FloatArray, rows: slice, cols: slice, config: DEMTerrain, raster: Raster
+) -> FloatArray:
+    """Fill the missing cells the map touches (``rows`` x ``cols``) or refuse them.
+
+    DECISION (model.md §2.5): a hole (8-connected missing cells) of at most ``fill_max_cells`` cells is filled with
+    the height of the nearest valid cell: it invents no relief a hole did not hide. Holes are sized
+    on a crop of the raster extended by ``fill_max_cells`` cells around the used block, so a hole
+    that reaches the crop's edge is larger than the limit and is refused, as it should be.
+    """
+    block = heights[rows, cols]
+    if not np.isnan(block).any():
+        return heights
+    limit = config.fill_max_cells
+    margin = limit + 1
+    r0, r1 = max(rows.start - margin, 0), min(rows.stop + margin, heights.shape[0])
+    c0, c1 = max(cols.start - margin, 0), min(cols.stop + margin, heights.shape[1])
+    crop = heights[r0:r1, c0:c1]
+    missing = np.isnan(crop)
+    labels, _ = ndimage.label(missing, structure=np.ones((3, 3), dtype=bool))
+    sizes = np.bincount(labels.ravel())
+    used = labels[rows.start - r0 : rows.stop - r0, cols.start - c0 : cols.stop - c0]
+    touched = np.unique(used[used > 0])
+    too_big = touched[sizes[touched] > limit]
+    if too_big.size or not np.any(~missing):
+        cells = np.argwhere(np.isin(labels, too_big) if too_big.size else missing)
+        listed = "; ".join(
+            f"lat {raster.latitude[r0 + i]:.4f} lon {raster.longitude[c0 + j]:.4f}"
+            for i, j in cells[:_MAX_LISTED_CELLS]
+        )
+        largest = int(sizes[too_big].max()) if too_big.size else int(missing.sum())
+        raise ScenarioError(
+            "terrain.natural.file",
+            raster.path.name,
+            f"no missing data (NaN, nodata or out-of-range heights) under the map: {len(cells)} missing cells "
+            f"({listed}{'; ...' if len(cells) > _MAX_LISTED_CELLS else ''}), largest hole {largest} cells; "
+            f"set terrain.natural.fill_max_cells >= {largest} to fill holes that size, or move the window",
+        )
+    _, (near_i, near_j) = ndimage.distance_transform_edt(missing, return_indices=True)
+    fillable = np.isin(labels, touched)
+    filled = heights.copy()
+    filled[r0:r1, c0:c1][fillable] = crop[near_i[fillable], near_j[fillable]]
+    return filled
+
+
 def dem_heights(config: DEMTerrain, grid: GridSpec) -> FloatArray:
     """Resample the raster window onto ``grid`` (origin at the window's south-west corner) [m].
 
     Heights below ``sea_floor_m`` (the sea) are raised to it: the UAV flies over the surface.
 
+    Args:
+        config: the raster and its window (model.md §2.5).
+        grid: the scenario grid; node (i, j) is at (x0 + i dx, y0 + j dx) metres east/north.
+
+    Returns:
+        (nx, ny) heights [m].
+
     Raises:
-        ScenarioError: the grid reaches outside the raster or onto missing data.
+        ScenarioError: the grid reaches outside the raster (the message gives the raster's true
+            extent in the project's longitude convention), or onto missing data that is not filled.
     """
-    heights, latitude, longitude = load_raster(config)
+    raster = load_raster(config)
+    latitude, longitude = raster.latitude, raster.longitude
+    west, _ = window_longitudes(config, raster)
     lat_c = math.radians(0.5 * (config.lat_deg[0] + config.lat_deg[1]))
     gx, gy = grid.mesh()
-    lon = config.lon_deg[0] + np.degrees(gx / (EARTH_RADIUS_M * math.cos(lat_c)))
+    lon = west + np.degrees(gx / (EARTH_RADIUS_M * math.cos(lat_c)))
     lat = config.lat_deg[0] + np.degrees(gy / EARTH_RADIUS_M)
     tolerance = 1e-9
     if (
@@ -115,12 +291,13 @@ def dem_heights(config: DEMTerrain, grid: GridSpec) -> FloatArray:
     ):
         raise ScenarioError(
             "map",
-            f"lon {lon.min():.3f}..{lon.max():.3f}, lat {lat.min():.3f}..{lat.max():.3f}",
-            f"a map inside the raster (lon {longitude[0]:.3f}..{longitude[-1]:.3f}, lat {latitude[0]:.3f}..{latitude[-1]:.3f})",
+            f"lon {lon.min():.4f}..{lon.max():.4f}, lat {lat.min():.4f}..{lat.max():.4f}",
+            f"a map inside the raster {raster.path.name} ({raster.extent()})",
         )
     row = np.interp(lat, latitude, np.arange(latitude.size))
     col = np.interp(lon, longitude, np.arange(longitude.size))
+    rows = slice(int(np.floor(row.min())), min(int(np.floor(row.max())) + 2, latitude.size))
+    cols = slice(int(np.floor(col.min())), min(int(np.floor(col.max())) + 2, longitude.size))
+    heights = _fill_holes(raster.heights, rows, cols, config, raster)
     resampled = ndimage.map_coordinates(heights, [row, col], order=1, mode="nearest")
-    if not np.all(np.isfinite(resampled)):
-        raise ScenarioError("terrain.natural.file", config.file, "no missing data (NaN) inside the map")
     return np.maximum(resampled, config.sea_floor_m)

@@ -21,15 +21,14 @@ import numpy as np
 from gymnasium import spaces
 
 from uav_penetration_env.build import BuiltScenario, build_scenario
-from uav_penetration_env.catalogue import dem_scenario, random_scenario
+from uav_penetration_env.catalogue import random_scenario
+from uav_penetration_env.catalogue import resolve_scenario as resolve_catalogue_scenario
 from uav_penetration_env.kinematics import UAVLimits
 from uav_penetration_env.model import OBSERVATION_LIMIT, OBSERVATION_SIZE, PenetrationModel, StepResult
-from uav_penetration_env.radar import fuse
-from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
+from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import FloatArray
 
 ScenarioLike = Scenario | Mapping[str, Any] | str | Path | None
-DEFAULT_SCENARIOS = {"paper": paper_scenario, "dem": dem_scenario}
 RANDOM_RADAR_SLOTS = 8  # model.md §7a: radars padded to M_max = 8 in the Random id
 POOL_SEED_OFFSET = 2**32  # pool scenarios never collide with user seeds or the held-out set
 
@@ -37,17 +36,13 @@ POOL_SEED_OFFSET = 2**32  # pool scenarios never collide with user seeds or the 
 def resolve_scenario(
     scenario: ScenarioLike, default: str, profile: str | None, id_profile: str | None
 ) -> Scenario:
-    """The scenario an env runs: a path, dict or Scenario (else the id's default), with its profile.
+    """The scenario an env runs: a catalogue name, path, dict or Scenario (else the id's default), with its profile.
 
+    Names resolve in the catalogue (:func:`uav_penetration_env.catalogue.resolve_scenario`).
     Profile precedence (model.md §7a): the ``profile=`` keyword, else the id's profile, else the
     file's.
     """
-    if scenario is None:
-        resolved = DEFAULT_SCENARIOS[default]()
-    elif isinstance(scenario, str) and scenario in DEFAULT_SCENARIOS and not Path(scenario).exists():
-        resolved = DEFAULT_SCENARIOS[scenario]()
-    else:
-        resolved = load_scenario(scenario)
+    resolved = resolve_catalogue_scenario(default if scenario is None else scenario)
     return resolved.with_profile(profile or id_profile)
 
 
@@ -198,44 +193,6 @@ def batched_info(
     }
 
 
-def reset_result(
-    model: PenetrationModel, states: FloatArray, scenario_index: np.ndarray | None
-) -> StepResult:
-    """A :class:`StepResult` describing states at reset, before any transition.
-
-    Quantities of the state alone (terrain and radar threats, visibility, detection probability,
-    altitude, goal distance) describe the start state; those of a transition (J, penalty, the
-    third term, fuel, progress and the normalised terms) are 0.
-    """
-    batch = len(states)
-    zeros = np.zeros(batch)
-    false = np.zeros(batch, dtype=bool)
-    terrain, per_radar, visibility, detection = model.state_threats(states, scenario_index)
-    return StepResult(
-        state=states,
-        step_index=np.zeros(batch, dtype=np.int64),
-        J=zeros,
-        penalty=zeros,
-        terrain_threat=terrain,
-        radar_threat=fuse(per_radar, model.scenario.radar_model.fusion),
-        third_term=zeros,
-        terrain_threat_n=zeros,
-        radar_threat_n=zeros,
-        third_term_n=zeros,
-        fuel_kg=zeros,
-        progress_km=zeros,
-        radar_threat_per_radar=per_radar,
-        visibility=visibility,
-        detection_prob=detection,
-        altitude_agl=states[:, 2] - model.height(states[:, 0], states[:, 1], scenario_index),
-        goal_distance=model.goal_distance(states, scenario_index),
-        reached_goal=false,
-        collided=false,
-        out_of_area=false,
-        terminated=false,
-        truncated=false,
-    )
-
 
 def unbatch(info: dict[str, np.ndarray], row: int) -> dict[str, Any]:
     """One row of a batched info as Python scalars and small arrays."""
@@ -336,7 +293,7 @@ class UAVPenetrationEnv(gym.Env):
         self.step_index = 0
         self._done = False
         self._track = [self.state.copy()]
-        result = reset_result(self.model, self.state[None], None)
+        result = self.model.reset_result(self.state[None])
         self._last_result = result
         return self._observe(result), unbatch(batched_info(self.model, result, None), 0)
 
@@ -384,9 +341,7 @@ class UAVPenetrationEnv(gym.Env):
         self.step_index = int(step_index)
         self._done = False
         self._track = [self.state.copy()]
-        result = replace(
-            reset_result(self.model, self.state[None], None), step_index=np.array([self.step_index])
-        )
+        result = self.model.reset_result(self.state[None], step_index=self.step_index)
         self._last_result = result
         return self._observe(result), unbatch(batched_info(self.model, result, None), 0)
 

@@ -40,7 +40,7 @@ from uav_penetration_env.kernels import (
     ModelArrays,
 )
 from uav_penetration_env.kinematics import UAVLimits, wrap_angle
-from uav_penetration_env.radar import reference_snr
+from uav_penetration_env.radar import fuse, reference_snr
 from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import BoolArray, FloatArray, IntArray
 
@@ -341,6 +341,77 @@ class PenetrationModel:
             goal = np.asarray(scenario_index, dtype=np.int64)
         goal = self.goal[goal]
         return np.hypot(goal[..., 0] - states[..., 0], goal[..., 1] - states[..., 1])
+
+    def reset_result(
+        self,
+        states: FloatArray,
+        scenario_index: IntArray | None = None,
+        step_index: IntArray | int = 0,
+    ) -> StepResult:
+        """A :class:`StepResult` describing states before any transition: at reset, or at a set state.
+
+        Quantities of the state alone (terrain and fused radar threat, per-radar threat,
+        visibility, detection probability, altitude above the terrain, goal distance) describe
+        ``states``; those of a transition (J, penalty, the third term, fuel, progress and the
+        normalised terms) are 0 and no event flag is set (model.md §7a, the reset info).
+
+        Args:
+            states: (B, 6) states.
+            scenario_index: (B,) pool index of each row.
+            step_index: k of each row, scalar or (B,) (0 at reset).
+
+        Returns:
+            The result, every field with a leading batch axis B.
+        """
+        states = np.asarray(states, dtype=np.float64)
+        batch = len(states)
+        zeros = np.zeros(batch)
+        false = np.zeros(batch, dtype=bool)
+        terrain, per_radar, visibility, detection = self.state_threats(states, scenario_index)
+        return StepResult(
+            state=states,
+            step_index=np.broadcast_to(np.asarray(step_index, dtype=np.int64), (batch,)).copy(),
+            J=zeros,
+            penalty=zeros,
+            terrain_threat=terrain,
+            radar_threat=fuse(per_radar, self.scenario.radar_model.fusion),
+            third_term=zeros,
+            terrain_threat_n=zeros,
+            radar_threat_n=zeros,
+            third_term_n=zeros,
+            fuel_kg=zeros,
+            progress_km=zeros,
+            radar_threat_per_radar=per_radar,
+            visibility=visibility,
+            detection_prob=detection,
+            altitude_agl=states[:, 2] - self.height(states[:, 0], states[:, 1], scenario_index),
+            goal_distance=self.goal_distance(states, scenario_index),
+            reached_goal=false,
+            collided=false,
+            out_of_area=false,
+            terminated=false,
+            truncated=false,
+        )
+
+    def coverage_level(self, states: FloatArray, scenario_index: IntArray | None = None) -> FloatArray:
+        """The radar network's detection at states on a [0, 1] scale, for coverage maps (model.md §4-5).
+
+        With the probability detection it is the fused threat Th_r (``max`` or ``or`` of the
+        per-radar P_d); with the ratio detection (eqs. 11/13) it is 1 where some radar detects
+        (D >= 1, inside the horizon, in sight) and 0 elsewhere, since D itself is no probability.
+
+        Args:
+            states: (B, 6) states.
+            scenario_index: (B,) pool index of each row.
+
+        Returns:
+            (B,) values in [0, 1].
+        """
+        _, per_radar, _, _ = self.state_threats(np.asarray(states, dtype=np.float64), scenario_index)
+        threat = fuse(per_radar, self.scenario.radar_model.fusion)
+        if self.detection == "ratio":
+            return (threat >= 1.0).astype(np.float64)
+        return threat
 
     # --- the transition ---------------------------------------------------------------------------
 

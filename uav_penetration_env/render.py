@@ -11,7 +11,6 @@ import numpy as np
 
 from uav_penetration_env.kinematics import HEADING
 from uav_penetration_env.model import PenetrationModel
-from uav_penetration_env.radar import fuse
 from uav_penetration_env.types import FloatArray
 
 FRAME_PIXELS = 640  # square frames, >= 400 x 400 (model.md §7a)
@@ -43,7 +42,8 @@ def coverage_grid(
     """Network threat on a horizontal grid at one altitude, for a UAV flying level at ``heading``.
 
     Returns:
-        x [km] (n,), y [km] (n,), fused threat (n, n) indexed [ix, iy].
+        x [km] (n,), y [km] (n,), the model's coverage level in [0, 1] (n, n) indexed [ix, iy]
+        (:meth:`PenetrationModel.coverage_level`).
     """
     low_x, high_x, low_y, high_y = model.bounds
     xs = np.linspace(low_x, high_x, nodes)
@@ -52,10 +52,7 @@ def coverage_grid(
     states = np.zeros((gx.size, 6))
     states[:, 0], states[:, 1], states[:, 2] = gx.ravel(), gy.ravel(), altitude_m
     states[:, 3], states[:, HEADING] = model.limits.speed_max, heading
-    _, per_radar, _, _ = model.state_threats(states, None)
-    threat = fuse(per_radar, model.scenario.radar_model.fusion)
-    if model.detection == "ratio":
-        threat = (threat >= 1.0).astype(np.float64)
+    threat = model.coverage_level(states)
     return xs / 1000.0, ys / 1000.0, threat.reshape(gx.shape)
 
 

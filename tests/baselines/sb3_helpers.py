@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from conftest import tiny_scenario
 
 # Short rollouts and few epochs: the smoke tests check plumbing, not learning.
@@ -33,3 +34,24 @@ def trained_tiny_ppo(root: Path):
     if "ppo" not in _TRAINED:
         _TRAINED["ppo"] = train_agent("ppo", out=root / "ppo-tiny-s0.zip", **tiny_run())
     return _TRAINED["ppo"]
+
+
+@pytest.fixture
+def baselines_plugins(monkeypatch):
+    """The harness finds baselines' plug-ins as an installed checkout does, whatever metadata is installed.
+
+    The entry points themselves are checked against pyproject.toml in test_plugin.py; here discovery
+    answers from :mod:`baselines.plugin`, so CLI tests do not depend on when ``pip install -e .``
+    last ran.
+    """
+    from baselines import plugin
+    from uav_penetration_env.benchmark import plugins
+
+    found = {
+        plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND)},
+        plugins.COMMAND_GROUP: {
+            "train": plugins.Plugin("train", plugin.TRAIN_COMMAND),
+            "plot.models": plugins.Plugin("plot.models", plugin.LEARNING_CURVES),
+        },
+    }
+    monkeypatch.setattr(plugins, "discover", lambda group: found[group])

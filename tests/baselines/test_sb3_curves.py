@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from sb3_helpers import baselines_plugins  # noqa: F401 (a fixture)
 
 from baselines.curves import _curve, load_curves, write_learning_curves
 
@@ -57,6 +58,7 @@ def test_empty_folder_writes_nothing(tmp_path):
     assert write_learning_curves(tmp_path, tmp_path / "out") == []
 
 
+@pytest.mark.usefixtures("baselines_plugins")
 def test_cli_plot_models(tmp_path, capsys):
     from uav_penetration_env.benchmark import cli
 

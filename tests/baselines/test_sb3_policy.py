@@ -12,13 +12,16 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from conftest import tiny_scenario
-from sb3_helpers import trained_tiny_ppo
+from sb3_helpers import baselines_plugins, trained_tiny_ppo  # noqa: F401 (a fixture)
 
 from baselines import SB3Policy, load_policy
 from baselines.artifacts import ModelFiles
 from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash
 from uav_penetration_env.benchmark.policies import Policy, make_policy
 from uav_penetration_env.env import UAVPenetrationEnv
+
+# Discovery of the sb3 kind and the train command answers from baselines.plugin (sb3_helpers).
+pytestmark = pytest.mark.usefixtures("baselines_plugins")
 
 
 @pytest.fixture(scope="session")

@@ -10,12 +10,16 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from conftest import tiny_scenario
-from sb3_helpers import TINY_PPO, tiny_run, trained_tiny_ppo
+from sb3_helpers import TINY_PPO, baselines_plugins, tiny_run, trained_tiny_ppo  # noqa: F401 (a fixture)
 
 from baselines import load_policy, train_agent
-from baselines.train import EVALUATION_COLUMNS, algorithm_kwargs, resolve_hyperparams
+from baselines.hyperparameters import algorithm_kwargs, resolve_hyperparams
+from baselines.run import EVALUATION_COLUMNS
 from uav_penetration_env.benchmark.cli import main
 from uav_penetration_env.benchmark.evaluate import evaluate
+
+# Discovery of the sb3 kind and the train command answers from baselines.plugin (sb3_helpers).
+pytestmark = pytest.mark.usefixtures("baselines_plugins")
 
 
 @pytest.fixture(scope="session")
@@ -94,12 +98,12 @@ def test_same_seed_gives_the_same_first_evaluation(tiny_ppo, tmp_path):
 
 
 def test_interrupted_training_saves_the_model(tmp_path, monkeypatch):
-    import baselines.train
+    import baselines.run
 
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt  # as Ctrl-C during the first evaluation would
 
-    monkeypatch.setattr(baselines.train, "evaluate_agent", interrupt)
+    monkeypatch.setattr(baselines.run, "evaluate_agent", interrupt)
     tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
     with pytest.raises(KeyboardInterrupt):
         train_agent("ppo", out=tmp_path / "cut.zip", **tiny_run(scenario=str(tmp_path / "tiny.yaml")))

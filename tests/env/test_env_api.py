@@ -48,10 +48,11 @@ def test_stable_baselines3_check_env(env_id):
         sb3_checker.check_env(gym.make(env_id), warn=True)
 
 
-def test_ids_are_registered_without_a_time_limit_wrapper():
+def test_ids_register_their_k_max_as_the_time_limit():
+    # Issue 18: the spec says where the env truncates itself (tests/env/test_gym_conventions.py).
     for env_id in ENV_IDS:
-        assert gym.spec(env_id).max_episode_steps is None
-        assert "TimeLimit" not in repr(
+        assert gym.spec(env_id).max_episode_steps == 150
+        assert "TimeLimit" in repr(
             gym.make(env_id, **({} if "Random" in env_id else {"scenario": tiny_scenario()}))
         )
 
@@ -242,3 +243,18 @@ def test_human_render_runs_headless(monkeypatch):
 def test_bad_render_mode_is_rejected():
     with pytest.raises(ValueError, match="render_mode"):
         UAVPenetrationEnv(tiny_scenario(), render_mode="ansi")
+
+
+@pytest.mark.parametrize("profile", ["benchmark", "paper"])
+def test_render_coverage_is_the_models_coverage_level(profile):
+    """The envelope drawn is the model's own detection rule, at the given altitude and heading."""
+    from uav_penetration_env.render import coverage_grid
+
+    model = UAVPenetrationEnv(tiny_scenario(profile=profile)).model
+    xs, ys, level = coverage_grid(model, 600.0, 0.4, nodes=7)
+    gx, gy = np.meshgrid(xs * 1000.0, ys * 1000.0, indexing="ij")
+    states = np.column_stack(
+        (gx.ravel(), gy.ravel(), np.full(gx.size, 600.0), np.full(gx.size, model.limits.speed_max))
+    )
+    states = np.column_stack((states, np.full(gx.size, 0.4), np.zeros(gx.size)))
+    np.testing.assert_array_equal(level, model.coverage_level(states).reshape(7, 7))

@@ -246,6 +246,77 @@ def test_observe_without_result_equals_observe_with_it(model):
     np.testing.assert_array_equal(model.observe(result.state, 3, result), model.observe(result.state, 3))
 
 
+STATE_FIELDS = (
+    "terrain_threat",
+    "radar_threat",
+    "radar_threat_per_radar",
+    "visibility",
+    "detection_prob",
+    "altitude_agl",
+    "goal_distance",
+)
+TRANSITION_FIELDS = (
+    "J",
+    "penalty",
+    "third_term",
+    "terrain_threat_n",
+    "radar_threat_n",
+    "third_term_n",
+    "fuel_kg",
+    "progress_km",
+)
+
+
+@pytest.mark.parametrize("profile", ["benchmark", "paper"])
+def test_reset_result_describes_a_state_as_the_step_into_it_did(profile):
+    """A state's own quantities do not depend on how it was reached; a transition's are 0 at reset."""
+    model = PenetrationModel(tiny_scenario(profile=profile))
+    states = np.array(
+        [flying_state(model, x, y, agl) for x, y, agl in ((0, 0, 150), (6, 22, 400), (20, 8, 60))]
+    )
+    stepped = model.step(states, np.array([[0.5, 0.1, 0.05], [0.0, -0.2, 0.0], [-1.0, 0.0, 0.1]]), 4)
+    described = model.reset_result(stepped.state, step_index=5)
+    for name in STATE_FIELDS:
+        np.testing.assert_array_equal(getattr(described, name), getattr(stepped, name), err_msg=name)
+    for name in TRANSITION_FIELDS:
+        assert not getattr(described, name).any(), name
+    assert described.step_index.tolist() == [5, 5, 5]
+    assert not (described.terminated | described.truncated | described.collided).any()
+    np.testing.assert_array_equal(described.state, stepped.state)
+
+
+def test_env_reset_info_is_the_models_reset_result(tiny):
+    env = UAVPenetrationEnv(tiny)
+    _, info = env.reset(seed=11)
+    described = env.model.reset_result(info["state"][None])
+    assert info["terrain_threat"] == described.terrain_threat[0]
+    assert info["radar_threat"] == described.radar_threat[0]
+    np.testing.assert_array_equal(info["radar_threat_per_radar"], described.radar_threat_per_radar[0])
+    assert info["J"] == 0.0 and info["step"] == 0
+
+
+@pytest.mark.parametrize(("profile", "fusion"), [("benchmark", "max"), ("benchmark", "or"), ("paper", "max")])
+def test_coverage_level_is_the_fused_probability_or_the_ratio_detection(profile, fusion):
+    # Short reference ranges, so the grid holds detected and undetected states in every mode.
+    radars = [{"name": "A", "x_km": 5, "y_km": 25, "z_m": 300, "ref_range_km": 15}]
+    radars += [{"name": "B", "x_km": 25, "y_km": 5, "mast_m": 15, "ref_range_km": 15}]
+    model = PenetrationModel(tiny_scenario(profile=profile, radar_model={"fusion": fusion}, radars=radars))
+    xs = np.linspace(-20e3, 45e3, 9)
+    states = np.array([[x, y, z, 10.0, 0.3, 0.0] for x in xs for y in xs for z in (100.0, 900.0, 2500.0)])
+    level = model.coverage_level(states)
+    result = model.reset_result(states)
+    assert np.all((level >= 0.0) & (level <= 1.0))
+    if model.detection == "ratio":
+        # D is no probability: the level says whether some radar detects (D >= 1 in range and sight).
+        np.testing.assert_array_equal(level, result.detection_prob)
+        assert set(np.unique(level)) == {0.0, 1.0}
+    else:
+        np.testing.assert_array_equal(level, result.radar_threat)
+        if fusion == "or":
+            p = result.radar_threat_per_radar
+            np.testing.assert_allclose(level, 1.0 - (1.0 - p[:, 0]) * (1.0 - p[:, 1]), rtol=1e-12)
+
+
 # --- property tests: random states, actions and scenarios -----------------------------------------
 
 finite = st.floats(allow_nan=False, allow_infinity=False)

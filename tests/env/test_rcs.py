@@ -549,3 +549,21 @@ def test_load_npy_and_suffix_errors(tmp_path):
         load_rcs_table(other)
     with pytest.raises(FileNotFoundError, match=r"absent\.csv"):
         load_rcs_table(tmp_path / "absent.csv")
+
+
+# ---------------------------------------------------------------------------------------- modules
+
+
+def test_runtime_lookup_imports_nothing_of_the_table_build():
+    """The model's per-step path (aspect angles, lookup) reads the grid only, never the build code."""
+    import ast
+    import inspect
+
+    from uav_penetration_env.rcs import lookup
+
+    tree = ast.parse(inspect.getsource(lookup))
+    imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    imported |= {
+        alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names
+    }
+    assert imported == {"__future__", "numpy", "uav_penetration_env.rcs.grid", "uav_penetration_env.types"}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from importlib import resources
 from pathlib import Path
@@ -16,14 +17,18 @@ from uav_penetration_env.build import build_scenario
 from uav_penetration_env.catalogue import dem_scenario, random_scenario
 from uav_penetration_env.scenario import (
     ConstantRCS,
+    DEMTerrain,
     DiamondSquare,
     GaussianField,
+    RadarModelConfig,
     RandomWalk,
     Scenario,
     ScenarioError,
+    TerrainConfig,
     load_scenario,
     paper_scenario,
 )
+from uav_penetration_env.suggest import did_you_mean
 
 DELETE = object()  # marker: remove the key instead of setting it
 
@@ -708,3 +713,53 @@ def test_updated_validates(tiny):
         tiny.updated({"uav": {"dv_max_m_s": -1}})
     assert info.value.field == "uav.dv_max_m_s"
     assert tiny.uav.dv_max_m_s == 2.0  # frozen: the original is untouched
+
+
+# --- the converter and the field rules (scenario/convert.py, scenario/rules.py) --------------------------
+
+
+def test_unknown_key_hint_is_the_shared_did_you_mean():
+    # 'radar' is close to two keys (difflib ratios 0.91 and 0.63 >= 0.6): suggest.py lists both, best first.
+    with pytest.raises(ScenarioError) as info:
+        Scenario.from_dict({"radar": []})
+    keys = [f.name for f in dataclasses.fields(Scenario)]
+    assert info.value.expected == f"a known key ({did_you_mean('radar', keys)}allowed: {', '.join(keys)})"
+    assert "did you mean 'radars', 'radar_model'? " in info.value.expected
+
+
+def test_unknown_tag_hint_is_the_shared_did_you_mean():
+    with pytest.raises(ScenarioError) as info:
+        Scenario.from_dict({"uav": {"rcs": {"model": "constnt"}}})
+    assert info.value.field == "uav.rcs.model"
+    assert (
+        info.value.expected == "a known model (did you mean 'constant'? one of primitives, constant, table)"
+    )
+
+
+def test_a_variant_without_its_tag_is_the_unions_first_variant():
+    s = Scenario.from_dict({"terrain": {"natural": {"height_m": 50.0}}})
+    assert s.terrain.natural == GaussianField(height_m=50.0)
+    with pytest.raises(ScenarioError) as info:  # the first variant's keys only
+        Scenario.from_dict({"terrain": {"natural": {"roughness": 0.5}}})
+    assert info.value.field == "terrain.natural.roughness"
+
+
+def test_field_rules_run_in_field_order_before_cross_field_checks():
+    # Three bad values: min_range_m is the first field with a broken rule; the reference
+    # probability (checked against false_alarm_prob, a cross-field check) comes after all rules.
+    with pytest.raises(ScenarioError) as info:
+        RadarModelConfig(false_alarm_prob=0.5, reference_detection_prob=0.1, min_range_m=-1.0, fusion="sum")
+    assert (info.value.field, info.value.value) == ("min_range_m", -1.0)
+    with pytest.raises(ScenarioError) as info:
+        RadarModelConfig(false_alarm_prob=0.5, reference_detection_prob=0.1)
+    assert info.value.field == "reference_detection_prob"
+
+
+def test_field_rules_skip_null_and_show_tuples_as_lists():
+    assert TerrainConfig(threat_altitude_scale_m=None).threat_altitude_scale_m is None
+    with pytest.raises(ScenarioError) as info:
+        TerrainConfig(threat_altitude_scale_m=0.0)
+    assert (info.value.field, info.value.expected) == ("threat_altitude_scale_m", "a positive number")
+    with pytest.raises(ScenarioError) as info:
+        DEMTerrain(lat_deg=(10.0, 95.0))  # a valid interval, outside [-90, 90]: the second rule
+    assert (info.value.value, info.value.expected) == ([10.0, 95.0], "latitudes in [-90, 90]")

@@ -16,7 +16,12 @@ import yaml
 from conftest import tiny_scenario
 
 from uav_penetration_env import load_scenario
-from uav_penetration_env.benchmark import cli
+from uav_penetration_env.benchmark import cli, plugins
+from uav_penetration_env.benchmark.commands import common
+from uav_penetration_env.benchmark.commands import run as run_command
+from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
+from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
+from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.benchmark.store import ResultsStore
 
 HERE = Path(__file__).parent
@@ -37,7 +42,7 @@ def run_cli(*argv):
 def test_no_flags_is_the_main_job():
     args = cli.build_parser().parse_args(["run"])
     args.argv = ["run"]
-    settings = cli.run_settings(args)
+    settings = run_command.run_settings(args)
     assert settings["policies"] == [
         "ihpso",
         "hpso",
@@ -50,29 +55,29 @@ def test_no_flags_is_the_main_job():
         "greedy",
     ]
     assert settings["scenarios"] == ["paper"]
-    assert cli.parse_seeds(settings["seeds"]) == [0, 1, 2, 3, 4]
+    assert common.parse_seeds(settings["seeds"]) == [0, 1, 2, 3, 4]
     assert settings["store"] == "results/uav-bench.sqlite" and settings["out"] == "results"
     assert settings["jobs"] is None and settings["max_evals"] == 10_000 and settings["horizon"] == 5
 
 
 def test_seed_and_scenario_grammar():
-    assert cli.parse_seeds("3") == [0, 1, 2]
-    assert cli.parse_seeds("5:8") == [5, 6, 7]
+    assert common.parse_seeds("3") == [0, 1, 2]
+    assert common.parse_seeds("5:8") == [5, 6, 7]
     for bad in ("x", "0", "5:5", "-2:3"):
-        with pytest.raises(cli.CLIError, match="--seeds"):
-            cli.parse_seeds(bad)
+        with pytest.raises(common.CLIError, match="--seeds"):
+            common.parse_seeds(bad)
     names = [
-        s.name for s in cli.resolve_scenarios(["paper", "paper-w2", "random:3-5", "random:9"], None, None)
+        s.name for s in common.resolve_scenarios(["paper", "paper-w2", "random:3-5", "random:9"], None, None)
     ]
     assert names == ["paper-2022-sec5", "paper-2022-sec5-w2", "random-3", "random-4", "random-5", "random-9"]
-    (weighted,) = cli.resolve_scenarios(["paper"], "paper", (0.3, 0.5, 0.2))
+    (weighted,) = common.resolve_scenarios(["paper"], "paper", (0.3, 0.5, 0.2))
     assert weighted.cost.weights == (0.3, 0.5, 0.2) and weighted.profile == "paper"
-    with pytest.raises(cli.CLIError, match="did you mean 'paper'"):
-        cli.resolve_scenarios(["papr"], None, None)
-    with pytest.raises(cli.CLIError, match="weights"):
-        cli.resolve_scenarios(["paper"], None, (0.3, 0.3, 0.3))
-    with pytest.raises(cli.CLIError, match="--weights"):
-        cli.parse_weights("0.3,0.7")
+    with pytest.raises(common.CLIError, match="did you mean 'paper'"):
+        common.resolve_scenarios(["papr"], None, None)
+    with pytest.raises(common.CLIError, match="weights"):
+        common.resolve_scenarios(["paper"], None, (0.3, 0.3, 0.3))
+    with pytest.raises(common.CLIError, match="--weights"):
+        common.parse_weights("0.3,0.7")
 
 
 def test_config_file_and_flags(tmp_path, tiny_yaml):
@@ -316,3 +321,105 @@ def test_plugin_import_flag_reaches_workers(tmp_path, tiny_yaml, monkeypatch):
     assert code == 0
     rows = stored_rows(store)
     assert (rows["error"] == "").all() and (rows["nfev"] > 0).all()
+
+
+# --- plug-ins: policy kinds and commands found through entry points ---------------------------------
+
+MISSING_EXTRA = Needs(
+    modules=("no_such_module_for_uav_tests",), install="the test extra: pip install 'x[test]'"
+)
+
+
+def fake_plugins(monkeypatch, policies=None, commands=None):
+    """Make plug-in discovery return these {entry-point name: Plugin} maps instead of the installed ones."""
+    groups = {plugins.POLICY_GROUP: policies or {}, plugins.COMMAND_GROUP: commands or {}}
+    monkeypatch.setattr(plugins, "discover", lambda group: groups[group])
+
+
+def spy_kind(needs=MISSING_EXTRA, loaded=None):
+    def load(argument):
+        loaded.append(argument)
+        return GreedyPolicy()
+
+    return PolicyKind(
+        prefix="fake", load=load, usage="fake:PATH", label=lambda a: f"fake:{Path(a).stem}", needs=needs
+    )
+
+
+def test_plugin_policy_kind_is_used_and_labelled(tmp_path, tiny_yaml, monkeypatch):
+    loaded = []
+    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", spy_kind(Needs(), loaded))})
+    store = tmp_path / "plug.sqlite"
+    assert run_cli("run", "--policies", "fake:dir/agent.zip", "--scenarios", tiny_yaml, "--seeds", 1,
+                   "--store", store, "--no-report", "--no-progress", "--jobs", 1) == 0  # fmt: skip
+    assert loaded == ["dir/agent.zip"]
+    assert stored_rows(store)["policy"].tolist() == ["fake:agent"]
+
+
+def test_a_plugin_kind_whose_extra_is_missing_is_refused_before_the_store_opens(
+    tmp_path, tiny_yaml, monkeypatch, capsys
+):
+    loaded = []
+    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", spy_kind(MISSING_EXTRA, loaded))})
+    store = tmp_path / "never.sqlite"
+    code = run_cli("run", "--policies", "greedy", "fake:m.zip", "--scenarios", tiny_yaml, "--store", store)
+    err = capsys.readouterr().err
+    assert code == 2 and loaded == [] and not store.exists()
+    assert err.count("\n") == 1 and err.startswith("uav-bench: error: --policies: ")
+    assert (
+        "no_such_module_for_uav_tests (not installed); install the test extra: pip install 'x[test]'" in err
+    )
+
+
+def test_without_the_plugin_a_prefixed_policy_is_an_unknown_name(tmp_path, tiny_yaml, monkeypatch, capsys):
+    fake_plugins(monkeypatch)
+    assert run_cli("run", "--policies", "sb3:m.zip", "--scenarios", tiny_yaml, "--store", tmp_path / "s") == 2
+    assert "no installed plug-in provides the kind 'sb3'" in capsys.readouterr().err
+
+
+def test_a_plugin_that_fails_to_import_is_refused_with_its_error(tmp_path, tiny_yaml, monkeypatch, capsys):
+    broken = plugins.Plugin("fake", error="fake_pkg:KIND failed to import (No module named 'fake_pkg')")
+    fake_plugins(monkeypatch, policies={"fake": broken}, commands={"fly": broken})
+    assert run_cli("run", "--policies", "fake:m", "--scenarios", tiny_yaml, "--store", tmp_path / "s") == 2
+    assert "No module named 'fake_pkg'" in capsys.readouterr().err
+    assert run_cli("fly", "--any", "flags") == 2  # the broken command still has a name and says why
+    assert "fly: the plug-in fake_pkg:KIND failed to import" in capsys.readouterr().err
+
+
+def test_plugin_commands_and_extensions_register_and_check_their_needs(monkeypatch, capsys):
+    calls = []
+
+    def add_arguments(parser):
+        parser.add_argument("--speed", type=int, required=True)
+
+    def add_extension_arguments(parser):
+        parser.add_argument("--fancy", action="store_true")
+
+    fly = Command("fly", "fly somewhere", add_arguments, lambda args: calls.append(("fly", args.speed)) or 0)
+    fancy = CommandExtension("plot", add_extension_arguments, lambda args: args.fancy,
+                             lambda args: calls.append(("fancy", args.out)) or 0)  # fmt: skip
+    heavy = Command("heavy", "needs a missing extra", add_arguments, lambda args: 0, needs=MISSING_EXTRA)
+    fake_plugins(monkeypatch, commands={n: plugins.Plugin(n, c) for n, c in
+                                        [("fly", fly), ("plot.fancy", fancy), ("heavy", heavy)]})  # fmt: skip
+    with pytest.raises(SystemExit) as help_exit:
+        run_cli("--help")
+    listing = capsys.readouterr().out
+    assert help_exit.value.code == 0 and "fly somewhere" in listing and "needs a missing extra" in listing
+    assert run_cli("fly", "--speed", 3) == 0
+    assert run_cli("plot", "--fancy", "--out", "figs") == 0
+    assert calls == [("fly", 3), ("fancy", "figs")]
+    assert run_cli("heavy", "--speed", 1) == 2
+    assert "uav-bench heavy needs no_such_module_for_uav_tests (not installed)" in capsys.readouterr().err
+    clash = Command("run", "another run", add_arguments, lambda args: 0)
+    fake_plugins(monkeypatch, commands={"run": plugins.Plugin("run", clash)})
+    assert run_cli("run") == 2
+    assert "clashes with a command" in capsys.readouterr().err
+
+
+def test_run_help_needs_no_plugin_and_no_rl_extra(monkeypatch, capsys):
+    fake_plugins(monkeypatch)
+    for argv in (["--help"], ["run", "--help"]):
+        with pytest.raises(SystemExit) as exit_info:
+            run_cli(*argv)
+        assert exit_info.value.code == 0
+    assert "--policies" in capsys.readouterr().out

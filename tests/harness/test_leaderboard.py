@@ -333,3 +333,27 @@ def test_leaderboard_of_a_real_sweep(tmp_path):
     text = read_markdown(paths)["tiny.md"]
     assert "Run commands: `pytest`" in text
     assert len([line for line in text.splitlines() if line.startswith("|")]) == 2 + len(policies)
+
+
+def test_leaderboard_is_the_one_the_code_before_the_column_table_made(store_path, tmp_path):
+    """data/leaderboard-synthetic was written from this file's store by the code before columns.py."""
+    from pathlib import Path
+
+    paths = lb.write_leaderboards(
+        store_path, tmp_path, command="uav-bench leaderboard (fixture)", n_resamples=500
+    )
+    old = Path(__file__).parent / "data" / "leaderboard-synthetic"
+    # The store is rebuilt here, so its run record names this machine, commit and versions.
+    machine = re.compile(r"^- (Commits|Versions|Machine|Date): .*$", flags=re.MULTILINE)
+    assert machine.sub("", paths[0].read_text()) == machine.sub("", (old / "tiny.md").read_text())
+    assert paths[1].read_bytes() == (old / "tiny.csv").read_bytes()
+
+
+def test_table_columns_are_the_column_tables(table):
+    from uav_penetration_env.benchmark.columns import leaderboard_columns
+
+    written = [name for column in leaderboard_columns() for name in column.csv]
+    assert sorted(written) == sorted(table.columns)  # every CSV column is declared, once
+    header, rows, _ = lb.markdown_rows(table, "ihpso")
+    assert header == [c.board.header.format(reference="ihpso") for c in leaderboard_columns()]
+    assert all(len(row) == len(header) for row in rows)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -228,3 +229,23 @@ def test_random_policy_is_uniform_in_the_box_and_seeded():
     high = model.limits.action_high
     assert np.all(np.abs(draws) <= high)
     assert np.all(draws.max(axis=0) > 0.95 * high) and np.all(draws.min(axis=0) < -0.95 * high)
+
+
+def test_mpc_defaults_live_in_one_place():
+    from uav_penetration_env.benchmark.commands.run import RUN_DEFAULTS
+    from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+
+    # Paper §5: H = 5, 10 000 evaluations per step; c_T = 0.06 (model.md §7), gamma = 1.
+    assert (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals, MPC_DEFAULTS.terminal_cost) == (5, 10_000, 0.06)
+    built = make_policy("pso")
+    plain = MPCPolicy(get_optimizer("pso"))
+    for policy in (built, plain):
+        assert (policy.horizon, policy.discount, policy.max_evals, policy.terminal_cost) == (
+            MPC_DEFAULTS.horizon,
+            MPC_DEFAULTS.discount,
+            MPC_DEFAULTS.max_evals,
+            MPC_DEFAULTS.terminal_cost,
+        )
+    assert {k: RUN_DEFAULTS[k] for k in ("horizon", "discount", "max_evals", "terminal_cost")} == (
+        dataclasses.asdict(MPC_DEFAULTS)
+    )

@@ -47,3 +47,23 @@ def test_quick_run_prints_both_tables(bench, capsys, tmp_path):
 def test_unknown_optimizer_is_rejected(bench):
     with pytest.raises(KeyError, match="did you mean 'ihpso'"):
         bench.main(["--quick", "--optimizers", "ihspo", "--n-jobs", "1"])
+
+
+def test_biased_case_prints_every_rule(bench, capsys, tmp_path):
+    out_csv = tmp_path / "biased.csv"
+    status = bench.main(["--biased", "--quick", "--dims", "3", "--optimizers", "pso", "lpso", "cem",
+                         "--n-jobs", "1", "--csv", str(out_csv)])
+    assert status == 0
+    lines = capsys.readouterr().out.splitlines()
+    header = next(line for line in lines if line.startswith("optimizer"))
+    assert header.split() == ["optimizer", "absorb", "reflect", "damp", "random"]
+    rows = [line.split() for line in lines if line.startswith(("pso ", "lpso ", "cem "))]
+    assert [row[0] for row in rows] == ["pso", "lpso"]  # cem has no boundary rule: left out
+    assert all(row[2::2] and all(cell.endswith("/2") for cell in row[2::2]) for row in rows)
+    assert len(out_csv.read_text().splitlines()) == 1 + 2 * 4 * 2
+
+
+def test_biased_run_counts_a_coordinate_on_a_wall_as_stuck(bench):
+    row = bench.run_biased("pso", "absorb", 2, 0, 200)
+    assert row["boundary"] == "absorb" and row["nfev"] == 200
+    assert isinstance(row["stuck"], bool) and row["error"] >= 0

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from uav_penetration_env import __version__
-from uav_penetration_env.benchmark.policies import GreedyPolicy, RandomPolicy
+from uav_penetration_env.benchmark.policies import MPC_DEFAULTS, GreedyPolicy, RandomPolicy
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.scenario import PayoffConstants, PayoffNormalisation, Scenario
 
@@ -99,7 +99,7 @@ def payoff_table(
     scenario: Scenario,
     optimizer: str,
     *,
-    max_evals: int = 10_000,
+    max_evals: int = MPC_DEFAULTS.max_evals,
     runs: int = 20,
     horizon: int = 10,
     n_jobs: int | None = 1,

@@ -29,7 +29,9 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env import __version__
+from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
+from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
 from uav_penetration_env.build import build_scenario
 from uav_penetration_env.env import UAVPenetrationEnv
@@ -53,12 +55,6 @@ def policy_hash(policy: Any) -> str:
     """16 hex digits of the policy configuration (the store key's first part)."""
     text = json.dumps(policy_config(policy), sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def episode_seeds(seed: int, scenario_hash: str) -> tuple[int, np.random.SeedSequence]:
-    """Paired seeding (api.md): the env's reset seed and the policy's SeedSequence for (seed, scenario)."""
-    env_sequence, policy_sequence = np.random.SeedSequence([int(seed), int(scenario_hash, 16)]).spawn(2)
-    return int(env_sequence.generate_state(1, dtype=np.uint32)[0]), policy_sequence
 
 
 @dataclass(frozen=True)
@@ -89,7 +85,8 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
     """Fly one episode and summarise it; a raising planner yields an ``error`` row (never an exception).
 
     Returns:
-        The episode row (the ``episodes`` columns) and one dict per step.
+        The episode row (the ``episodes`` columns) and one dict per track point, the start state's
+        step-0 row first (no step rows for an ``error`` row).
     """
     limit_worker_threads()  # issue 10: one compiled thread per worker process unless NUMBA_NUM_THREADS is set
     started = time.perf_counter()
@@ -112,18 +109,19 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         env_seed, policy_seed = episode_seeds(task.seed, scenario.hash)
         observation, info = env.reset(seed=env_seed)
         policy.reset(env.model, policy_seed)
-        previous = info["state"]
+        steps.append(start_row(info))  # step 0: the start state, so no reader replays the reset
+        states = [info["state"]]
         done = False
         while not done:
             tick = time.perf_counter()
             action = np.asarray(policy.act(observation, info), dtype=np.float64)
             planning = time.perf_counter() - tick
-            record = dict(getattr(policy, "last_record", None) or {})
+            record = {"planning_seconds": planning, **(getattr(policy, "last_record", None) or {})}
             observation, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
-            steps.append(_step_row(info, action, record, planning, previous))
-            previous = info["state"]
-        row.update(_summary(steps, info, terminated, truncated))
+            steps.append(step_row(info, action, record))
+            states.append(info["state"])
+        row.update(summarise(EpisodeSteps(steps[1:], np.array(states), info, truncated)))
         metadata = getattr(policy, "metadata", None)
         if isinstance(metadata, Mapping):
             row.update({k: v for k, v in metadata.items() if k in ("train_timesteps", "train_seconds")})
@@ -135,85 +133,6 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
     row["episode_seconds"] = time.perf_counter() - started
     row["finished"] = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     return row, steps
-
-
-def _step_row(
-    info: Mapping[str, Any],
-    action: np.ndarray,
-    record: Mapping[str, Any],
-    planning: float,
-    previous: np.ndarray,
-) -> dict[str, Any]:
-    state = info["state"]
-    position = info["position"]
-    return {
-        "step": int(info["step"]),
-        "x_km": float(position[0]),
-        "y_km": float(position[1]),
-        "z_m": float(position[2]),
-        "altitude_agl": float(info["altitude_agl"]),
-        "distance_to_goal": float(info["distance_to_goal"]),
-        "speed": float(state[3]),
-        "heading": float(state[4]),
-        "pitch": float(state[5]),
-        **{k: float(info[k]) for k in ("J", "penalty", "terrain_threat", "radar_threat", "third_term")},
-        **{
-            k: float(info[k])
-            for k in ("terrain_threat_n", "radar_threat_n", "third_term_n", "fuel_kg", "detection_prob")
-        },
-        "detected": bool(info["detected"]),
-        "action_dv": float(action[0]),
-        "action_dphi": float(action[1]),
-        "action_dtheta": float(action[2]),
-        "nfev": int(record.get("nfev", 0)),
-        "planning_seconds": float(record.get("planning_seconds", planning)),
-        "objective_seconds": float(record.get("objective_seconds", 0.0)),
-        "plan_cost": record.get("plan_cost"),
-        "history": record.get("history"),
-        "history_nfev": record.get("history_nfev"),
-        "segment_m": float(np.linalg.norm(np.asarray(state[:3]) - np.asarray(previous[:3]))),
-    }
-
-
-def _summary(
-    steps: Sequence[Mapping[str, Any]], info: Mapping[str, Any], terminated: bool, truncated: bool
-) -> dict[str, Any]:
-    def column(name: str) -> np.ndarray:
-        return np.array([s[name] for s in steps], dtype=np.float64)
-
-    if info["reached_goal"]:
-        outcome = "success"
-    elif info["collided"]:
-        outcome = "collided"
-    elif info["out_of_area"]:
-        outcome = "out_of_area"
-    else:
-        outcome = "truncated" if truncated else "unfinished"
-    total_j = float(column("J").sum())
-    penalty = float(column("penalty").sum())
-    detection = column("detection_prob")
-    nfev = column("nfev")
-    return {
-        "outcome": outcome,
-        "total_J": total_j,
-        "total_penalty": penalty,
-        "total_cost": total_j + penalty,
-        "mean_J": total_j / len(steps),
-        "terrain_total": float(column("terrain_threat").sum()),
-        "radar_total": float(column("radar_threat").sum()),
-        "third_total": float(column("third_term").sum()),
-        "fuel_kg": float(column("fuel_kg").sum()),
-        "p_detected": float(1.0 - np.prod(1.0 - detection)),
-        "detected_steps": int(column("detected").sum()),
-        "max_detection_prob": float(detection.max()),
-        "path_length_km": float(column("segment_m").sum() / 1000.0),
-        "steps": len(steps),
-        "nfev": int(nfev.sum()),
-        "nfev_per_step": float(nfev.mean()),
-        "planning_seconds": float(column("planning_seconds").mean()),
-        "objective_seconds": float(column("objective_seconds").mean()),
-        "error": "",
-    }
 
 
 # --- the sweep ----------------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Policies: the Protocol every planner meets, and the greedy and random floors (api.md).
+"""Policies: the Protocol every planner meets, MPC, the greedy and random floors, and policy names (api.md).
 
 A policy is anything with ``reset(model, seed)`` and ``act(observation, info) -> action``.
 Planners read the exact state from ``info["state"]`` and the step index from ``info["step"]``;
@@ -8,7 +8,6 @@ they never parse the observation.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import inspect
 import math
 import time
@@ -18,9 +17,35 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import Bounds
 
+from uav_penetration_env.benchmark.plugins import POLICY_GROUP, Plugin, PluginUnavailable, policy_kinds
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.types import FloatArray
+
+
+@dataclass(frozen=True)
+class MPCSettings:
+    """The MPC planner's settings; :data:`MPC_DEFAULTS` is the benchmark's one set of defaults.
+
+    :class:`MPCPolicy`, :func:`make_policy` and ``uav-bench run`` all take their defaults from
+    :data:`MPC_DEFAULTS` (model.md §7).
+
+    Attributes:
+        horizon: H, control steps per plan (paper §5: 5).
+        discount: gamma of eq. 37.
+        max_evals: objective evaluations per planning step (paper §5: 10 000).
+        terminal_cost: c_T, cost-to-go per remaining step at v_max (DECISION, model.md §7: 0.06; 0 is
+            the paper's literal eq. 37, the ``NAME-eq37`` policies).
+    """
+
+    horizon: int = 5
+    discount: float = 1.0
+    max_evals: int = 10_000
+    terminal_cost: float = 0.06
+
+
+MPC_DEFAULTS = MPCSettings()
 
 
 @runtime_checkable
@@ -115,7 +140,7 @@ class MPCPolicy:
 
     Args:
         optimizer: anything with ``minimize(fun, bounds, *, rng, max_evals[, x0])``.
-        horizon: H, control steps per plan.
+        horizon: H, control steps per plan (default: :data:`MPC_DEFAULTS`, as the next three).
         discount: gamma of eq. 37.
         max_evals: objective evaluations (control sequences) per planning step.
         terminal_cost: c_T of the cost-to-go (DECISION, model.md §7); 0 is the paper's literal eq. 37.
@@ -128,10 +153,10 @@ class MPCPolicy:
     """
 
     optimizer: Any
-    horizon: int = 5
-    discount: float = 1.0
-    max_evals: int = 10_000
-    terminal_cost: float = 0.06
+    horizon: int = MPC_DEFAULTS.horizon
+    discount: float = MPC_DEFAULTS.discount
+    max_evals: int = MPC_DEFAULTS.max_evals
+    terminal_cost: float = MPC_DEFAULTS.terminal_cost
     warm_start: bool = True
     name: str | None = None
     model: PenetrationModel | None = field(default=None, repr=False)
@@ -225,51 +250,71 @@ EQ37_SUFFIX = "-eq37"
 
 
 def policy_names() -> list[str]:
-    """Every name :func:`make_policy` accepts (besides ``sb3:PATH``)."""
+    """Every plain name :func:`make_policy` accepts (plug-in kinds, ``PREFIX:...``, aside)."""
     from optimizers import available_optimizers
 
     names = available_optimizers()
     return sorted([*FLOOR_POLICIES, *names, *(f"{n}{EQ37_SUFFIX}" for n in names)])
 
 
+def plugin_policy_forms() -> list[str]:
+    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``)."""
+    return [k.usage if not isinstance(k, Plugin) else f"{p}:..." for p, k in policy_kinds().items()]
+
+
+def policy_label(spec: str) -> str:
+    """The name of a policy in result tables: a plug-in kind may shorten it (``sb3:DIR/m.zip`` -> ``sb3:m``)."""
+    prefix, colon, argument = spec.partition(":")
+    kind = policy_kinds().get(prefix) if colon else None
+    if kind is None or isinstance(kind, Plugin) or kind.label is None:
+        return spec
+    return kind.label(argument)
+
+
 def make_policy(
     spec: str,
     *,
-    horizon: int = 5,
-    max_evals: int = 10_000,
-    discount: float = 1.0,
-    terminal_cost: float = 0.06,
+    horizon: int = MPC_DEFAULTS.horizon,
+    max_evals: int = MPC_DEFAULTS.max_evals,
+    discount: float = MPC_DEFAULTS.discount,
+    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
 ) -> Any:
     """A policy from its CLI name (api.md).
 
     Names: an optimiser name (an MPC planner), ``NAME-eq37`` (the same with ``terminal_cost=0``,
-    the paper's literal eq. 37), ``greedy``, ``random`` or ``sb3:PATH.zip`` (a Stable-Baselines3
-    agent, extra ``rl``).
+    the paper's literal eq. 37), ``greedy``, ``random``, or ``PREFIX:ARGUMENT`` of a plug-in
+    policy kind (entry-point group ``uav_penetration.policies``; the ``rl`` extra's ``baselines``
+    adds ``sb3:PATH.zip``). A plug-in kind is checked for its run-time needs here, so a missing
+    extra is refused before any episode runs.
 
     Raises:
-        KeyError: an unknown name, with suggestions and the list of known names.
+        KeyError: an unknown name or prefix, with suggestions and the list of known forms.
+        PluginUnavailable: (an ImportError) a plug-in kind whose needs are not installed, or that
+            failed to import; one line saying what to install.
     """
     from optimizers import available_optimizers, get_optimizer
 
     if spec in FLOOR_POLICIES:
         return FLOOR_POLICIES[spec]()
-    if spec.startswith("sb3:"):
-        try:
-            from baselines import load_policy
-        except ImportError as error:  # pragma: no cover - depends on the installed extras
-            raise ImportError(
-                f"policy {spec!r} needs the RL extra: pip install -e '.[rl]' ({error})"
-            ) from error
-        return load_policy(spec[4:])
+    prefix, colon, argument = spec.partition(":")
+    kinds = policy_kinds() if colon else {}
+    if prefix in kinds:
+        kind = kinds[prefix]
+        if isinstance(kind, Plugin):
+            raise PluginUnavailable(f"policy {spec!r}: the plug-in {kind.error}")
+        kind.needs.check(f"policy {spec!r}")
+        return kind.load(argument)
     names = available_optimizers()
     literal = spec not in names and spec.endswith(EQ37_SUFFIX) and spec[: -len(EQ37_SUFFIX)] in names
     base = spec[: -len(EQ37_SUFFIX)] if literal else spec
     if base not in names:
-        known = policy_names()
-        close = difflib.get_close_matches(spec, known, n=3, cutoff=0.6)
-        hint = f" — did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        # A prefix is compared with the plug-in prefixes, a plain name with the plain names.
+        hint = did_you_mean(prefix, kinds) if colon else did_you_mean(spec, policy_names())
+        if colon:  # name the mechanism: the kind may belong to a package that is not installed
+            hint = f"no installed plug-in provides the kind {prefix!r} (entry points {POLICY_GROUP}); {hint}"
+        known = ", ".join(["greedy", "random", "NAME-eq37", *plugin_policy_forms()])
         raise KeyError(
-            f"unknown policy {spec!r}{hint} known: greedy, random, sb3:PATH.zip, NAME-eq37 and the optimisers {', '.join(names)}"
+            f"unknown policy {spec!r} — {hint}known: {known} and the optimisers {', '.join(names)}"
         )
     return MPCPolicy(
         get_optimizer(base),

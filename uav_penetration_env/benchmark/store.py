@@ -2,7 +2,13 @@
 
 Tables: ``schema_version``; ``runs`` (provenance of each ``evaluate`` call); ``policies`` and
 ``scenarios`` (configurations by hash, so a store is self-describing); ``episodes`` (one row per
-episode, unique by ``(policy_hash, scenario_hash, seed)``); ``steps`` (one row per step).
+episode, unique by ``(policy_hash, scenario_hash, seed)``); ``steps`` (one row per track point,
+step 0 being the start state). The columns of ``episodes`` and ``steps`` are declared in
+:mod:`uav_penetration_env.benchmark.columns`.
+
+Opening a store upgrades it in place, once: columns declared since it was written are added
+(``ALTER TABLE ... ADD COLUMN``, NULL in old rows), and a version-1 store gains the step-0 row of
+every episode that has steps, computed from the scenario it names (:func:`migrate_start_rows`).
 
 Only the parent process writes, one transaction per finished episode (its row and all its steps
 together), in WAL mode: an interrupted sweep leaves every finished episode and nothing partial,
@@ -13,82 +19,20 @@ from __future__ import annotations
 
 import json
 import sqlite3
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-SCHEMA_VERSION = 1
+from uav_penetration_env.benchmark.columns import EPISODE, STEP, sql_types, start_row
 
-EPISODE_COLUMNS: dict[str, str] = {
-    "policy": "TEXT NOT NULL",
-    "policy_hash": "TEXT NOT NULL",
-    "scenario": "TEXT NOT NULL",
-    "scenario_hash": "TEXT NOT NULL",
-    "seed": "INTEGER NOT NULL",
-    "outcome": "TEXT",  # success | collided | out_of_area | truncated | error
-    "total_J": "REAL",  # sum of J(k) over the episode (without the failure penalty)
-    "total_penalty": "REAL",
-    "total_cost": "REAL",  # total_J + total_penalty = -return
-    "mean_J": "REAL",  # total_J / steps: mean J per track point
-    "terrain_total": "REAL",
-    "radar_total": "REAL",
-    "third_total": "REAL",
-    "fuel_kg": "REAL",
-    "p_detected": "REAL",  # 1 - prod_k (1 - detection_prob_k)
-    "detected_steps": "INTEGER",
-    "max_detection_prob": "REAL",
-    "path_length_km": "REAL",
-    "steps": "INTEGER",
-    "nfev": "INTEGER",  # objective evaluations over the episode
-    "nfev_per_step": "REAL",
-    "planning_seconds": "REAL",  # mean per step
-    "objective_seconds": "REAL",  # mean per step spent inside rollout_cost
-    "episode_seconds": "REAL",
-    "weights": "TEXT",
-    "profile": "TEXT",
-    "horizon": "INTEGER",
-    "max_evals": "INTEGER",
-    "train_timesteps": "INTEGER",
-    "train_seconds": "REAL",
-    "error": "TEXT NOT NULL DEFAULT ''",
-    "run_id": "INTEGER",
-    "finished": "TEXT",
-}
+# Version 2 (this one) stores each episode's start state as a step-0 row; version 1 had none.
+SCHEMA_VERSION = 2
 
-STEP_COLUMNS: dict[str, str] = {
-    "step": "INTEGER NOT NULL",
-    "x_km": "REAL",
-    "y_km": "REAL",
-    "z_m": "REAL",
-    "altitude_agl": "REAL",
-    "distance_to_goal": "REAL",
-    "speed": "REAL",
-    "heading": "REAL",
-    "pitch": "REAL",
-    "J": "REAL",
-    "penalty": "REAL",
-    "terrain_threat": "REAL",
-    "radar_threat": "REAL",
-    "third_term": "REAL",
-    "terrain_threat_n": "REAL",
-    "radar_threat_n": "REAL",
-    "third_term_n": "REAL",
-    "fuel_kg": "REAL",
-    "detection_prob": "REAL",
-    "detected": "INTEGER",
-    "action_dv": "REAL",
-    "action_dphi": "REAL",
-    "action_dtheta": "REAL",
-    "nfev": "INTEGER",
-    "planning_seconds": "REAL",
-    "objective_seconds": "REAL",
-    "plan_cost": "REAL",
-    "history": "TEXT",  # JSON list: the optimiser's best-so-far after each iteration
-    "history_nfev": "TEXT",  # JSON list: evaluations spent at each history entry
-}
+EPISODE_COLUMNS: dict[str, str] = sql_types(EPISODE)  # name -> SQLite type, from benchmark.columns
+STEP_COLUMNS: dict[str, str] = sql_types(STEP)
 
 
 class StoreError(RuntimeError):
@@ -132,9 +76,13 @@ class ResultsStore:
             row = connection.execute("SELECT version FROM schema_version").fetchone()
             if row is None:
                 connection.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION,))
-            elif row[0] != SCHEMA_VERSION:
+                version = SCHEMA_VERSION
+            elif row[0] in MIGRATIONS or row[0] == SCHEMA_VERSION:
+                version = int(row[0])
+            else:
                 raise StoreError(
-                    f"results store {self.path}: schema version {row[0]}, expected {SCHEMA_VERSION}"
+                    f"results store {self.path}: schema version {row[0]}, expected {SCHEMA_VERSION} "
+                    f"or an older one this version migrates ({', '.join(map(str, sorted(MIGRATIONS)))})"
                 )
             connection.execute(
                 "CREATE TABLE IF NOT EXISTS runs (run_id INTEGER PRIMARY KEY AUTOINCREMENT, started TEXT, "
@@ -156,6 +104,15 @@ class ResultsStore:
                 "CREATE TABLE IF NOT EXISTS steps (episode_id INTEGER NOT NULL REFERENCES episodes(episode_id) "
                 f"ON DELETE CASCADE, {columns}, PRIMARY KEY (episode_id, step))"
             )
+            for table, declared in (("episodes", EPISODE_COLUMNS), ("steps", STEP_COLUMNS)):
+                present = {r[1] for r in connection.execute(f"PRAGMA table_info({table})")}
+                for name, kind in declared.items():
+                    if name not in present:  # a column declared after the store was written
+                        connection.execute(f"ALTER TABLE {table} ADD COLUMN {name} {kind}")
+            while version != SCHEMA_VERSION:
+                MIGRATIONS[version](connection)
+                version += 1
+                connection.execute("UPDATE schema_version SET version = ?", (version,))
 
     # --- writing ---------------------------------------------------------------------------------------
 
@@ -220,23 +177,37 @@ class ResultsStore:
 
     def episodes(self, include_errors: bool = True) -> pd.DataFrame:
         """All episode rows as a DataFrame (in write order)."""
+        # Declared columns in declared order: a migrated store (columns added at its end) reads
+        # like a new one.
         query = (
-            "SELECT * FROM episodes"
+            f"SELECT {', '.join(['episode_id', *EPISODE_COLUMNS])} FROM episodes"
             + ("" if include_errors else " WHERE error = ''")
             + " ORDER BY episode_id"
         )
         return pd.read_sql_query(query, self._connection)
 
-    def steps(self, episode_ids: Iterable[int] | None = None) -> pd.DataFrame:
-        """Step rows (optionally of some episodes), ordered by episode and step."""
+    def steps(self, episode_ids: Iterable[int] | None = None, *, include_start: bool = False) -> pd.DataFrame:
+        """Step rows (optionally of some episodes), ordered by episode and step.
+
+        DECISION (api.md §4.4): the step-0 rows (start states) are left out unless
+        ``include_start``, so that any sum, mean or count over the returned rows is one over the
+        episode's K transitions, as the episode totals are, and readers written before step 0
+        existed read the same rows.
+
+        Args:
+            episode_ids: the episodes (default: all).
+            include_start: also return each episode's step-0 row (its start state).
+        """
+        where = "" if include_start else " AND step > 0"
+        columns = ", ".join(["episode_id", *STEP_COLUMNS])
         if episode_ids is None:
-            return pd.read_sql_query("SELECT * FROM steps ORDER BY episode_id, step", self._connection)
+            return pd.read_sql_query(
+                f"SELECT {columns} FROM steps WHERE 1{where} ORDER BY episode_id, step", self._connection
+            )
         ids = [int(i) for i in episode_ids]
-        if not ids:
-            return pd.read_sql_query("SELECT * FROM steps WHERE 0", self._connection)
         marks = ", ".join("?" for _ in ids)
         return pd.read_sql_query(
-            f"SELECT * FROM steps WHERE episode_id IN ({marks}) ORDER BY episode_id, step",
+            f"SELECT {columns} FROM steps WHERE episode_id IN ({marks}){where} ORDER BY episode_id, step",
             self._connection,
             params=ids,
         )
@@ -280,3 +251,55 @@ def _sql_value(value: Any) -> Any:
     if isinstance(value, np.floating):
         return float(value)
     return _json(value)
+
+
+# --- migrations: MIGRATIONS[v] upgrades a version-v store to version v + 1 ------------------------------
+
+
+def migrate_start_rows(connection: sqlite3.Connection) -> None:
+    """Version 1 -> 2: add the step-0 row (start state) of every episode that has step rows.
+
+    The start state of an episode is a function of its scenario and seed (paired seeding), so it is
+    recomputed here from the scenario YAML the store holds, seeded with the scenario hash the
+    episode recorded (api.md §4.2). DECISION (api.md §4.4): an episode whose scenario is missing
+    from the store, no longer loads, or loads with another hash than the one recorded (the file is
+    not the scenario that was flown, or this version reads it differently) keeps no step-0 row, and
+    readers draw its track from step 1, rather than receiving a start that may be wrong or failing
+    the whole store.
+    """
+    import yaml
+
+    from uav_penetration_env.benchmark.seeding import start_info
+    from uav_penetration_env.scenario import load_scenario
+
+    episodes = connection.execute(
+        "SELECT e.episode_id, e.scenario_hash, e.seed, s.yaml FROM episodes e "
+        "LEFT JOIN scenarios s ON s.scenario_hash = e.scenario_hash "
+        "WHERE EXISTS (SELECT 1 FROM steps t WHERE t.episode_id = e.episode_id) "
+        "AND NOT EXISTS (SELECT 1 FROM steps t WHERE t.episode_id = e.episode_id AND t.step = 0) "
+        "ORDER BY e.episode_id"
+    ).fetchall()
+    scenarios: dict[str, Any] = {}
+    names = list(STEP_COLUMNS)
+    rows = []
+    for episode_id, scenario_hash, seed, text in episodes:
+        if scenario_hash not in scenarios:
+            try:
+                scenario = load_scenario(yaml.safe_load(text)) if text else None
+            except (ValueError, KeyError, TypeError, yaml.YAMLError):  # ScenarioError is a ValueError
+                scenario = None
+            scenarios[scenario_hash] = (
+                scenario if scenario is not None and scenario.hash == scenario_hash else None
+            )
+        scenario = scenarios[scenario_hash]
+        if scenario is None:
+            continue
+        row = start_row(start_info(scenario, int(seed), scenario_hash))
+        rows.append((episode_id, *(_sql_value(row[name]) for name in names)))
+    connection.executemany(
+        f"INSERT INTO steps (episode_id, {', '.join(names)}) VALUES (?, {', '.join('?' for _ in names)})",
+        rows,
+    )
+
+
+MIGRATIONS: dict[int, Callable[[sqlite3.Connection], None]] = {1: migrate_start_rows}

@@ -1,0 +1,242 @@
+"""What to train: :class:`TrainConfig` (the user's settings) checked into a :class:`TrainingPlan`.
+
+:func:`prepare_training` validates everything that can be checked before anything slow happens
+(algorithm, hyper-parameters, env id, scenario, counts, the output folder), so ``train_agent``
+and ``uav-bench train`` fail fast with a message naming the argument.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from baselines.artifacts import ModelFiles
+from baselines.hyperparameters import resolve_hyperparams
+from uav_penetration_env.suggest import did_you_mean
+
+DEFAULT_MODELS = Path("leaderboards/models")
+# The NAME in a default model path ALGO-NAME-sSEED.zip when no scenario is given.
+DEFAULT_NAMES = {
+    "UAVPenetration-v0": "paper",
+    "UAVPenetrationPaper-v0": "paper-profile",
+    "UAVPenetrationRandom-v0": "random",
+    "UAVPenetrationDEM-v0": "dem",
+}
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a training run is asked to do (``train_agent(**fields)``, ``uav-bench train``; api.md).
+
+    Attributes:
+        algo: ``ppo``, ``sac``, ``td3`` (tuned files) or ``a2c``, ``ddpg`` (SB3 defaults, with a warning).
+        env_id: a registered id (``UAVPenetration-v0``, ``UAVPenetrationPaper-v0``,
+            ``UAVPenetrationRandom-v0``, ``UAVPenetrationDEM-v0``).
+        scenario: for the fixed ids, a catalogue name, Scenario, YAML path or mapping (``None``: the
+            id's own).
+        total_timesteps: environment steps to train for (SB3 finishes the rollout it is in).
+        seed: seeds Python, numpy and torch, and (through a SeedSequence) the sub-envs' resets.
+        n_envs: sub-envs stepped as one batch.
+        out: the model's ``.zip`` path; sidecars go beside it (``None``:
+            :func:`default_model_path`).
+        hyperparams: overrides of the tuned hyper-parameters (a mapping or a YAML file, same keys).
+        profile: ``benchmark`` or ``paper`` (``None``: the id's / scenario's).
+        difficulty: the Random id's difficulty (default 0.5).
+        env_kwargs: other keywords of the id (e.g. ``pool_size`` of the Random id).
+        eval_freq: evaluate every this many environment steps, and at the end (0: never).
+        eval_episodes: episodes per evaluation, seeds ``20000 ...`` (deterministic policy).
+        checkpoint_freq: save a checkpoint every this many environment steps (0/None: never).
+        progress_bar: show a tqdm bar (steps, ETA, last evaluation).
+        verbose: SB3's verbosity.
+        torch_threads: torch intra-op threads while training (``None``: leave torch's setting).
+        device: torch device (``cpu``: small MLPs run fastest there).
+    """
+
+    algo: str = "ppo"
+    env_id: str = "UAVPenetration-v0"
+    scenario: Any = None
+    total_timesteps: int = 200_000
+    seed: int = 0
+    n_envs: int = 8
+    out: str | Path | None = None
+    hyperparams: Mapping[str, Any] | str | Path | None = None
+    profile: str | None = None
+    difficulty: float | None = None
+    env_kwargs: Mapping[str, Any] | None = None
+    eval_freq: int = 10_000
+    eval_episodes: int = 10
+    checkpoint_freq: int | None = 50_000
+    progress_bar: bool = False
+    verbose: int = 0
+    torch_threads: int | None = 1
+    device: str = "cpu"
+
+    @classmethod
+    def of(cls, **fields: Any) -> TrainConfig:
+        """A config from keyword arguments.
+
+        Raises:
+            TypeError: an unknown field, with a did-you-mean and the known fields.
+        """
+        known = [f.name for f in dataclasses.fields(cls)]
+        for name in fields:
+            if name not in known:
+                raise TypeError(
+                    f"train_agent: unknown argument {name!r} — {did_you_mean(name, known)}known: {', '.join(known)}"
+                )
+        return cls(**fields)
+
+
+@dataclass(frozen=True)
+class TrainingPlan:
+    """A validated training run: everything :func:`baselines.run.run_training` needs.
+
+    Built by :func:`prepare_training` from a :class:`TrainConfig`: the hyper-parameters resolved,
+    the scenario resolved into ``env_kwargs``, the files named, every count checked.
+    """
+
+    algo: str
+    env_id: str
+    env_kwargs: dict[str, Any]
+    total_timesteps: int
+    seed: int
+    n_envs: int
+    files: ModelFiles
+    hyperparams: dict[str, Any]
+    hyperparams_source: str
+    eval_freq: int
+    eval_episodes: int
+    checkpoint_freq: int
+    progress_bar: bool
+    verbose: int
+    torch_threads: int | None
+    device: str
+
+
+def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path:
+    """``leaderboards/models/ALGO-NAME-sSEED.zip``.
+
+    NAME is the scenario's as the user gave it: a catalogue name or ``random:SEED`` as typed, a YAML
+    path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`).
+    """
+    if scenario is None:
+        name = DEFAULT_NAMES.get(env_id, env_id)
+    elif isinstance(scenario, (str, Path)):
+        text = str(scenario)
+        name = Path(text).stem if text.endswith((".yaml", ".yml")) else text
+    else:
+        name = getattr(scenario, "name", None) or (
+            scenario.get("name") if isinstance(scenario, Mapping) else None
+        )
+        name = name or "custom"
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
+    return DEFAULT_MODELS / f"{algo.lower()}-{name}-s{seed}.zip"
+
+
+def _check_positive(name: str, value: Any, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name}: got {value!r}, expected an integer >= {minimum}")
+    return int(value)
+
+
+def vector_class(env_id: str) -> type | None:
+    """The native vector env class of a UAV penetration id (``None`` for any other id)."""
+    from gymnasium.envs.registration import load_env_creator, registry
+
+    from uav_penetration_env.vector_env import UAVPenetrationVectorEnv
+
+    entry = registry[env_id].vector_entry_point if env_id in registry else None
+    creator = load_env_creator(entry) if isinstance(entry, str) else entry
+    return creator if isinstance(creator, type) and issubclass(creator, UAVPenetrationVectorEnv) else None
+
+
+def prepare_training(config: TrainConfig) -> TrainingPlan:
+    """Validate every input of a training run before anything slow happens.
+
+    Raises:
+        ValueError: an unknown algorithm, env id or hyper-parameter, a scenario for the Random id,
+            ``difficulty`` for a fixed id, a non-positive count; ``ScenarioError`` (a ValueError)
+            for a broken or unknown scenario.
+        FileNotFoundError: a hyper-parameter file that does not exist.
+    """
+    from gymnasium.envs.registration import registry
+
+    import uav_penetration_env
+    from uav_penetration_env.build import build_scenario
+    from uav_penetration_env.env import resolve_scenario
+    from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
+
+    env_id, difficulty, profile = config.env_id, config.difficulty, config.profile
+    params, source = resolve_hyperparams(config.algo, config.hyperparams)
+    native_class = vector_class(env_id)
+    if native_class is None:
+        known = list(uav_penetration_env.ENV_IDS)
+        raise ValueError(
+            f"env_id: unknown id {env_id!r} — {did_you_mean(env_id, known)}known: {', '.join(known)}"
+        )
+    kwargs = dict(config.env_kwargs or {})
+    if profile is not None:
+        kwargs["profile"] = profile
+    spec_kwargs = dict(registry[env_id].kwargs)
+    if issubclass(native_class, UAVPenetrationRandomVectorEnv):
+        if config.scenario is not None:
+            raise ValueError(
+                f"scenario: {env_id} draws procedural scenarios (set difficulty= instead); "
+                "to train on one scenario use UAVPenetration-v0 with scenario="
+            )
+        kwargs["difficulty"] = 0.5 if difficulty is None else float(difficulty)
+    else:
+        if difficulty is not None:
+            raise ValueError(
+                f"difficulty: only UAVPenetrationRandom-v0 takes a difficulty, not {env_id} "
+                "(for one procedural scenario pass scenario=random_scenario(rng, difficulty))"
+            )
+        # Names resolve in the catalogue, as the env itself would resolve them.
+        resolved = resolve_scenario(
+            config.scenario,
+            spec_kwargs.get("default_scenario", "paper"),
+            profile,
+            spec_kwargs.get("id_profile"),
+        )
+        build_scenario(resolved)  # terrain-dependent validation now, and the disk cache warmed
+        # The resolved scenario carries its profile; passing both keeps the id's profile from
+        # overriding an explicit one when the env resolves it again.
+        kwargs.update(scenario=resolved, profile=resolved.profile)
+    seed = config.seed
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: got {seed!r}, expected an integer >= 0")
+    out = (
+        config.out
+        if config.out is not None
+        else default_model_path(config.algo, env_id, config.scenario, seed)
+    )
+    files = ModelFiles.of(out)
+    try:
+        files.model.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ValueError(f"out: cannot create folder {files.model.parent} ({error.strerror})") from None
+    torch_threads = config.torch_threads
+    return TrainingPlan(
+        algo=str(config.algo).lower(),
+        env_id=env_id,
+        env_kwargs=kwargs,
+        total_timesteps=_check_positive("total_timesteps", config.total_timesteps),
+        seed=int(seed),
+        n_envs=_check_positive("n_envs", config.n_envs),
+        files=files,
+        hyperparams=params,
+        hyperparams_source=source,
+        eval_freq=_check_positive("eval_freq", config.eval_freq, 0),
+        eval_episodes=_check_positive("eval_episodes", config.eval_episodes),
+        checkpoint_freq=_check_positive("checkpoint_freq", config.checkpoint_freq or 0, 0),
+        progress_bar=bool(config.progress_bar),
+        verbose=int(config.verbose),
+        torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
+        device=config.device,
+    )

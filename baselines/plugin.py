@@ -1,0 +1,49 @@
+"""What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
+
+- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip``;
+- ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``) and
+  ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
+
+The harness never imports ``baselines`` by name; it finds these objects through the entry
+points and checks :data:`RL_EXTRA` before it uses the first two, so without the ``rl`` extra
+``uav-bench --help`` still works and ``sb3:...`` or ``train`` is refused with one line saying what
+to install. Learning curves read CSV and JSON files only and need no extra.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baselines.cli import add_train_arguments, train_command
+from baselines.curves import add_curve_arguments, curves_command
+from baselines.policy import load_policy
+from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
+from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
+
+RL_EXTRA = Needs(
+    modules=("stable_baselines3", "torch"),
+    install="the rl extra: pip install 'uav-penetration[rl]' (in a checkout: pip install -e '.[rl]')",
+)
+
+
+def sb3_label(path: str) -> str:
+    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
+    return f"sb3:{Path(path).stem}"
+
+
+SB3_POLICY_KIND = PolicyKind(
+    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA
+)
+TRAIN_COMMAND = Command(
+    name="train",
+    help="train a Stable-Baselines3 agent (extra rl)",
+    add_arguments=add_train_arguments,
+    run=train_command,
+    needs=RL_EXTRA,
+)
+LEARNING_CURVES = CommandExtension(
+    command="plot",
+    add_arguments=add_curve_arguments,
+    selected=lambda args: args.models is not None,
+    run=curves_command,
+)

@@ -1,0 +1,355 @@
+"""Running a training plan: the envs, the SB3 model, periodic evaluation and checkpoints, the sidecar.
+
+:func:`run_training` trains as a :class:`~baselines.plan.TrainingPlan` says on the native batched
+vector env (:class:`baselines.vec_env.UAVPenetrationSB3VecEnv`), evaluates the deterministic
+policy on fixed seeds every ``eval_freq`` steps (:func:`evaluate_agent`), saves checkpoints, and
+writes the model with its sidecars (:mod:`baselines.artifacts`). Torch and SB3 are imported inside
+the functions that use them.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import json
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from baselines.artifacts import SIDECAR_FORMAT, ModelFiles, sha256_file
+from baselines.hyperparameters import algorithm_class, algorithm_kwargs, normalize_kwargs
+from baselines.plan import TrainingPlan
+
+# DECISION: learning curves are measured on seeds 20000, 20001, ... for every training seed, so
+# curves of different seeds are comparable; they stay clear of the held-out set (10000-10049,
+# model.md §7c), which is kept for the final evaluation and must not steer training.
+EVAL_SEED_START = 20_000
+EVALUATION_COLUMNS = (
+    "timesteps",
+    "episodes",
+    "mean_return",
+    "std_return",
+    "mean_cost",
+    "mean_J",
+    "mean_penalty",
+    "success_rate",
+    "mean_length",
+    "wall_seconds",
+)
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a training run wrote, and the trained SB3 model."""
+
+    files: ModelFiles
+    sidecar: dict[str, Any]
+    evaluations: list[dict[str, float]]
+    model: Any = field(repr=False, default=None)
+
+
+def train_env_seeds(seed: int, n_envs: int) -> list[int]:
+    """Reset seeds of the training sub-envs: one child of ``SeedSequence(seed)`` each (STYLE §5)."""
+    children = np.random.SeedSequence(seed).spawn(n_envs)
+    return [int(child.generate_state(1, dtype=np.uint32)[0]) for child in children]
+
+
+def evaluate_agent(model: Any, env: Any, seeds: Sequence[int], normalizer: Any = None) -> dict[str, float]:
+    """One deterministic episode per sub-env of ``env`` (one seed each); summary statistics.
+
+    Args:
+        model: anything with SB3's ``predict(obs, deterministic=True)``.
+        env: a :class:`~baselines.vec_env.UAVPenetrationSB3VecEnv` with ``len(seeds)`` sub-envs.
+        seeds: the reset seed of each sub-env.
+        normalizer: a ``VecNormalize`` whose statistics normalise the observations (not updated).
+
+    Returns:
+        ``episodes``, ``mean_return``, ``std_return``, ``mean_cost`` (= -mean_return, J + penalty),
+        ``mean_J`` (sum of J(k), the harness's ``total_J``), ``mean_penalty``, ``success_rate``,
+        ``mean_length``.
+    """
+    env.seed(list(seeds))
+    obs = env.reset()
+    n = env.num_envs
+    total_j, penalty, length = np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int64)
+    success = np.zeros(n, dtype=bool)
+    active = np.ones(n, dtype=bool)
+    while active.any():
+        inputs = normalizer.normalize_obs(obs) if normalizer is not None else obs
+        actions, _ = model.predict(inputs, deterministic=True)
+        obs, _, dones, infos = env.step(actions)
+        for i in np.flatnonzero(active):
+            # Costs from the float64 infos: the float32 rewards SB3 sees would round the sums.
+            total_j[i] += infos[i]["J"]
+            penalty[i] += infos[i]["penalty"]
+            length[i] += 1
+            if dones[i]:
+                success[i] = bool(infos[i]["reached_goal"])
+        active &= ~dones
+    returns = -(total_j + penalty)
+    return {
+        "episodes": int(n),
+        "mean_return": float(returns.mean()),
+        "std_return": float(returns.std()),
+        "mean_cost": float(-returns.mean()),
+        "mean_J": float(total_j.mean()),
+        "mean_penalty": float(penalty.mean()),
+        "success_rate": float(success.mean()),
+        "mean_length": float(length.mean()),
+    }
+
+
+def _json_scenario(value: Any) -> Any:
+    from uav_penetration_env.scenario import Scenario
+
+    return value.to_dict() if isinstance(value, Scenario) else value
+
+
+def describe_env(plan: TrainingPlan, venv: Any, seeds: Sequence[int]) -> dict[str, Any]:
+    """The env part of the sidecar: JSON-able env kwargs, profile, scenario (hash or description), spaces."""
+    described = venv.vector_env.describe_scenarios()
+    env_kwargs = {k: _json_scenario(v) for k, v in plan.env_kwargs.items()}
+    profile = described["profile"]
+    if described["kind"] == "fixed":
+        scenario = {"name": described["name"], "hash": described["hash"]}
+    else:
+        scenario = {
+            "description": (
+                f"{plan.env_id}: procedural scenarios (model.md §7c) at difficulty {described['difficulty']}; "
+                f"each sub-env's first episode flies the scenario of its reset seed {list(seeds)}, later "
+                f"episodes a pool of {described['pool_size']} scenarios from pool_seed {described['pool_seed']}"
+            ),
+            "difficulty": described["difficulty"],
+            "pool_size": described["pool_size"],
+            "pool_seed": described["pool_seed"],
+        }
+    physical = venv.physical_action_space
+    return {
+        "env_id": plan.env_id,
+        "env_kwargs": env_kwargs,
+        "profile": profile,
+        "scenario": scenario,
+        "observation_space": {
+            "shape": list(venv.observation_space.shape),
+            "low": float(np.min(venv.observation_space.low)),
+            "high": float(np.max(venv.observation_space.high)),
+            "dtype": str(venv.observation_space.dtype),
+        },
+        "action_space": {
+            "shape": list(physical.shape),
+            "low": physical.low.astype(float).tolist(),
+            "high": physical.high.astype(float).tolist(),
+            "units": ["m/s", "rad", "rad"],
+            "policy_low": -1.0,
+            "policy_high": 1.0,
+        },
+    }
+
+
+def _write_json_atomic(path: Path, data: Mapping[str, Any]) -> None:
+    # The sidecar is written last and atomically: its presence means the model beside it is whole.
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=False, default=str) + "\n")
+    os.replace(tmp, path)
+
+
+class _Run:
+    """The mutable state of one training run: envs, model, callbacks' shared bookkeeping."""
+
+    def __init__(self, plan: TrainingPlan) -> None:
+        from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+        from baselines.vec_env import UAVPenetrationSB3VecEnv
+
+        self.plan = plan
+        self.seeds = train_env_seeds(plan.seed, plan.n_envs)
+        self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **plan.env_kwargs)
+        env: Any = VecMonitor(self.venv)  # episode returns/lengths for SB3's logger
+        self.norm_kwargs = normalize_kwargs(plan.hyperparams)
+        if self.norm_kwargs is not None:
+            env = VecNormalize(env, **self.norm_kwargs)
+        self.env = env
+        self.eval_seeds = list(range(EVAL_SEED_START, EVAL_SEED_START + plan.eval_episodes))
+        self.eval_env = (
+            UAVPenetrationSB3VecEnv(plan.env_id, plan.eval_episodes, **plan.env_kwargs)
+            if plan.eval_freq
+            else None
+        )
+        self.evaluations: list[dict[str, float]] = []
+        self.eval_seconds = 0.0
+        self.started = time.perf_counter()
+        self.model: Any = None
+        self.env_description: dict[str, Any] | None = None
+
+    def normalizer(self) -> Any:
+        return self.model.get_vec_normalize_env()
+
+    def evaluate(self) -> dict[str, float]:
+        tick = time.perf_counter()
+        row = {"timesteps": int(self.model.num_timesteps)}
+        row.update(evaluate_agent(self.model, self.eval_env, self.eval_seeds, self.normalizer()))
+        self.eval_seconds += time.perf_counter() - tick
+        row["wall_seconds"] = time.perf_counter() - self.started
+        self.evaluations.append(row)
+        with self.plan.files.evaluations.open("a", newline="") as handle:
+            csv.DictWriter(handle, EVALUATION_COLUMNS).writerow(row)
+        return row
+
+    def save(self, files: ModelFiles, wall_seconds: float, interrupted: bool = False) -> dict[str, Any]:
+        """Write model, observation statistics and sidecar to ``files``; return the sidecar."""
+        from uav_penetration_env.benchmark.provenance import git_commit, library_versions
+
+        plan = self.plan
+        files.model.parent.mkdir(parents=True, exist_ok=True)
+        self.model.save(files.model)
+        normalizer = self.normalizer()
+        if normalizer is not None:
+            normalizer.save(files.vecnormalize)
+        if self.env_description is None:
+            self.env_description = describe_env(plan, self.venv, self.seeds)
+        sidecar = {
+            "format": SIDECAR_FORMAT,
+            "algorithm": plan.algo,
+            "sb3_class": f"stable_baselines3.{type(self.model).__name__}",
+            **self.env_description,
+            "hyperparameters": plan.hyperparams,
+            "hyperparameters_source": plan.hyperparams_source,
+            "vecnormalize": files.vecnormalize.name if normalizer is not None else None,
+            "model_sha256": sha256_file(files.model),
+            "total_timesteps": plan.total_timesteps,
+            "timesteps_done": int(self.model.num_timesteps),
+            "seed": plan.seed,
+            "n_envs": plan.n_envs,
+            "train_env_seeds": self.seeds,
+            "eval_seeds": self.eval_seeds if plan.eval_freq else [],
+            "wall_seconds": wall_seconds,
+            "eval_seconds": self.eval_seconds,
+            "torch_threads": plan.torch_threads,
+            "device": plan.device,
+            "final_evaluation": self.evaluations[-1] if self.evaluations else None,
+            "interrupted": interrupted,
+            "versions": library_versions(),
+            "commit": git_commit(),
+            "created": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
+        }
+        _write_json_atomic(files.sidecar, sidecar)
+        return sidecar
+
+
+def _callbacks(run: _Run) -> list[Any]:
+    """Periodic evaluation, checkpoints and the progress bar, as SB3 callbacks."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    plan = run.plan
+
+    class ProgressBar(BaseCallback):
+        """A tqdm bar over environment steps (SB3's own bar needs rich, not a dependency here)."""
+
+        def _on_training_start(self) -> None:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=plan.total_timesteps, unit="step", desc=f"train {plan.algo}", smoothing=0.05
+            )
+
+        def _on_step(self) -> bool:
+            self.bar.update(min(self.training_env.num_envs, plan.total_timesteps - self.bar.n))
+            if run.evaluations:
+                last = run.evaluations[-1]
+                self.bar.set_postfix(
+                    eval_return=f"{last['mean_return']:.2f}",
+                    success=f"{last['success_rate']:.0%}",
+                    refresh=False,
+                )
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    class Periodic(BaseCallback):
+        """Evaluate and checkpoint every ``eval_freq`` / ``checkpoint_freq`` environment steps.
+
+        Both happen at the start of a rollout, i.e. right after the update that used every step
+        counted so far (mid-rollout, PPO's policy would still be the one before its last update).
+        """
+
+        def _on_training_start(self) -> None:
+            self.next_eval = plan.eval_freq
+            self.next_checkpoint = plan.checkpoint_freq
+
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_start(self) -> None:
+            steps = self.model.num_timesteps
+            if plan.eval_freq and steps >= self.next_eval:
+                run.evaluate()
+                self.next_eval = (steps // plan.eval_freq + 1) * plan.eval_freq
+            if plan.checkpoint_freq and steps >= self.next_checkpoint:
+                stem = f"{plan.files.model.stem}-{steps}steps"
+                run.save(
+                    ModelFiles.of(plan.files.checkpoints / f"{stem}.zip"), time.perf_counter() - run.started
+                )
+                self.next_checkpoint = (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq
+
+    callbacks: list[Any] = [Periodic()]
+    if plan.progress_bar:
+        callbacks.append(ProgressBar())
+    return callbacks
+
+
+def run_training(plan: TrainingPlan) -> TrainResult:
+    """Train as ``plan`` says and write the model with its sidecars (see :func:`train_agent`)."""
+    import torch
+    from stable_baselines3.common.callbacks import CallbackList
+    from stable_baselines3.common.utils import set_random_seed
+
+    previous_threads = torch.get_num_threads()
+    if plan.torch_threads is not None:
+        torch.set_num_threads(plan.torch_threads)
+    run: _Run | None = None
+    try:
+        set_random_seed(plan.seed)
+        run = _Run(plan)
+        cls = algorithm_class(plan.algo)
+        kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
+        run.model = cls(
+            plan.hyperparams.get("policy", "MlpPolicy"),
+            run.env,
+            seed=plan.seed,
+            verbose=plan.verbose,
+            device=plan.device,
+            **kwargs,
+        )
+        # The constructor seeded sub-env i with seed + i; the SeedSequence children replace that.
+        run.env.seed(run.seeds)
+        if plan.eval_freq:
+            with plan.files.evaluations.open("w", newline="") as handle:
+                csv.DictWriter(handle, EVALUATION_COLUMNS).writeheader()
+        callback = CallbackList(_callbacks(run))
+        run.started = time.perf_counter()
+        try:
+            run.model.learn(plan.total_timesteps, callback=callback, progress_bar=False)
+        except KeyboardInterrupt:
+            run.save(plan.files, time.perf_counter() - run.started, interrupted=True)
+            raise
+        if plan.eval_freq and (
+            not run.evaluations or run.evaluations[-1]["timesteps"] != run.model.num_timesteps
+        ):
+            run.evaluate()
+        wall = time.perf_counter() - run.started
+        sidecar = run.save(plan.files, wall)
+        return TrainResult(
+            files=plan.files, sidecar=sidecar, evaluations=list(run.evaluations), model=run.model
+        )
+    finally:
+        if run is not None:
+            run.env.close()
+            if run.eval_env is not None:
+                run.eval_env.close()
+        torch.set_num_threads(previous_threads)

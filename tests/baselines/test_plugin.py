@@ -1,0 +1,93 @@
+"""baselines as a harness plug-in: its entry points, and the harness without the rl extra."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from baselines import plugin
+from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
+from uav_penetration_env.benchmark.plugins import COMMAND_GROUP, POLICY_GROUP, PolicyKind
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_pyproject_declares_the_plugins_of_baselines():
+    tomllib = pytest.importorskip("tomllib")
+    entry_points = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    assert entry_points[POLICY_GROUP] == {"sb3": "baselines.plugin:SB3_POLICY_KIND"}
+    assert entry_points[COMMAND_GROUP] == {
+        "train": "baselines.plugin:TRAIN_COMMAND",
+        "plot.models": "baselines.plugin:LEARNING_CURVES",
+    }
+    assert isinstance(plugin.SB3_POLICY_KIND, PolicyKind) and plugin.SB3_POLICY_KIND.prefix == "sb3"
+    assert isinstance(plugin.TRAIN_COMMAND, Command) and plugin.TRAIN_COMMAND.name == "train"
+    assert isinstance(plugin.LEARNING_CURVES, CommandExtension) and plugin.LEARNING_CURVES.command == "plot"
+    assert plugin.SB3_POLICY_KIND.label("models/ppo-paper-s0.zip") == "sb3:ppo-paper-s0"
+
+
+# A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl
+# extra), with plug-in discovery answering from baselines.plugin, as an installed checkout does.
+WITHOUT_RL = textwrap.dedent(
+    """
+    import importlib.abc, sys
+
+    class NoRL(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name.partition(".")[0] in ("torch", "stable_baselines3"):
+                raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+            return None
+
+    sys.meta_path.insert(0, NoRL())
+    from uav_penetration_env.benchmark import plugins
+    import baselines.plugin as rl
+
+    found = {
+        plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", rl.SB3_POLICY_KIND)},
+        plugins.COMMAND_GROUP: {"train": plugins.Plugin("train", rl.TRAIN_COMMAND),
+                                "plot.models": plugins.Plugin("plot.models", rl.LEARNING_CURVES)},
+    }
+    plugins.discover = lambda group: found[group]
+    from uav_penetration_env.benchmark.cli import main
+
+    try:
+        code = main(sys.argv[1:])
+    except SystemExit as exit:
+        code = exit.code
+    assert "torch" not in sys.modules and "stable_baselines3" not in sys.modules
+    sys.exit(code)
+    """
+)
+
+
+def uav_bench_without_rl(*argv, cwd):
+    return subprocess.run(
+        [sys.executable, "-c", WITHOUT_RL, *map(str, argv)],
+        cwd=cwd,
+        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "MPLBACKEND": "Agg"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_line(tmp_path):
+    for argv in (["--help"], ["run", "--help"]):
+        shown = uav_bench_without_rl(*argv, cwd=tmp_path)
+        assert shown.returncode == 0, shown.stderr
+        assert "train" in shown.stdout or "--policies" in shown.stdout
+    store = tmp_path / "never.sqlite"
+    refused = uav_bench_without_rl(
+        "run", "--policies", "greedy", "sb3:models/ppo.zip", "--seeds", 1, "--store", store, cwd=tmp_path
+    )
+    assert refused.returncode == 2 and not store.exists()
+    assert refused.stderr.count("\n") == 1
+    assert refused.stderr.startswith("uav-bench: error: --policies: policy 'sb3:models/ppo.zip' needs ")
+    assert "pip install 'uav-penetration[rl]'" in refused.stderr
+    train = uav_bench_without_rl("train", "--algo", "ppo", "--timesteps", 10, cwd=tmp_path)
+    assert train.returncode == 2 and train.stderr.count("\n") == 1
+    assert "uav-bench train needs stable_baselines3, torch (not installed)" in train.stderr

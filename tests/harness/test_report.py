@@ -1,0 +1,104 @@
+"""The HTML report: one self-contained page, checked as text and in a real browser (issue 13)."""
+
+from __future__ import annotations
+
+import os
+import re
+
+import pytest
+from browser import browser_available, check_report
+from conftest import tiny_scenario
+
+from uav_penetration_env.benchmark import report
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.figures import write_figures
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.benchmark.policies import make_policy
+
+    folder = tmp_path_factory.mktemp("report")
+    store = folder / "run.sqlite"
+    policies = {"pso": make_policy("pso", max_evals=200), "greedy": make_policy("greedy")}
+    policies["random"] = make_policy("random")
+    evaluate(policies, [tiny_scenario(time={"max_steps": 15})], range(2), store=store, progress=False)
+    tables = write_leaderboards(store, folder, command="test")
+    figures = write_figures(store, folder, formats=("png",))
+    path = report.write_report(store, folder, tables=tables, figures=figures)
+    return path, store, tables, figures
+
+
+def test_the_page_is_self_contained(written):
+    path, *_ = written
+    page = path.read_text()
+    assert path.name == "index.html"
+    # No network needed: no external script, stylesheet or image.
+    assert not re.search(r"<script[^>]+src=", page)
+    assert not re.search(r"<link[^>]+href=\"?https?:", page)
+    assert not re.search(r"<img[^>]+src=\"?https?:", page)
+    assert page.split("<main>", 1)[1].count('src="data:image/png;base64,') == len(
+        [f for f in written[3] if f.suffix == ".png"]
+    )
+    for section in report.sections():
+        assert f'id="{section.key}"' in page
+    assert page.count('class="plotly-graph-div"') == 1  # one scenario: one 3-D view
+    assert "Plotly.newPlot" in page
+
+
+def test_every_policy_has_its_section(written):
+    page = written[0].read_text()
+    for policy in ("pso", "greedy", "random"):
+        assert f'id="policy-{policy}"' in page
+
+
+def test_a_new_section_is_one_registration(written, tmp_path):
+    _, store, tables, figures = written
+
+    @report.register_section("test-extra", "An extra table")
+    def extra(context):
+        return f"<p>{len(context.episodes)} episodes</p>"
+
+    try:
+        page = report.write_report(store, tmp_path, tables=tables, figures=figures).read_text()
+        assert '<section id="test-extra"><h2>An extra table</h2><p>6 episodes</p></section>' in page
+        assert '<a href="#test-extra">' in page
+        with pytest.raises(ValueError, match="already registered"):
+            report.register_section("test-extra", "again")(extra)
+    finally:
+        report._SECTIONS[:] = [s for s in report._SECTIONS if s.key != "test-extra"]
+
+
+def test_a_missing_store_is_an_error(tmp_path):
+    with pytest.raises(FileNotFoundError, match="--store"):
+        report.write_report(tmp_path / "none.sqlite", tmp_path)
+
+
+# --- in a real browser -------------------------------------------------------------------------------
+
+needs_browser = pytest.mark.skipif(
+    not browser_available() and not os.environ.get("CI"),
+    reason="needs Debian's chromium and chromium-driver and selenium (installed by .ci/run)",
+)
+
+
+@needs_browser
+def test_the_report_opens_in_a_browser_and_draws(written):
+    check = check_report(written[0])
+    assert check.errors == []
+    assert check.tables >= 2  # leaderboard(s) and the per-policy tables
+    assert check.plots == 1
+    assert check.drawn_pixels > 5_000, "the 3-D view drew nothing (WebGL failed?)"
+    assert check.sorted_ok
+
+
+@needs_browser
+def test_the_browser_check_fails_on_a_broken_script(written, tmp_path):
+    page = written[0].read_text()
+    broken = tmp_path / "index.html"
+    # A syntax error in the plot's own script: the view must not draw and the console must say so.
+    broken.write_text(page.replace("Plotly.newPlot(", "Plotly.newPlot((", 1))
+    check = check_report(broken)
+    assert check.errors, "a broken script must leave an error in the console"
+    assert check.drawn_pixels == 0

@@ -1,0 +1,501 @@
+"""The result columns, each declared once: the store schema, episode summaries, leaderboard and glossary.
+
+Three tables of :class:`Column`:
+
+* :data:`STEP` (the store's ``steps`` table): one row per track point. Each column says where
+  its value comes from (:class:`Info`: the env's ``info``, known at reset too; :class:`Action`:
+  the action taken; :class:`Planner`: the policy's ``last_record``), so :func:`step_row` and
+  :func:`start_row` (the step-0 row of the start state) are derived from it.
+* :data:`EPISODE` (the ``episodes`` table): one row per episode. A column with a ``summary``
+  is computed from the episode's step rows by :func:`summarise` (the step-0 row is never part of
+  a sum); the others are set by the harness (keys, timings, policy metadata).
+* :data:`STATISTICS`: leaderboard columns computed by the leaderboard's statistics code rather
+  than aggregated from one episode column (success with its Wilson interval, the bootstrap
+  intervals of total cost, ranks, paired tests).
+
+A column shown on the leaderboard carries a :class:`Board`: its header, the legend line of the
+leaderboard's "Columns" section, its section (the table lays out sections in
+:data:`SECTIONS` order, columns in declaration order inside each), how it is aggregated over a
+policy's finished episodes and how it is printed. :func:`glossary_markdown` renders every
+column as the README's glossary.
+
+DECISION (api.md §4.3, §4.5): the leaderboard's layout follows this file (section, then declaration
+order), so the episode columns are declared in the order the leaderboard prints them (``fuel_kg``
+after ``path_length_km``); a store's ``episodes`` table reads in declaration order whatever its
+physical order.
+
+Adding a column is one line here: a step column with its source, or an episode column with a
+``summary`` (and a ``board`` to show it). Stores written before it gain it on their next open
+(``ALTER TABLE ... ADD COLUMN``, NULL for old rows; :class:`~.store.ResultsStore`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from uav_penetration_env.types import FloatArray
+
+TABLES = ("episodes", "steps", "leaderboard")
+SECTIONS = ("outcomes", "means", "comparison", "training")
+AGGREGATES = ("mean", "mean_recorded", "statistic")
+STYLES = ("number", "count")
+
+
+# --- where a step value comes from ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Info:
+    """A value of the env's ``info`` (an element of it when ``index`` is set); known at reset too."""
+
+    key: str
+    index: int | None = None
+    kind: Callable[[Any], Any] = float
+
+    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
+        """The value after a transition."""
+        value = info[self.key] if self.index is None else info[self.key][self.index]
+        return self.kind(value)
+
+    def start(self, info: Mapping[str, Any]) -> Any:
+        """The value at the start state (the reset info)."""
+        return self.step(info, np.zeros(3), {})
+
+
+@dataclass(frozen=True)
+class Action:
+    """Component ``index`` of the action taken; none at the start state."""
+
+    index: int
+
+    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
+        """The value after a transition."""
+        return float(action[self.index])
+
+    def start(self, info: Mapping[str, Any]) -> Any:
+        """No action led to the start state."""
+        return None
+
+
+@dataclass(frozen=True)
+class Planner:
+    """An entry of the policy's ``last_record`` (``default`` when absent); none at the start state."""
+
+    key: str
+    kind: Callable[[Any], Any] | None = None
+    default: Any = None
+
+    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
+        """The value after a transition."""
+        value = record.get(self.key, self.default)
+        return value if self.kind is None else self.kind(value)
+
+    def start(self, info: Mapping[str, Any]) -> Any:
+        """No planning led to the start state."""
+        return None
+
+
+Source = Info | Action | Planner
+
+
+# --- how an episode summarises its step rows -----------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class EpisodeSteps:
+    """One finished episode's step rows, for the ``summary`` of episode columns.
+
+    Attributes:
+        rows: the rows of the transitions k = 1..K (the step-0 row is not among them).
+        states: (K + 1, 6) the exact states from the start state on.
+        final_info: the env's ``info`` after the last transition.
+        truncated: whether the episode ended by reaching K_max.
+    """
+
+    rows: Sequence[Mapping[str, Any]]
+    states: FloatArray
+    final_info: Mapping[str, Any]
+    truncated: bool
+
+    def column(self, name: str) -> FloatArray:
+        """(K,) the values of one step column, float64."""
+        return np.array([row[name] for row in self.rows], dtype=np.float64)
+
+    def sum(self, name: str) -> float:
+        """Σ_k of one step column."""
+        return float(self.column(name).sum())
+
+    def mean(self, name: str) -> float:
+        """Mean over the K transitions of one step column."""
+        return float(self.column(name).mean())
+
+    @property
+    def count(self) -> int:
+        """K, the number of transitions."""
+        return len(self.rows)
+
+
+def _outcome(steps: EpisodeSteps) -> str:
+    info = steps.final_info
+    if info["reached_goal"]:
+        return "success"
+    if info["collided"]:
+        return "collided"
+    if info["out_of_area"]:
+        return "out_of_area"
+    return "truncated" if steps.truncated else "unfinished"
+
+
+def _path_length_km(steps: EpisodeSteps) -> float:
+    states = np.asarray(steps.states, dtype=np.float64)
+    segments = np.array([float(np.linalg.norm(b[:3] - a[:3])) for a, b in itertools.pairwise(states)])
+    return float(segments.sum() / 1000.0)
+
+
+def _total(name: str) -> Callable[[EpisodeSteps], float]:
+    return lambda steps: steps.sum(name)
+
+
+def _mean(name: str) -> Callable[[EpisodeSteps], float]:
+    return lambda steps: steps.mean(name)
+
+
+# --- the column declaration ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Board:
+    """How the leaderboard shows a column.
+
+    Attributes:
+        header: the Markdown header (``{reference}`` is replaced by the reference policy).
+        legend: the line of the leaderboard's "Columns" section; consecutive columns with the same
+            legend share one bullet; ``None`` leaves the column unexplained there. ``{resamples}``
+            is replaced by the number of bootstrap resamples.
+        name: the column's name in the legend (default: ``header``).
+        section: one of :data:`SECTIONS`.
+        aggregate: ``mean`` (over the policy's finished episodes), ``mean_recorded`` (over those
+            that recorded a value) or ``statistic`` (computed by the leaderboard's statistics).
+        out: the leaderboard CSV's column name (default: the column's name).
+        digits: significant digits printed.
+        style: ``number`` (:func:`~.leaderboard.format_number`) or ``count`` (an integer with
+            thousands separators).
+        optional: shown only when some policy has a value.
+        csv: the leaderboard CSV columns a statistic writes (default: its ``out`` alone).
+    """
+
+    header: str
+    legend: str | None
+    name: str | None = None
+    section: str = "means"
+    aggregate: str = "mean"
+    out: str | None = None
+    digits: int = 4
+    style: str = "number"
+    optional: bool = False
+    csv: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for attribute, allowed in (("section", SECTIONS), ("aggregate", AGGREGATES), ("style", STYLES)):
+            value = getattr(self, attribute)
+            if value not in allowed:
+                raise ValueError(f"Board.{attribute}: got {value!r}, expected one of {', '.join(allowed)}")
+
+
+@dataclass(frozen=True)
+class Column:
+    """One result column.
+
+    Attributes:
+        name: the column's name (SQL column, DataFrame column, CSV column).
+        table: ``episodes``, ``steps`` or ``leaderboard`` (a leaderboard-only statistic).
+        sql: its SQLite type and constraints (``None`` for leaderboard statistics). A column added
+            after stores exist must allow NULL or carry a DEFAULT (SQLite's ADD COLUMN rule).
+        definition: one line saying what the value is (the glossary).
+        summary: episodes: how the episode's value is computed from its step rows; ``None`` when
+            the harness sets it.
+        source: steps: where the value of a step row comes from.
+        board: how the leaderboard aggregates and prints it; ``None`` when it is not shown.
+    """
+
+    name: str
+    table: str
+    sql: str | None
+    definition: str
+    summary: Callable[[EpisodeSteps], Any] | None = field(default=None, compare=False)
+    source: Source | None = None
+    board: Board | None = None
+
+    @property
+    def out(self) -> str:
+        """The leaderboard CSV's column name."""
+        if self.board is None or self.board.out is None:
+            return self.name
+        return self.board.out
+
+    @property
+    def csv(self) -> tuple[str, ...]:
+        """The leaderboard CSV columns this column writes."""
+        if self.board is None:
+            return ()
+        return self.board.csv or (self.out,)
+
+    @property
+    def numeric(self) -> bool:
+        """Whether the stored value is a number (INTEGER or REAL)."""
+        return self.sql is not None and self.sql.split()[0] in ("INTEGER", "REAL")
+
+
+def _episode(name: str, sql: str, definition: str, summary=None, board: Board | None = None) -> Column:
+    return Column(name, "episodes", sql, definition, summary=summary, board=board)
+
+
+def _step(name: str, sql: str, definition: str, source: Source) -> Column:
+    return Column(name, "steps", sql, definition, source=source)
+
+
+def _statistic(name: str, board: Board, definition: str | None = None) -> Column:
+    return Column(name, "leaderboard", None, definition or board.legend or board.header, board=board)
+
+
+_TERMS = "mean raw (unnormalised) per-term sums Σ Th_e, Σ Th_r, Σ C"
+_TRAINING = (
+    "RL agents only: environment steps and wall-clock seconds spent training, a cost the planners "
+    "pay per step instead"
+)
+
+STEP: tuple[Column, ...] = (
+    _step("step", "INTEGER NOT NULL", "track point k: 0 is the start state, k >= 1 follows transition k", Info("step", kind=int)),
+    _step("x_km", "REAL", "x of the state [km]", Info("position", 0)),
+    _step("y_km", "REAL", "y of the state [km]", Info("position", 1)),
+    _step("z_m", "REAL", "altitude of the state above the datum [m]", Info("position", 2)),
+    _step("altitude_agl", "REAL", "height above the terrain [m]", Info("altitude_agl")),
+    _step("distance_to_goal", "REAL", "horizontal distance to the goal [km]", Info("distance_to_goal")),
+    _step("speed", "REAL", "speed v [m/s]", Info("state", 3)),
+    _step("heading", "REAL", "heading φ [rad]", Info("state", 4)),
+    _step("pitch", "REAL", "pitch θ [rad]", Info("state", 5)),
+    _step("J", "REAL", "normalised weighted cost J(k) of the transition (0 at the start)", Info("J")),
+    _step("penalty", "REAL", "failure penalty of the transition (0 unless it failed)", Info("penalty")),
+    _step("terrain_threat", "REAL", "raw terrain threat Th_e at the state", Info("terrain_threat")),
+    _step("radar_threat", "REAL", "raw radar threat Th_r at the state, fused over radars", Info("radar_threat")),
+    _step("third_term", "REAL", "raw third term C(k) of the transition (0 at the start)", Info("third_term")),
+    _step("terrain_threat_n", "REAL", "normalised terrain threat of the transition (0 at the start)", Info("terrain_threat_n")),
+    _step("radar_threat_n", "REAL", "normalised radar threat of the transition (0 at the start)", Info("radar_threat_n")),
+    _step("third_term_n", "REAL", "normalised third term of the transition (0 at the start)", Info("third_term_n")),
+    _step("fuel_kg", "REAL", "fuel burnt on the transition [kg] (0 at the start)", Info("fuel_kg")),
+    _step("detection_prob", "REAL", "network detection probability at the state", Info("detection_prob")),
+    _step("detected", "INTEGER", "1 when the detection probability exceeds 0.5", Info("detected", kind=bool)),
+    _step("action_dv", "REAL", "speed change of the action [m/s] (NULL at the start)", Action(0)),
+    _step("action_dphi", "REAL", "heading change of the action [rad] (NULL at the start)", Action(1)),
+    _step("action_dtheta", "REAL", "pitch change of the action [rad] (NULL at the start)", Action(2)),
+    _step("nfev", "INTEGER", "objective evaluations spent planning the action (0 without an optimiser)", Planner("nfev", int, 0)),
+    _step("planning_seconds", "REAL", "wall-clock seconds the policy took to act", Planner("planning_seconds", float)),
+    _step("objective_seconds", "REAL", "seconds of the planning spent inside rollout_cost", Planner("objective_seconds", float, 0.0)),
+    _step("plan_cost", "REAL", "the planner's best window cost J^(H) for the action", Planner("plan_cost")),
+    _step("history", "TEXT", "JSON list: the optimiser's best-so-far after each iteration", Planner("history")),
+    _step("history_nfev", "TEXT", "JSON list: evaluations spent at each history entry", Planner("history_nfev")),
+)  # fmt: skip
+
+EPISODE: tuple[Column, ...] = (
+    _episode("policy", "TEXT NOT NULL", "the policy's display name"),
+    _episode("policy_hash", "TEXT NOT NULL", "16 hex digits of the policy configuration"),
+    _episode("scenario", "TEXT NOT NULL", "the scenario's name"),
+    _episode("scenario_hash", "TEXT NOT NULL", "16 hex digits of the scenario content (seeds every episode)"),
+    _episode("seed", "INTEGER NOT NULL", "the episode seed, paired across policies"),
+    _episode("outcome", "TEXT", "success | collided | out_of_area | truncated | error", _outcome),
+    _episode("total_J", "REAL", "ΣJ(k) over the episode, without the failure penalty", _total("J"),
+             Board("ΣJ", "mean ΣJ(k) without the penalty", out="total_J_mean")),
+    _episode("total_penalty", "REAL", "Σ failure penalty over the episode", _total("penalty")),
+    _episode("total_cost", "REAL", "total_J + total_penalty = −return", lambda s: s.sum("J") + s.sum("penalty")),
+    _episode("mean_J", "REAL", "total_J / K: the mean J per track point", lambda s: s.sum("J") / s.count,
+             Board("J per point", "mean over episodes of ΣJ(k)/K: the mean J per executed track point (model.md A30)")),
+    _episode("terrain_total", "REAL", "Σ raw terrain threat Th_e", _total("terrain_threat"), Board("terrain Σ", _TERMS)),
+    _episode("radar_total", "REAL", "Σ raw radar threat Th_r", _total("radar_threat"), Board("radar Σ", _TERMS)),
+    _episode("third_total", "REAL", "Σ raw third term C", _total("third_term"), Board("third Σ", _TERMS)),
+    _episode("p_detected", "REAL", "1 − Π_k (1 − detection_prob_k): the chance of being detected at least once",
+             lambda s: float(1.0 - np.prod(1.0 - s.column("detection_prob"))),
+             Board("P(detected)", "mean of 1 − Π_k (1 − detection_prob_k)", digits=3)),
+    _episode("detected_steps", "INTEGER", "track points with detection probability above 0.5", lambda s: int(s.column("detected").sum())),
+    _episode("max_detection_prob", "REAL", "largest detection probability of a track point", lambda s: float(s.column("detection_prob").max())),
+    _episode("path_length_km", "REAL", "flown path length from the start state [km]", _path_length_km,
+             Board("path [km]", "mean flown path length")),
+    _episode("fuel_kg", "REAL", "fuel burnt over the episode [kg]", _total("fuel_kg"), Board("fuel [kg]", "mean fuel burnt")),
+    _episode("steps", "INTEGER", "K, the number of transitions (track points after the start)", lambda s: s.count,
+             Board("steps", "mean number of track points K", digits=3)),
+    _episode("nfev", "INTEGER", "objective evaluations over the episode", lambda s: int(s.column("nfev").sum())),
+    _episode("nfev_per_step", "REAL", "mean objective evaluations per step", _mean("nfev"),
+             Board("evals/step", "mean objective evaluations per MPC step (0 for floors and RL)")),
+    _episode("planning_seconds", "REAL", "mean wall-clock seconds per action", _mean("planning_seconds"),
+             Board("planning [s/step]", "mean wall-clock seconds per action (machine-dependent; not a benchmark score)", digits=3)),
+    _episode("objective_seconds", "REAL", "mean seconds per step spent inside rollout_cost", _mean("objective_seconds")),
+    _episode("episode_seconds", "REAL", "wall-clock seconds of the whole episode"),
+    _episode("weights", "TEXT", "the cost weights (w1, w2, w3)"),
+    _episode("profile", "TEXT", "the scenario profile: benchmark or paper"),
+    _episode("horizon", "INTEGER", "MPC horizon H (planners only)"),
+    _episode("max_evals", "INTEGER", "objective evaluations allowed per MPC step (planners only)"),
+    _episode("train_timesteps", "INTEGER", "environment steps an RL agent trained for",
+             board=Board("train steps", _TRAINING, section="training", aggregate="mean_recorded", style="count", optional=True)),
+    _episode("train_seconds", "REAL", "wall-clock seconds an RL agent trained for",
+             board=Board("train [s]", _TRAINING, section="training", aggregate="mean_recorded", digits=3, optional=True)),
+    _episode("error", "TEXT NOT NULL DEFAULT ''", "the exception and traceback when the planner raised, else empty", lambda s: ""),
+    _episode("run_id", "INTEGER", "the `runs` row (provenance) of the sweep that wrote the episode"),
+    _episode("finished", "TEXT", "UTC time the episode finished (ISO 8601)"),
+)  # fmt: skip
+
+STATISTICS: tuple[Column, ...] = (
+    _statistic("policy", Board("policy", None, section="outcomes", aggregate="statistic", csv=("policy", "policy_hash")),
+               "the policy's name, or name@hash8 when one name has several configurations (the reference in bold)"),
+    _statistic("episodes", Board("episodes", "episodes that finished (any outcome except a harness error); all statistics use only these", section="outcomes", aggregate="statistic")),
+    _statistic("errors", Board("errors", "episodes whose planner raised (stored with `error`; excluded from every statistic)", section="outcomes", aggregate="statistic")),
+    _statistic("success_rate", Board("success [95% CI]", "share of episodes that reached the goal, with the Wilson 95 % interval", name="success", section="outcomes", aggregate="statistic",
+                                          csv=("successes", "success_rate", "success_rate_ci_low", "success_rate_ci_high"))),
+    _statistic("outcome_counts", Board("collided/out/truncated", "episodes that hit the terrain, left the map or exceeded the ceiling, or ran out of steps", section="outcomes", aggregate="statistic",
+                                        csv=("collided", "out_of_area", "truncated"))),
+    _statistic("total_cost_mean", Board(
+        "total J (incl. penalty) mean [95% CI]",
+        "ΣJ(k) + failure penalty = −return, per episode; mean with a percentile-bootstrap 95 % interval "
+        "over episodes ({resamples} resamples, seeded). The penalty (crash_penalty_per_step × remaining steps) "
+        "makes a crash cost at least as much as flying on, so lower is better and a crash never looks cheap",
+        name="total J (incl. penalty)", section="outcomes", aggregate="statistic",
+        csv=("total_cost_mean", "total_cost_mean_ci_low", "total_cost_mean_ci_high"))),
+    _statistic("total_cost_iqm", Board("IQM [95% CI]", "interquartile mean (mean of the middle 50 %) of total J (incl. penalty), bootstrap 95 % interval", name="IQM", section="outcomes", aggregate="statistic",
+                                            csv=("total_cost_iqm", "total_cost_iqm_ci_low", "total_cost_iqm_ci_high"))),
+    _statistic("friedman_rank", Board(
+        "rank",
+        "Friedman average rank of total J (incl. penalty) over the seeds every policy finished "
+        "(1 = cheapest on a seed; ties share the mean rank); rows are sorted by it, then by mean cost",
+        section="comparison", aggregate="statistic")),
+    _statistic("delta_mean", Board(
+        "Δ vs {reference} [95% CI]",
+        "mean paired difference of total J (this policy − reference) over shared seeds, with a paired "
+        "bootstrap 95 % interval; positive = costlier than the reference",
+        name="Δ vs reference", section="comparison", aggregate="statistic",
+        csv=("delta_mean", "delta_mean_ci_low", "delta_mean_ci_high"))),
+    _statistic("median_difference", Board(
+        "median Δ",
+        "median paired difference of total J (this policy − reference): the location the Wilcoxon test "
+        "judges, robust to a single crash; its sign says cheaper (−) or costlier (+) in the Statistics",
+        section="comparison", aggregate="statistic")),
+    _statistic("pvalue_holm", Board(
+        "p (Holm)",
+        "two-sided Wilcoxon signed-rank test of total J against the reference over shared seeds, "
+        "Holm–Bonferroni adjusted over the comparisons in this table",
+        section="comparison", aggregate="statistic", csv=("n_pairs", "wilcoxon_statistic", "pvalue", "pvalue_holm"))),
+)  # fmt: skip
+
+COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS)
+
+
+# --- what derives from the table -------------------------------------------------------------------------
+
+
+def sql_types(columns: Sequence[Column]) -> dict[str, str]:
+    """``name -> SQLite type`` of stored columns, in declaration order (the store schema)."""
+    return {column.name: column.sql for column in columns if column.sql is not None}
+
+
+def numeric_columns(columns: Sequence[Column] = EPISODE) -> tuple[str, ...]:
+    """Names of the INTEGER and REAL columns (coerced to float when a store returns them)."""
+    return tuple(column.name for column in columns if column.numeric)
+
+
+def leaderboard_columns() -> list[Column]:
+    """The columns a leaderboard shows, in table order: by section, then in declaration order."""
+    shown = [column for column in (*STATISTICS, *EPISODE) if column.board is not None]
+    return sorted(shown, key=lambda column: SECTIONS.index(column.board.section))
+
+
+def aggregated_columns(section: str) -> list[Column]:
+    """Episode columns of one leaderboard section that are aggregated (not bespoke statistics)."""
+    return [
+        column
+        for column in leaderboard_columns()
+        if column.board.section == section and column.board.aggregate != "statistic"
+    ]
+
+
+def legend_lines(resamples: str) -> list[str]:
+    """The leaderboard's "Columns" section: one bullet per legend (consecutive equal legends merge)."""
+    bullets: list[tuple[list[str], str]] = []
+    for column in leaderboard_columns():
+        board = column.board
+        if board.legend is None:
+            continue
+        name = board.name or board.header
+        if bullets and bullets[-1][1] == board.legend:
+            bullets[-1][0].append(name)
+        else:
+            bullets.append(([name], board.legend))
+    return [f"- **{', '.join(names)}**: {legend.format(resamples=resamples)}." for names, legend in bullets]
+
+
+def step_row(info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> dict[str, Any]:
+    """The step row of one transition, from the env's info after it, the action and the planner's record."""
+    return {column.name: column.source.step(info, action, record) for column in STEP}
+
+
+def start_row(info: Mapping[str, Any]) -> dict[str, Any]:
+    """The step-0 row of an episode's start state, from the env's reset info.
+
+    DECISION (api.md §4.4, model.md §7a): the state's own quantities (position, altitude, threats,
+    detection) describe the start state; a transition's (J, penalty, third term, normalised terms,
+    fuel) are the reset info's 0; the action and planner columns are NULL, since no action led
+    there. Episode sums never include this row (:func:`summarise` gets the transitions alone).
+    """
+    return {column.name: column.source.start(info) for column in STEP}
+
+
+def summarise(steps: EpisodeSteps) -> dict[str, Any]:
+    """The episode columns that summarise step rows (every column with a ``summary``)."""
+    return {column.name: column.summary(steps) for column in EPISODE if column.summary is not None}
+
+
+def glossary_markdown() -> str:
+    """Every column as Markdown: the README's column glossary (generated; paste it, do not edit it).
+
+    Returns:
+        Three tables (episode, step and leaderboard columns), no trailing newline.
+    """
+
+    def escape(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    lines = [
+        "### Episode columns (`episodes` table, one row per episode)",
+        "",
+        "| column | type | definition | leaderboard |",
+        "| --- | --- | --- | --- |",
+    ]
+    for column in EPISODE:
+        shown = f"{column.board.header} ({column.board.aggregate.replace('_', ' ')})" if column.board else ""
+        lines.append(
+            f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} | {escape(shown)} |"
+        )
+    lines += [
+        "",
+        "### Step columns (`steps` table, one row per track point; step 0 is the start state)",
+        "",
+        "| column | type | definition |",
+        "| --- | --- | --- |",
+    ]
+    for column in STEP:
+        lines.append(f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} |")
+    lines += [
+        "",
+        "### Leaderboard columns (one row per policy; the CSV holds every interval bound too)",
+        "",
+        "| header | CSV columns | definition |",
+        "| --- | --- | --- |",
+    ]
+    for column in leaderboard_columns():
+        board = column.board
+        definition = (board.legend or column.definition).format(resamples="10,000")
+        header = board.header.format(reference="reference")
+        csv = ", ".join(f"`{name}`" for name in column.csv)
+        lines.append(f"| {escape(header)} | {csv} | {escape(definition)} |")
+    return "\n".join(lines)

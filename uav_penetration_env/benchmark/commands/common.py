@@ -1,0 +1,203 @@
+"""What every ``uav-bench`` command shares: the command objects, errors, argument grammar, store flags.
+
+A command is a :class:`Command` (name, help, ``add_arguments(parser)``, ``run(args) -> int``);
+a :class:`CommandExtension` adds flags to an existing command and takes the invocations that
+use them (``plot --models``). Built-in commands are listed in
+:data:`uav_penetration_env.benchmark.commands.BUILTIN_COMMANDS`; plug-ins declare theirs under
+the entry-point group ``uav_penetration.commands`` (:mod:`uav_penetration_env.benchmark.plugins`).
+
+Every input is checked before anything is written: problems raise :class:`CLIError`, which
+``uav-bench`` prints as one line ``uav-bench: error: ...`` with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from uav_penetration_env.benchmark.plugins import Needs
+from uav_penetration_env.catalogue import UnknownScenarioError
+from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+from uav_penetration_env.scenario import ScenarioError
+
+DEFAULT_STORE = Path("results/uav-bench.sqlite")
+DEFAULT_OUT = Path("results")
+
+
+class CLIError(Exception):
+    """A user input problem: printed as ``uav-bench: error: ...`` with exit status 2."""
+
+
+@dataclass(frozen=True)
+class Command:
+    """One ``uav-bench`` sub-command.
+
+    Attributes:
+        name: the sub-command (``run``).
+        help: one line for ``uav-bench --help``.
+        add_arguments: adds the command's flags to its sub-parser.
+        run: does the work; returns the exit status; raises :class:`CLIError` for bad input.
+        needs: modules the command needs at run time (checked after parsing, before ``run``).
+    """
+
+    name: str
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+    needs: Needs = field(default_factory=Needs)
+
+
+@dataclass(frozen=True)
+class CommandExtension:
+    """Flags a plug-in adds to an existing command, and the invocations it takes over.
+
+    Attributes:
+        command: the name of the extended command (``plot``).
+        add_arguments: adds the extension's flags to that command's sub-parser.
+        selected: whether a parsed invocation is the extension's (e.g. ``args.models is not None``).
+        run: does the work for a selected invocation.
+        needs: modules the extension needs at run time.
+    """
+
+    command: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    selected: Callable[[argparse.Namespace], bool]
+    run: Callable[[argparse.Namespace], int]
+    needs: Needs = field(default_factory=Needs)
+
+
+# --- the small languages of api.md ------------------------------------------------------------------
+
+
+def parse_seeds(text: str | int) -> list[int]:
+    """``20`` -> 0..19; ``5:10`` -> 5..9 (half-open, like ``range``).
+
+    Raises:
+        CLIError: anything else, or no seed, or a negative seed.
+    """
+    text = str(text).strip()
+    try:
+        if ":" in text:
+            start, stop = (int(part) for part in text.split(":", 1))
+            seeds = list(range(start, stop))
+        else:
+            seeds = list(range(int(text)))
+    except ValueError:
+        raise CLIError(
+            f"--seeds: got {text!r}, expected a count N (seeds 0..N-1) or START:STOP (half-open)"
+        ) from None
+    if not seeds or min(seeds) < 0:
+        raise CLIError(f"--seeds: got {text!r}, expected at least one seed, all >= 0")
+    return seeds
+
+
+def parse_weights(text: str | Sequence[float] | None) -> tuple[float, float, float] | None:
+    """``0.3,0.5,0.2`` -> (0.3, 0.5, 0.2) (terrain, radar, third term); the sum is checked by the scenario.
+
+    Raises:
+        CLIError: not three numbers.
+    """
+    if text is None:
+        return None
+    expected = "expected three comma-separated numbers summing to 1"
+    try:
+        values = [float(v) for v in (text.split(",") if isinstance(text, str) else text)]
+    except ValueError:
+        raise CLIError(f"--weights: got {text!r}, {expected}") from None
+    if len(values) != 3:
+        raise CLIError(f"--weights: got {text!r}, {expected}")
+    return (values[0], values[1], values[2])
+
+
+def split_list(values: str | Sequence[str] | None) -> list[str]:
+    """Accept both ``--policies a b`` and ``--policies a,b`` (and a single string from a config file)."""
+    items = [values] if isinstance(values, str) else list(values or [])
+    return [part for value in items for part in str(value).split(",") if part]
+
+
+def resolve_scenarios(
+    specs: Sequence[str],
+    profile: str | None = None,
+    weights: tuple[float, float, float] | None = None,
+    difficulty: float = 0.5,
+    *,
+    flag: str = "--scenarios",
+) -> list[Any]:
+    """The scenarios of catalogue names, ``random:`` forms or YAML paths, with a profile and weights.
+
+    Names resolve in :func:`uav_penetration_env.catalogue.resolve_scenarios`.
+
+    Args:
+        specs: what the user typed.
+        profile: ``benchmark`` or ``paper`` (``None``: each scenario's own).
+        weights: objective weights replacing the scenarios' (``None``: their own).
+        difficulty: difficulty of ``random:`` scenarios.
+        flag: the flag to name in errors.
+
+    Raises:
+        CLIError: an unknown name (with a did-you-mean) or a broken scenario, naming ``flag``.
+    """
+    scenarios = []
+    for spec in specs:
+        try:
+            for scenario in resolve_catalogue(spec, difficulty):
+                if weights is not None:
+                    scenario = scenario.updated({"cost": {"weights": list(weights)}})
+                scenarios.append(scenario.with_profile(profile))
+        except UnknownScenarioError as error:
+            raise CLIError(f"{flag}: {error}") from None
+        except ScenarioError as error:
+            raise CLIError(f"{flag}: scenario {spec!r}: {error}") from None
+    return scenarios
+
+
+# --- files and folders ----------------------------------------------------------------------------
+
+
+def add_store_argument(parser: argparse.ArgumentParser, *, default: Path | None = DEFAULT_STORE) -> None:
+    """The ``--store`` flag (``default=None``: the command applies :data:`DEFAULT_STORE` itself)."""
+    parser.add_argument(
+        "--store",
+        default=None if default is None else str(default),
+        help=f"results store (default: {DEFAULT_STORE})",
+    )
+
+
+def existing_store(path: str | Path) -> Path:
+    """The path of a results store that must already exist (leaderboard, plot, export).
+
+    Raises:
+        CLIError: no file there.
+    """
+    store = Path(path)
+    if not store.is_file():
+        raise CLIError(
+            f"--store: no results store at {store}; run `uav-bench run` first or pass --store PATH"
+        )
+    return store
+
+
+def check_writable_folder(path: Path, flag: str) -> None:
+    """Create ``path`` if needed and check a file can be written there.
+
+    Raises:
+        CLIError: naming ``flag`` and the reason.
+    """
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".uav-bench-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as error:
+        raise CLIError(
+            f"{flag}: cannot write to {path} ({error.strerror}); expected a writable folder"
+        ) from None
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The command as typed (``uav-bench run --seeds 3``), for provenance in tables and files."""
+    return " ".join(["uav-bench", *map(shlex.quote, getattr(args, "argv", []))])

@@ -1,0 +1,49 @@
+"""``uav-bench leaderboard``: Markdown + CSV leaderboards per scenario group, from a results store."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from uav_penetration_env.benchmark.commands.common import (
+    DEFAULT_OUT,
+    Command,
+    add_store_argument,
+    check_writable_folder,
+    command_line,
+    existing_store,
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench leaderboard``."""
+    add_store_argument(parser)
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
+    )
+    parser.add_argument(
+        "--suite", help="one table over all the store's scenarios, named SUITE (blocks = scenario x seed)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the tables and print their paths."""
+    store = existing_store(args.store)
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+
+    check_writable_folder(Path(args.out), "--out")
+    written = write_leaderboards(
+        store, Path(args.out), reference=args.reference, command=command_line(args), suite=args.suite
+    )
+    for path in written:
+        print(path)
+    return 0
+
+
+COMMAND = Command(
+    name="leaderboard",
+    help="Markdown + CSV leaderboards from a store",
+    add_arguments=add_arguments,
+    run=run,
+)

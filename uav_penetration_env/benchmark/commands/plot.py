@@ -1,0 +1,39 @@
+"""``uav-bench plot``: the figures (PNG + PDF) per scenario group, from a results store.
+
+Plug-ins may add other figure sources through a :class:`CommandExtension` of ``plot`` (the ``rl``
+extra's ``baselines`` adds ``--models``: learning curves of trained agents).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from uav_penetration_env.benchmark.commands.common import (
+    DEFAULT_OUT,
+    Command,
+    add_store_argument,
+    check_writable_folder,
+    existing_store,
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench plot``."""
+    add_store_argument(parser)
+    parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument("--suite", help="aggregate figures over all the store's scenarios, named SUITE")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Draw the store's figures and print their paths."""
+    check_writable_folder(Path(args.out), "--out")
+    store = existing_store(args.store)
+    from uav_penetration_env.benchmark.figures import write_figures
+
+    for path in write_figures(store, Path(args.out), suite=args.suite):
+        print(path)
+    return 0
+
+
+COMMAND = Command(name="plot", help="figures (PNG + PDF) from a store", add_arguments=add_arguments, run=run)

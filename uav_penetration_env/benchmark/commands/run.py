@@ -1,0 +1,290 @@
+"""``uav-bench run``: evaluate policies on scenarios and seeds into a results store, then report.
+
+With no flags it is the main job (api.md): the paper scenario (weights 0.3/0.4/0.3), the six
+swarm planners plus ``pso``, ``cem`` and the ``greedy`` floor, 5 seeds, all cores, results in
+``results/uav-bench.sqlite``, then the leaderboard and figures in ``results/``.
+
+Every input (flags, ``--config`` file, policy names and the extras they need, scenarios, the
+store's folder) is checked before the store is opened, so a typo never damages a store. Ctrl-C
+leaves every finished episode stored (exit status 130); rerunning the same command resumes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from uav_penetration_env.benchmark.commands.common import (
+    DEFAULT_OUT,
+    DEFAULT_STORE,
+    CLIError,
+    Command,
+    add_store_argument,
+    check_writable_folder,
+    command_line,
+    parse_seeds,
+    parse_weights,
+    resolve_scenarios,
+    split_list,
+)
+from uav_penetration_env.benchmark.plugins import PluginUnavailable
+from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+from uav_penetration_env.catalogue import SCENARIO_HELP
+from uav_penetration_env.suggest import did_you_mean
+
+MAIN_JOB_POLICIES = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "greedy")
+RUN_DEFAULTS: dict[str, Any] = {
+    "policies": list(MAIN_JOB_POLICIES),
+    "scenarios": ["paper"],
+    "profile": None,
+    "weights": None,
+    "seeds": "5",
+    "jobs": None,
+    "backend": "loky",
+    "scheduler": None,
+    "store": str(DEFAULT_STORE),
+    "out": str(DEFAULT_OUT),
+    "max_evals": MPC_DEFAULTS.max_evals,
+    "horizon": MPC_DEFAULTS.horizon,
+    "discount": MPC_DEFAULTS.discount,
+    "terminal_cost": MPC_DEFAULTS.terminal_cost,
+    "difficulty": 0.5,
+    "import": [],
+    "report": True,
+    "progress": True,
+}
+LIST_SETTINGS = ("policies", "scenarios", "import")
+CONFIG_KEYS = [key for key in RUN_DEFAULTS if key not in ("report", "progress")]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`)."""
+    from uav_penetration_env.benchmark.policies import plugin_policy_forms
+
+    plugin_forms = "".join(f", {form}" for form in plugin_policy_forms())
+    parser.add_argument(
+        "--policies",
+        nargs="+",
+        help=f"optimiser names (MPC), NAME-eq37, greedy, random{plugin_forms} "
+        f"(default: {' '.join(MAIN_JOB_POLICIES)})",
+    )
+    parser.add_argument("--scenarios", nargs="+", help=f"{SCENARIO_HELP} (default: paper)")
+    parser.add_argument(
+        "--profile", choices=["benchmark", "paper"], help="physics profile (default: each scenario's own)"
+    )
+    parser.add_argument("--weights", help="objective weights terrain,radar,third, e.g. 0.3,0.5,0.2")
+    parser.add_argument("--seeds", help="N (seeds 0..N-1) or START:STOP (default: 5)")
+    parser.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
+    parser.add_argument("--backend", help="loky (default), dask or sequential")
+    parser.add_argument(
+        "--scheduler", help="dask scheduler address (backend dask; none starts a local cluster)"
+    )
+    add_store_argument(parser, default=None)
+    parser.add_argument("--out", help=f"folder for the leaderboard and figures (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--max-evals",
+        dest="max_evals",
+        type=int,
+        help=f"objective evaluations per planning step (default: {MPC_DEFAULTS.max_evals})",
+    )
+    parser.add_argument("--horizon", type=int, help=f"MPC horizon H (default: {MPC_DEFAULTS.horizon})")
+    parser.add_argument(
+        "--discount", type=float, help=f"MPC discount gamma (default: {MPC_DEFAULTS.discount})"
+    )
+    parser.add_argument(
+        "--terminal-cost",
+        dest="terminal_cost",
+        type=float,
+        help=f"MPC cost-to-go per remaining step (default: {MPC_DEFAULTS.terminal_cost})",
+    )
+    parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
+    parser.add_argument(
+        "--import", dest="import", action="append", help="a plug-in module to import (repeatable)"
+    )
+    parser.add_argument(
+        "--config", help="YAML file of settings (keys = flag names with _); flags override it"
+    )
+    parser.add_argument(
+        "--no-report",
+        dest="report",
+        action="store_const",
+        const=False,
+        help="skip the leaderboard and figures",
+    )
+    parser.add_argument(
+        "--no-progress", dest="progress", action="store_const", const=False, help="no progress bar"
+    )
+
+
+def load_config(path: str | None) -> dict[str, Any]:
+    """``--config FILE.yaml``: keys are the flag names with ``_``; unknown keys are errors.
+
+    Raises:
+        CLIError: an unreadable file, invalid YAML, not a mapping, or an unknown key.
+    """
+    if path is None:
+        return {}
+    try:
+        data = yaml.safe_load(Path(path).read_text()) or {}
+    except OSError as error:
+        raise CLIError(f"--config: cannot read {path} ({error.strerror})") from None
+    except yaml.YAMLError as error:
+        raise CLIError(f"--config: {path} is not valid YAML ({error})") from None
+    if not isinstance(data, dict):
+        raise CLIError(f"--config: {path} must hold a mapping of flag names to values")
+    for key in data:
+        if key not in CONFIG_KEYS:
+            raise CLIError(
+                f"--config: {path}: unknown key {key!r} — {did_you_mean(key, CONFIG_KEYS)}"
+                f"allowed: {', '.join(CONFIG_KEYS)}"
+            )
+    return data
+
+
+def run_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """Flags override the config file, which overrides :data:`RUN_DEFAULTS`."""
+    settings = dict(RUN_DEFAULTS)
+    settings.update(load_config(args.config))
+    for key in RUN_DEFAULTS:
+        value = getattr(args, key, None)
+        if value is not None and value != []:
+            settings[key] = value
+    for key in LIST_SETTINGS:
+        settings[key] = split_list(settings[key])
+    return settings
+
+
+def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
+    """The policies of ``--policies`` by table name; plug-in kinds are checked for their extras here.
+
+    Raises:
+        CLIError: an unknown name, a plug-in whose extra is missing, a bad agent file.
+    """
+    from uav_penetration_env.benchmark.policies import make_policy, policy_label
+
+    policies = {}
+    for spec in settings["policies"]:
+        try:
+            policies[policy_label(spec)] = make_policy(
+                spec,
+                horizon=int(settings["horizon"]),
+                max_evals=int(settings["max_evals"]),
+                discount=float(settings["discount"]),
+                terminal_cost=float(settings["terminal_cost"]),
+            )
+        except KeyError as error:
+            raise CLIError(f"--policies: {error.args[0]}") from None
+        except PluginUnavailable as error:  # it names the policy and what to install
+            raise CLIError(f"--policies: {error}") from None
+        except (ValueError, FileNotFoundError, ImportError) as error:
+            raise CLIError(f"--policies: {spec!r}: {error}") from None
+    if not policies:
+        raise CLIError("--policies: expected at least one policy")
+    return policies
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate everything, evaluate into the store, then write the leaderboard and figures."""
+    from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
+    from uav_penetration_env.benchmark.store import ResultsStore, StoreError
+
+    settings = run_settings(args)
+    try:
+        import_plugins(settings["import"])
+    except ImportError as error:
+        raise CLIError(f"--import: {error}") from None
+    if settings["backend"] not in BACKENDS:
+        raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
+    seeds = parse_seeds(settings["seeds"])
+    policies = make_policies(settings)
+    scenarios = resolve_scenarios(
+        settings["scenarios"],
+        settings["profile"],
+        parse_weights(settings["weights"]),
+        float(settings["difficulty"]),
+    )
+    store_path = Path(settings["store"])
+    out = Path(settings["out"])
+    check_writable_folder(store_path.parent, "--store")
+    if settings["report"]:
+        check_writable_folder(out, "--out")
+    try:
+        store = ResultsStore(store_path)
+    except StoreError as error:
+        raise CLIError(f"--store: {error}") from None
+    jobs = settings["jobs"]
+    episodes = len(policies) * len(scenarios) * len(seeds)
+    print(
+        f"uav-bench run: {len(policies)} policies x {len(scenarios)} scenarios x {len(seeds)} seeds = {episodes} episodes -> {store_path}"
+    )
+    command = command_line(args)
+    try:
+        frame = evaluate(
+            policies,
+            scenarios,
+            seeds,
+            n_jobs=None if jobs is None else int(jobs),
+            backend=settings["backend"],
+            store=store,
+            scheduler=settings["scheduler"],
+            imports=tuple(settings["import"]),
+            progress=bool(settings["progress"]),
+            command=command,
+        )
+    except KeyboardInterrupt:
+        done = len(store.done_keys())
+        store.close()
+        print(
+            f"\ninterrupted: {done} finished episodes are stored in {store_path}; rerun the same command to resume",
+            file=sys.stderr,
+        )
+        return 130
+    store.close()
+    errors = int((frame["error"] != "").sum())
+    print(f"results: {store_path} ({len(frame)} episodes, {errors} errors)")
+    if errors:
+        first = frame.loc[frame["error"] != "", ["policy", "seed", "error"]].iloc[0]
+        print(
+            f"first error ({first['policy']}, seed {first['seed']}): {first['error'].splitlines()[0]}",
+            file=sys.stderr,
+        )
+    if settings["report"]:
+        report(store_path, out, command)
+    return 0
+
+
+def report(store: Path, out: Path, command: str) -> None:
+    """Write the leaderboards and figures of ``store`` into ``out`` and print a table excerpt."""
+    from uav_penetration_env.benchmark.figures import write_figures
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+
+    tables = write_leaderboards(store, out, command=command)
+    figures = write_figures(store, out)
+    for path in tables:
+        print(f"leaderboard: {path}")
+    for path in figures:
+        if path.suffix == ".png":
+            print(f"figure: {path}")
+    markdown = [p for p in tables if p.suffix == ".md"]
+    if markdown:
+        print()
+        print(excerpt(markdown[0]))
+
+
+def excerpt(path: Path, rows: int = 14) -> str:
+    """The table part of a generated leaderboard (for the terminal)."""
+    lines = path.read_text().splitlines()
+    table = [line for line in lines if line.startswith("|")]
+    return "\n".join(table[: rows + 2])
+
+
+COMMAND = Command(
+    name="run",
+    help="evaluate planners on scenarios and seeds (resumable); no flags = the main job",
+    add_arguments=add_arguments,
+    run=run,
+)

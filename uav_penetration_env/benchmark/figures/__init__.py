@@ -1,0 +1,185 @@
+"""Figures of a results store, per scenario group, as PNG and PDF (the paper's Figs. 14-18 and more).
+
+For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scenario_groups`):
+
+* ``<stem>-tracks-top`` / ``<stem>-tracks-3d``: every planner's track for one seed over the terrain,
+  with the radars and their coverage at the median flown altitude (Figs. 14/16). The seed is the
+  smallest one every planner finished, so the tracks are paired (same start, same jitter).
+* ``<stem>-j-per-point``: mean J(k) per track point against k with 95 % bands over seeds, runs of
+  different length NaN-padded, and the number of runs still flying at each k (Figs. 15/18, A30).
+* ``<stem>-cost-box``: total cost (ΣJ + failure penalty) per planner.
+* ``<stem>-performance-profile``: Dolan-Moré profile of total cost over seeds.
+* ``<stem>-convergence``: the optimisers' normalised best-so-far against evaluations, averaged
+  over MPC steps (policies without an optimiser history, e.g. floors, are left out).
+* ``<stem>-timeline``: altitude above ground and detection probability per step, same seed as the tracks.
+
+Each figure is one entry of :data:`FIGURES` (a draw function and whether it shows one
+scenario); the modules hold one idea each: :mod:`.common` (canvas, colours, bands),
+:mod:`.tracks` (one seed's tracks over the scenario), :mod:`.costs` (costs over seeds),
+:mod:`.convergence` (optimiser histories).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from uav_penetration_env.benchmark.figures.common import (
+    PNG_DPI,
+    finished_steps,
+    mean_band,
+    new_figure,
+    note_empty,
+    policy_colours,
+    save_figure,
+)
+from uav_penetration_env.benchmark.figures.convergence import (
+    CONVERGENCE_NODES,
+    convergence_curves,
+    plot_convergence,
+)
+from uav_penetration_env.benchmark.figures.costs import (
+    performance_profile,
+    plot_cost_box,
+    plot_j_per_point,
+    plot_performance_profile,
+)
+from uav_penetration_env.benchmark.figures.tracks import (
+    COVERAGE_LEVEL,
+    SURFACE_NODES,
+    plot_timeline,
+    plot_tracks_3d,
+    plot_tracks_top,
+    scenario_model,
+    start_state,
+    track_seed,
+)
+from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, scenario_groups, suite_group
+from uav_penetration_env.benchmark.store import ResultsStore
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """One figure of a scenario group.
+
+    Attributes:
+        draw: ``(group, steps, model, colours, starts) -> Figure``; ``steps`` are the transition
+            rows (k >= 1), ``starts`` the step-0 rows, ``model`` the scenario's model or None.
+        per_scenario: drawn over one scenario's terrain (left out of a suite's figures).
+    """
+
+    draw: Callable[[ScenarioGroup, pd.DataFrame, Any, dict[str, Any], pd.DataFrame], Any]
+    per_scenario: bool = False
+
+
+# The figures, in file order: name -> how to draw it. A new figure is one entry here.
+FIGURES: dict[str, FigureSpec] = {
+    "tracks-top": FigureSpec(plot_tracks_top, per_scenario=True),
+    "tracks-3d": FigureSpec(plot_tracks_3d, per_scenario=True),
+    "j-per-point": FigureSpec(
+        lambda group, steps, model, colours, starts: plot_j_per_point(group, steps, colours)
+    ),
+    "cost-box": FigureSpec(lambda group, steps, model, colours, starts: plot_cost_box(group, colours)),
+    "performance-profile": FigureSpec(
+        lambda group, steps, model, colours, starts: plot_performance_profile(group, colours)
+    ),
+    "convergence": FigureSpec(
+        lambda group, steps, model, colours, starts: plot_convergence(group, steps, colours)
+    ),
+    "timeline": FigureSpec(
+        lambda group, steps, model, colours, starts: plot_timeline(group, steps, colours), per_scenario=True
+    ),
+}
+SCENARIO_FIGURES = tuple(name for name, spec in FIGURES.items() if spec.per_scenario)
+
+__all__ = [
+    "CONVERGENCE_NODES",
+    "COVERAGE_LEVEL",
+    "FIGURES",
+    "PNG_DPI",
+    "SCENARIO_FIGURES",
+    "SURFACE_NODES",
+    "FigureSpec",
+    "convergence_curves",
+    "finished_steps",
+    "mean_band",
+    "new_figure",
+    "note_empty",
+    "performance_profile",
+    "plot_convergence",
+    "plot_cost_box",
+    "plot_j_per_point",
+    "plot_performance_profile",
+    "plot_timeline",
+    "plot_tracks_3d",
+    "plot_tracks_top",
+    "policy_colours",
+    "save_figure",
+    "scenario_model",
+    "start_state",
+    "track_seed",
+    "write_figures",
+]
+
+
+def write_figures(
+    store_path: str | Path,
+    out_dir: str | Path,
+    *,
+    formats: Sequence[str] = ("png", "pdf"),
+    suite: str | None = None,
+) -> list[Path]:
+    """Write every figure of every scenario group of a results store, in each of ``formats``.
+
+    With ``suite``, the store's episodes form one group (see ``leaderboard.suite_group``) and only
+    the figures that aggregate over episodes are drawn (no tracks or timeline: they show one
+    scenario).
+
+    Args:
+        store_path: the SQLite results store.
+        out_dir: output folder (created if needed).
+        formats: file types, each one of ``png``, ``pdf``, ``svg``.
+        suite: draw one group over all scenarios, named ``suite``.
+
+    Returns:
+        The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
+        by (name, hash) and figures in the order of :data:`FIGURES`.
+
+    Raises:
+        FileNotFoundError: there is no store at ``store_path``.
+        ValueError: an unknown format.
+    """
+    unknown = [f for f in formats if f not in ("png", "pdf", "svg")]
+    if unknown:
+        raise ValueError(f"formats: got {unknown}, expected png, pdf or svg")
+    store_path, out_dir = Path(store_path), Path(out_dir)
+    if not store_path.is_file():
+        raise FileNotFoundError(
+            f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
+        )
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    with ResultsStore(store_path) as store:
+        episodes = store.episodes()
+        scenarios = store.scenarios()
+        if suite is not None and not episodes.empty:
+            groups, names = [suite_group(episodes, suite)], [f for f in FIGURES if f not in SCENARIO_FIGURES]
+        else:
+            groups, names = scenario_groups(episodes), list(FIGURES)
+        for group in groups:
+            rows = store.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
+            starts, steps = rows[rows["step"] == 0], rows[rows["step"] > 0]
+            model = (
+                None
+                if group.scenarios
+                else scenario_model(scenarios.get(group.scenario_hash, (None, None))[1])
+            )
+            colours = policy_colours(group.episodes["label"].unique())
+            for name in names:
+                figure = FIGURES[name].draw(group, steps, model, colours, starts)
+                written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
+    return written

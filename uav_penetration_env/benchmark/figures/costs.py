@@ -1,0 +1,132 @@
+"""Figures of costs over seeds: J per track point, total cost per episode, performance profile."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark.figures.common import finished_steps, mean_band, new_figure, note_empty
+from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, cost_table
+
+
+def plot_j_per_point(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, Any]):
+    """Mean J(k) per track point vs k with 95 % t-bands over seeds, and how many runs reach each k (A30)."""
+    figure = new_figure(7.5, 6.0)
+    top, bottom = figure.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+    episodes = finished_steps(group, steps)
+    for label, runs in episodes.items():
+        length = max(int(r["step"].max()) for r in runs)
+        matrix = np.full((len(runs), length), np.nan)
+        for i, rows in enumerate(runs):
+            matrix[i, rows["step"].to_numpy(dtype=int) - 1] = rows["J"].to_numpy(dtype=np.float64)
+        mean, low, high, count = mean_band(matrix)
+        # With two runs the t quantile is 12.7 and the band fills the panel without saying anything.
+        low, high = np.where(count >= 3, low, np.nan), np.where(count >= 3, high, np.nan)
+        k = np.arange(1, length + 1)
+        top.plot(k, mean, color=colours[label], linewidth=1.5, label=f"{label} ({len(runs)} runs)")
+        top.fill_between(k, low, high, color=colours[label], alpha=0.18, linewidth=0)
+        bottom.step(k, count, where="mid", color=colours[label], linewidth=1.2)
+    if not episodes:
+        note_empty(top, "no finished episode with stored steps")
+    top.set_ylabel("J(k) per track point\n(mean over seeds; 95% t-band where ≥ 3 runs)")
+    top.set_title(f"{group.name}: cost per track point (runs NaN-padded after they end)", fontsize=9)
+    top.legend(fontsize=7)
+    bottom.set_ylabel("runs at k")
+    bottom.set_xlabel("track point k")
+    return figure
+
+
+def plot_cost_box(group: ScenarioGroup, colours: dict[str, Any]):
+    """Box plots of total cost (ΣJ + failure penalty) per planner, ordered by median, points overlaid."""
+    figure = new_figure(7.5, 4.8)
+    ax = figure.add_subplot()
+    valid = group.episodes[~group.episodes["is_error"]]
+    samples = {
+        label: valid.loc[valid["label"] == label, "total_cost"].dropna().to_numpy(dtype=np.float64)
+        for label in sorted(valid["label"].unique())
+    }
+    samples = {k: v for k, v in samples.items() if v.size}
+    order = sorted(samples, key=lambda label: (float(np.median(samples[label])), label))
+    if order:
+        boxes = ax.boxplot(
+            [samples[label] for label in order],
+            patch_artist=True,
+            widths=0.55,
+            showfliers=False,  # every episode is drawn as a point below
+            medianprops={"color": "black"},
+        )
+        for patch, label in zip(boxes["boxes"], order, strict=True):
+            patch.set_facecolor(colours[label])
+            patch.set_alpha(0.35)
+        for i, label in enumerate(order, start=1):
+            values = samples[label]
+            # Deterministic spread instead of random jitter, so the figure is reproducible.
+            offsets = np.linspace(-0.12, 0.12, values.size) if values.size > 1 else np.zeros(1)
+            ax.scatter(
+                i + offsets, values, color=colours[label], s=14, edgecolors="black", linewidths=0.4, zorder=3
+            )
+        ax.set_xticks(range(1, len(order) + 1))
+        ax.set_xticklabels(order, rotation=20, ha="right")
+    else:
+        note_empty(ax, "no finished episode")
+    ax.set_ylabel("total J incl. failure penalty (= −return)")
+    ax.set_title(f"{group.name}: total cost per episode (lower is better)", fontsize=9)
+    return figure
+
+
+def performance_profile(table: pd.DataFrame) -> tuple[dict[str, np.ndarray], float]:
+    """Dolan-Moré ratios per policy over the seeds every policy finished.
+
+    Args:
+        table: seeds x policies costs (NaN = missing).
+
+    Returns:
+        label -> ratios (cost / best cost on the same seed), and the shift added to every cost
+        first (0 unless some cost is <= 0, when costs are shifted so that the smallest is 1).
+    """
+    present = table.loc[:, table.notna().any(axis=0)]
+    complete = present.dropna(axis=0, how="any")
+    if complete.empty:
+        return {}, 0.0
+    values = complete.to_numpy(dtype=np.float64)
+    smallest = float(values.min())
+    shift = 0.0 if smallest > 0.0 else 1.0 - smallest  # ratios need positive costs
+    values = values + shift
+    ratios = values / values.min(axis=1, keepdims=True)
+    return {label: ratios[:, j] for j, label in enumerate(complete.columns)}, shift
+
+
+def plot_performance_profile(group: ScenarioGroup, colours: dict[str, Any]):
+    """Fraction of seeds on which each planner's total cost is within a factor τ of the best planner's."""
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    figure = new_figure(7.0, 4.8)
+    ax = figure.add_subplot()
+    ratios, shift = performance_profile(cost_table(group.episodes))
+    if ratios:
+        worst = max(float(r.max()) for r in ratios.values())
+        end = max(worst * 1.1, 1.1)
+        for label, r in ratios.items():
+            taus = np.concatenate([[1.0], np.sort(r), [end]])
+            fraction = (r[None, :] <= taus[:, None]).mean(axis=1)
+            ax.step(taus, fraction, where="post", color=colours[label], linewidth=1.6, label=label)
+        ax.set_xscale("log")
+        ax.set_xlim(1.0, end)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        # Label the minor ticks (2, 3, ...) only on short ranges, where they do not crowd.
+        ax.xaxis.set_minor_formatter(ScalarFormatter() if end < 20 else NullFormatter())
+        seeds = len(next(iter(ratios.values())))
+        note = f"; costs shifted by {shift:.3g} to be positive" if shift else ""
+        ax.set_title(
+            f"{group.name}: performance profile over {seeds} seeds every planner finished{note}", fontsize=9
+        )
+        ax.legend(fontsize=7, loc="lower right")
+    else:
+        note_empty(ax, "no seed finished by every planner")
+        ax.set_title(f"{group.name}: performance profile", fontsize=9)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("τ (total cost / best total cost on the same seed, log scale)")
+    ax.set_ylabel("fraction of seeds within τ of the best")
+    return figure

@@ -1,0 +1,299 @@
+"""Figures of one seed's tracks over one scenario: top view, 3-D view and the altitude/detection timeline.
+
+The seed is the smallest one every planner finished, so the tracks are paired (same start, same
+jitter). Each track starts at its episode's stored step-0 row (the start state); the scenario's
+model is built from the stored YAML only to draw its terrain, radars, goal and coverage.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark.figures.common import new_figure, note_empty
+from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
+
+COVERAGE_LEVEL = (
+    0.5  # the envelope is where the model's coverage level (fused P_d or ratio detection) crosses 0.5
+)
+SURFACE_NODES = 60  # at most this many terrain nodes per axis in the 3-D view (PDF size and speed)
+
+
+def track_seed(episodes: pd.DataFrame, steps: pd.DataFrame) -> int | None:
+    """The smallest seed every policy finished with stored steps, else the one most policies finished."""
+    valid = episodes[~episodes["is_error"] & episodes["episode_id"].isin(steps["episode_id"].unique())]
+    if valid.empty:
+        return None
+    per_seed = valid.groupby("seed")["label"].nunique()
+    best = int(per_seed.max())
+    return int(min(per_seed[per_seed == best].index))
+
+
+def scenario_model(yaml_text: str | None):
+    """The scenario's PenetrationModel built from the stored YAML, or None when it cannot be.
+
+    Only for what the figures draw of the scenario (terrain, radars, goal, coverage): start states
+    come from the stored step-0 rows, never from replaying a reset.
+    """
+    if not yaml_text:
+        return None
+    import yaml
+
+    from uav_penetration_env import PenetrationModel, load_scenario
+
+    try:
+        return PenetrationModel(load_scenario(yaml.safe_load(yaml_text)))
+    except (ValueError, KeyError, TypeError, yaml.YAMLError):  # ScenarioError is a ValueError
+        return None
+
+
+def start_state(episodes: pd.DataFrame, starts: pd.DataFrame, seed: int) -> np.ndarray | None:
+    """The start [x m, y m, z m] of ``seed``'s episodes, from their step-0 rows, or None when not stored.
+
+    Paired seeding gives every policy the same start on a seed, so any episode's step-0 row is it.
+    """
+    ids = episodes.loc[(episodes["seed"] == seed) & ~episodes["is_error"], "episode_id"]
+    rows = starts[starts["episode_id"].isin(ids)]
+    if rows.empty:
+        return None
+    first = rows.iloc[0]
+    return np.array([first["x_km"] * 1000.0, first["y_km"] * 1000.0, first["z_m"]], dtype=np.float64)
+
+
+def seed_tracks(episodes: pd.DataFrame, steps: pd.DataFrame, seed: int) -> dict[str, pd.DataFrame]:
+    """The step rows of each policy's episode on ``seed``, by sorted label."""
+    chosen = episodes[(episodes["seed"] == seed) & ~episodes["is_error"]]
+    tracks = {}
+    for label in sorted(chosen["label"].unique()):
+        ids = chosen.loc[chosen["label"] == label, "episode_id"]
+        rows = steps[steps["episode_id"].isin(ids)].sort_values("step", kind="mergesort")
+        if not rows.empty:
+            tracks[label] = rows
+    return tracks
+
+
+def _with_start(rows: pd.DataFrame, start: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    x, y, z = (rows[c].to_numpy(dtype=np.float64) for c in ("x_km", "y_km", "z_m"))
+    if start is None:
+        return x, y, z
+    return (
+        np.concatenate([[start[0] / 1000.0], x]),
+        np.concatenate([[start[1] / 1000.0], y]),
+        np.concatenate([[start[2]], z]),
+    )
+
+
+def _scenario_markers(ax, model, start: np.ndarray | None, three_d: bool) -> None:
+    scenario = model.scenario
+    present = model.radar_present[0] > 0
+    radars = model.radar_xyz[0][present]
+    names = [r.name for r in scenario.radars]
+    goal_x, goal_y, goal_r = model.goal[0] / 1000.0
+    sx, sy = (start[0] / 1000.0, start[1] / 1000.0) if start is not None else model.start[0] / 1000.0
+    if three_d:
+        ax.scatter(
+            radars[:, 0] / 1000.0,
+            radars[:, 1] / 1000.0,
+            radars[:, 2],
+            c="red",
+            marker="^",
+            s=45,
+            depthshade=False,
+            label="radars",
+        )
+        goal_z = float(model.height(np.array([goal_x * 1000.0]), np.array([goal_y * 1000.0]))[0])
+        ax.scatter(
+            [goal_x],
+            [goal_y],
+            [goal_z],
+            c="gold",
+            edgecolors="black",
+            marker="*",
+            s=140,
+            depthshade=False,
+            label="goal",
+        )
+        return
+    ax.scatter(
+        radars[:, 0] / 1000.0,
+        radars[:, 1] / 1000.0,
+        c="red",
+        marker="^",
+        s=55,
+        edgecolors="black",
+        zorder=5,
+        label="radars",
+    )
+    for (x, y, _), name in zip(radars, names, strict=False):
+        ax.annotate(name, (x / 1000.0, y / 1000.0), xytext=(4, 4), textcoords="offset points", fontsize=8)
+    from matplotlib.patches import Circle
+
+    ax.add_patch(Circle((goal_x, goal_y), goal_r, fill=False, edgecolor="black", linestyle="--", zorder=5))
+    ax.scatter([goal_x], [goal_y], c="gold", edgecolors="black", marker="*", s=160, zorder=6, label="goal")
+    ax.scatter([sx], [sy], c="white", edgecolors="black", marker="o", s=50, zorder=6, label="start")
+
+
+def _coverage(model, tracks: dict[str, pd.DataFrame], start: np.ndarray | None):
+    """Coverage grid at the median flown altitude [m above datum] and a representative heading."""
+    from uav_penetration_env.render import coverage_grid
+
+    altitudes = np.concatenate([rows["z_m"].to_numpy(dtype=np.float64) for rows in tracks.values()])
+    altitude = float(np.median(altitudes))
+    sx, sy = (start[0], start[1]) if start is not None else model.start[0]
+    heading = math.atan2(model.goal[0, 1] - sy, model.goal[0, 0] - sx)  # the start-goal bearing
+    xs, ys, threat = coverage_grid(model, altitude, heading)
+    return altitude, xs, ys, threat
+
+
+def plot_tracks_top(
+    group: ScenarioGroup,
+    steps: pd.DataFrame,
+    model,
+    colours: dict[str, Any],
+    starts: pd.DataFrame | None = None,
+):
+    """Top view: hillshaded terrain, radar coverage at the median flown altitude, every planner's track."""
+    from matplotlib.colors import LightSource
+    from matplotlib.patches import Rectangle
+
+    figure = new_figure(7.5, 6.5)
+    ax = figure.add_subplot()
+    seed = track_seed(group.episodes, steps)
+    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
+    start = start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
+    title = f"{group.name}: tracks, seed {seed}"
+    if model is None:
+        title += " (scenario not in the store: no terrain, radars or coverage)"
+    else:
+        built = model.built[0]
+        x_km, y_km = built.grid.x_nodes / 1000.0, built.grid.y_nodes / 1000.0
+        extent = (x_km[0], x_km[-1], y_km[0], y_km[-1])
+        terrain = built.terrain.T  # [iy, ix] for imshow
+        # A grey hillshade with labelled height contours keeps the red coverage and the coloured
+        # tracks legible; a coloured terrain would mix with both.
+        spacing = built.grid.dx_m  # [m], so the shading slope is the true slope times vert_exag
+        shade = LightSource(azdeg=315, altdeg=45).hillshade(terrain, vert_exag=10.0, dx=spacing, dy=spacing)
+        ax.imshow(
+            shade, extent=extent, origin="lower", cmap="gray", vmin=-0.3, vmax=1.3, interpolation="bilinear"
+        )
+        if float(terrain.max()) > float(terrain.min()):
+            lines = ax.contour(x_km, y_km, terrain, levels=6, colors="0.3", linewidths=0.5)
+            ax.clabel(lines, fontsize=6, fmt="%.0f m")
+        if tracks:
+            altitude, xs, ys, threat = _coverage(model, tracks, start)
+            if threat.max() >= COVERAGE_LEVEL:
+                ax.contourf(
+                    xs,
+                    ys,
+                    threat.T,
+                    levels=[COVERAGE_LEVEL, max(1.0, float(threat.max())) + 1e-9],
+                    colors=["red"],
+                    alpha=0.15,
+                )
+            if threat.max() > COVERAGE_LEVEL > threat.min():
+                ax.contour(xs, ys, threat.T, levels=[COVERAGE_LEVEL], colors="red", linewidths=1.0)
+            coverage = f"P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m"
+            ax.add_patch(
+                Rectangle((0, 0), 0, 0, facecolor="red", alpha=0.15, edgecolor="red", label=coverage)
+            )
+            title += f"; radar coverage {coverage} (the median flown altitude)"
+        _scenario_markers(ax, model, start, three_d=False)
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+    for label, rows in tracks.items():
+        x, y, _ = _with_start(rows, start)
+        ax.plot(x, y, color=colours[label], linewidth=1.6, marker="o", markersize=2.2, label=label, zorder=4)
+    if not tracks:
+        note_empty(ax, "no finished episode with stored steps")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [km]")
+    ax.set_ylabel("y [km]")
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+    return figure
+
+
+def _terrain_colormap():
+    """The ``terrain`` colormap without its sea blues (heights here are land above a datum)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap
+
+    return ListedColormap(colormaps["terrain"](np.linspace(0.25, 0.95, 256)))
+
+
+def plot_tracks_3d(
+    group: ScenarioGroup,
+    steps: pd.DataFrame,
+    model,
+    colours: dict[str, Any],
+    starts: pd.DataFrame | None = None,
+):
+    """3-D view: terrain surface, radars, coverage contour at the median flown altitude, tracks."""
+    figure = new_figure(8.0, 6.5)
+    ax = figure.add_subplot(projection="3d")
+    seed = track_seed(group.episodes, steps)
+    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
+    start = start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
+    top = max((float(rows["z_m"].max()) for rows in tracks.values()), default=0.0)
+    if model is not None:
+        built = model.built[0]
+        stride = max(1, math.ceil(max(built.grid.nx, built.grid.ny) / SURFACE_NODES))
+        x = built.grid.x_nodes[::stride] / 1000.0
+        y = built.grid.y_nodes[::stride] / 1000.0
+        gx, gy = np.meshgrid(x, y, indexing="ij")
+        heights = built.terrain[::stride, ::stride]
+        ax.plot_surface(gx, gy, heights, cmap=_terrain_colormap(), linewidth=0, antialiased=False, alpha=0.6)
+        if tracks:
+            altitude, xs, ys, threat = _coverage(model, tracks, start)
+            if threat.max() > COVERAGE_LEVEL > threat.min():
+                cx, cy = np.meshgrid(xs, ys, indexing="ij")
+                ax.contour(
+                    cx,
+                    cy,
+                    threat,
+                    levels=[COVERAGE_LEVEL],
+                    offset=altitude,
+                    colors="red",
+                    linewidths=0.8,
+                    linestyles="dashed",
+                )
+        _scenario_markers(ax, model, start, three_d=True)
+        top = max(top, float(built.terrain.max()))
+    for label, rows in tracks.items():
+        x, y, z = _with_start(rows, start)
+        ax.plot(x, y, z, color=colours[label], linewidth=1.6, label=label)
+    if not tracks:
+        ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
+    ax.set_zlim(0.0, max(top * 1.3, 1.0))
+    ax.view_init(elev=35, azim=-60)
+    ax.set_xlabel("x [km]")
+    ax.set_ylabel("y [km]")
+    ax.set_zlabel("z [m]")
+    ax.set_title(f"{group.name}: tracks, seed {seed}", fontsize=9)
+    ax.legend(loc="upper left", fontsize=7)
+    return figure
+
+
+def plot_timeline(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, Any]):
+    """Altitude above ground and detection probability per step, one line per planner, the track seed."""
+    figure = new_figure(7.5, 5.5)
+    altitude_ax, detection_ax = figure.subplots(2, 1, sharex=True)
+    seed = track_seed(group.episodes, steps)
+    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
+    for label, rows in tracks.items():
+        k = rows["step"].to_numpy(dtype=int)
+        style = {"color": colours[label], "marker": "o", "markersize": 2.5, "linewidth": 1.3}
+        altitude_ax.plot(k, rows["altitude_agl"].to_numpy(dtype=np.float64), label=label, **style)
+        detection_ax.plot(k, rows["detection_prob"].to_numpy(dtype=np.float64), **style)
+    if not tracks:
+        note_empty(altitude_ax, "no finished episode with stored steps")
+    altitude_ax.set_ylabel("altitude AGL [m]")
+    altitude_ax.set_title(f"{group.name}: seed {seed}", fontsize=9)
+    altitude_ax.legend(fontsize=7)
+    detection_ax.set_ylabel("detection probability")
+    detection_ax.set_ylim(-0.02, 1.02)
+    detection_ax.set_xlabel("track point k")
+    return figure

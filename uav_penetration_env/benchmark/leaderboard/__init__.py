@@ -1,0 +1,151 @@
+"""Leaderboards: one Markdown and one CSV table per scenario group of a results store (api.md, harness).
+
+A scenario group is every episode with one ``scenario_hash`` (the hash covers the geometry, the
+weights, the profile and the normalisation, so costs inside a group are comparable and costs
+across groups are not). Each policy gets one row: episodes, success rate with a Wilson interval,
+total cost (ΣJ(k) plus the failure penalty, i.e. minus the return, so a crash never looks cheap)
+as mean and interquartile mean with bootstrap intervals, the cost terms, detection, path, fuel,
+compute, the Friedman average rank over paired seeds and a Holm-corrected Wilcoxon test against
+a reference planner (:mod:`uav_penetration_env.benchmark.stats`).
+
+The Markdown file starts with a provenance block (commands, commits, versions, machine, scenario,
+seeds, budget, date) and is generated, never edited by hand. Output is deterministic: every
+bootstrap is seeded from ``(seed, policy label)``, rows and groups are sorted stably, and nothing
+depends on dict or set order, so the same store and command give the same bytes except the date.
+
+The package holds one idea per module: :mod:`.groups` (scenario groups and policy labels),
+:mod:`.table` (the statistics table), :mod:`.formatting` and :mod:`.markdown` (the Markdown
+file); :func:`write_leaderboards` writes the files of a store.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+from uav_penetration_env.benchmark.leaderboard.formatting import (
+    compact_names,
+    compact_ranges,
+    format_interval,
+    format_number,
+    format_pvalue,
+    markdown_table,
+    p_text,
+)
+from uav_penetration_env.benchmark.leaderboard.groups import (
+    NUMERIC_EPISODE_COLUMNS,
+    ScenarioGroup,
+    cost_table,
+    policy_labels,
+    prepare_episodes,
+    resolve_reference,
+    sanitize,
+    scenario_groups,
+    suite_group,
+)
+from uav_penetration_env.benchmark.leaderboard.markdown import (
+    STATISTIC_CELLS,
+    cell,
+    leaderboard_markdown,
+    markdown_rows,
+    provenance_lines,
+    statistics_paragraph,
+)
+from uav_penetration_env.benchmark.leaderboard.table import (
+    ALPHA,
+    CONFIDENCE,
+    MEAN_COLUMNS,
+    aggregate,
+    leaderboard_table,
+)
+from uav_penetration_env.benchmark.store import ResultsStore
+
+__all__ = [
+    "ALPHA",
+    "CONFIDENCE",
+    "MEAN_COLUMNS",
+    "NUMERIC_EPISODE_COLUMNS",
+    "STATISTIC_CELLS",
+    "ScenarioGroup",
+    "aggregate",
+    "cell",
+    "compact_names",
+    "compact_ranges",
+    "cost_table",
+    "format_interval",
+    "format_number",
+    "format_pvalue",
+    "leaderboard_markdown",
+    "leaderboard_table",
+    "markdown_rows",
+    "markdown_table",
+    "p_text",
+    "policy_labels",
+    "prepare_episodes",
+    "provenance_lines",
+    "resolve_reference",
+    "sanitize",
+    "scenario_groups",
+    "statistics_paragraph",
+    "suite_group",
+    "write_leaderboards",
+]
+
+
+def write_leaderboards(
+    store_path: str | Path,
+    out_dir: str | Path,
+    *,
+    reference: str = "ihpso",
+    seed: int = 0,
+    command: str | None = None,
+    n_resamples: int = 10_000,
+    suite: str | None = None,
+) -> list[Path]:
+    """Write ``<stem>.md`` and ``<stem>.csv`` for every scenario group of a results store.
+
+    With ``suite``, all episodes of the store form one table named ``suite`` whose paired blocks
+    are (scenario, seed) pairs: the summary of a scenario set such as the held-out random one.
+
+    Args:
+        store_path: the SQLite results store.
+        out_dir: output folder (created if needed).
+        reference: the policy every other is tested against.
+        seed: seed of the bootstraps (the same seed gives the same files).
+        command: the command line recorded in the header (default: the equivalent Python call).
+        n_resamples: bootstrap resamples.
+        suite: write one table over all scenarios, named ``suite``.
+
+    Returns:
+        The written paths, Markdown then CSV per group, groups sorted by (name, hash).
+
+    Raises:
+        FileNotFoundError: there is no store at ``store_path``.
+    """
+    store_path, out_dir = Path(store_path), Path(out_dir)
+    if not store_path.is_file():
+        raise FileNotFoundError(
+            f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
+        )
+    with ResultsStore(store_path) as store:
+        episodes, runs = store.episodes(), store.runs()
+    if command is None:
+        command = (
+            f"write_leaderboards({str(store_path)!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"
+        )
+    date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    groups = (
+        [suite_group(episodes, suite)]
+        if suite is not None and not episodes.empty
+        else scenario_groups(episodes)
+    )
+    for group in groups:
+        table = leaderboard_table(group.episodes, reference=reference, seed=seed, n_resamples=n_resamples)
+        markdown = out_dir / f"{group.stem}.md"
+        markdown.write_text(leaderboard_markdown(group, table, runs, command, date), encoding="utf-8")
+        csv = out_dir / f"{group.stem}.csv"
+        table.to_csv(csv, index=False, lineterminator="\n")
+        written += [markdown, csv]
+    return written

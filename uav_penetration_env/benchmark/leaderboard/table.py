@@ -1,0 +1,178 @@
+"""The statistics table of one scenario group: one row per policy (api.md, harness).
+
+Each policy gets one row: episodes, success rate with a Wilson interval, total cost (ΣJ(k) plus
+the failure penalty, i.e. minus the return, so a crash never looks cheap) as mean and
+interquartile mean with bootstrap intervals, the columns the column table
+(:mod:`uav_penetration_env.benchmark.columns`) aggregates, the Friedman average rank over paired
+seeds and a Holm-corrected Wilcoxon test against a reference planner
+(:mod:`uav_penetration_env.benchmark.stats`). Every bootstrap is seeded from ``(seed, policy
+label)``, so a policy's intervals do not depend on which other policies are in the table.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark import stats
+from uav_penetration_env.benchmark.columns import Column, aggregated_columns
+from uav_penetration_env.benchmark.leaderboard.groups import cost_table, prepare_episodes, resolve_reference
+
+ALPHA = 0.05  # significance level of the pairwise tests (after Holm's correction)
+CONFIDENCE = 0.95
+
+# Derived from the column table, kept for readers of the old constant: CSV column -> (episode column, header).
+MEAN_COLUMNS: dict[str, tuple[str, str]] = {
+    column.out: (column.name, column.board.header) for column in aggregated_columns("means")
+}
+
+
+def _label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
+    """A bootstrap seed for one policy and statistic that does not depend on which other policies exist."""
+    digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
+    return np.random.SeedSequence([int(seed), digest, purpose])
+
+
+def leaderboard_table(
+    episodes: pd.DataFrame, *, reference: str = "ihpso", seed: int = 0, n_resamples: int = 10_000
+) -> pd.DataFrame:
+    """One row per policy of ONE scenario group, full precision, sorted by Friedman rank then mean cost.
+
+    Args:
+        episodes: the group's episode rows (as from :meth:`ResultsStore.episodes`); error rows count
+            in ``errors`` and nowhere else.
+        reference: the policy the Wilcoxon tests and paired differences compare against.
+        seed: seed of every bootstrap (each policy and statistic derives its own stream from it).
+        n_resamples: bootstrap resamples.
+
+    Returns:
+        A DataFrame with columns ``policy``, ``policy_hash``, ``episodes``, ``errors``, outcome
+        counts, ``success_rate`` and its ``_ci_low``/``_ci_high``, ``total_cost_mean`` and
+        ``total_cost_iqm`` with their intervals, the aggregates of the column table's "means"
+        section, ``friedman_rank``, the comparison with the reference (``delta_mean`` with its
+        interval, ``median_difference``, ``n_pairs``, ``wilcoxon_statistic``, ``pvalue``,
+        ``pvalue_holm``) and the aggregates of its "training" section. ``attrs`` carries the Friedman result, the
+        resolved reference, the seeds and ``n_resamples``.
+
+    Raises:
+        ValueError: the rows span more than one scenario hash.
+    """
+    frame = prepare_episodes(episodes)
+    if frame["scenario_hash"].nunique() > 1:
+        raise ValueError(
+            f"episodes: got {frame['scenario_hash'].nunique()} scenario hashes, expected one scenario group "
+            "(costs of different scenarios are not comparable; use scenario_groups)"
+        )
+    labels = sorted(frame["label"].unique())
+    costs = cost_table(frame)
+    friedman = stats.friedman_ranks(costs)
+    ref = resolve_reference(labels, frame, reference)
+    tests = (
+        stats.wilcoxon_vs_reference(costs, ref)
+        if ref is not None and costs[ref].notna().any()
+        else pd.DataFrame(columns=["n_pairs", "median_difference", "statistic", "pvalue", "pvalue_holm"])
+    )
+    rows = []
+    for label in labels:
+        rows_of = frame[frame["label"] == label]
+        valid = rows_of[~rows_of["is_error"]]
+        cost = valid["total_cost"].to_numpy(dtype=np.float64)
+        if not np.all(np.isfinite(cost)):
+            seeds = valid.loc[~np.isfinite(cost), "seed"].astype(int).tolist()
+            raise ValueError(
+                f"episodes: policy {label!r} has no finite total_cost for seeds {seeds}; expected a number "
+                "for every episode without an error"
+            )
+        n = len(valid)
+        successes = int((valid["outcome"] == "success").sum())
+        success_ci = stats.wilson_interval(successes, n, CONFIDENCE)
+        row: dict[str, Any] = {
+            "policy": label,
+            "policy_hash": ",".join(sorted(rows_of["policy_hash"].astype(str).unique())),
+            "episodes": n,
+            "errors": int(rows_of["is_error"].sum()),
+            "successes": successes,
+            "collided": int((valid["outcome"] == "collided").sum()),
+            "out_of_area": int((valid["outcome"] == "out_of_area").sum()),
+            "truncated": int((valid["outcome"] == "truncated").sum()),
+            "success_rate": successes / n if n else np.nan,
+            "success_rate_ci_low": success_ci[0],
+            "success_rate_ci_high": success_ci[1],
+            "total_cost_mean": float(cost.mean()) if n else np.nan,
+        }
+        low, high = stats.bootstrap_ci(
+            cost, np.mean, seed=_label_seed(seed, label, 0), n_resamples=n_resamples
+        )
+        row["total_cost_mean_ci_low"], row["total_cost_mean_ci_high"] = low, high
+        row["total_cost_iqm"] = stats.iqm(cost) if n else np.nan
+        low, high = stats.bootstrap_ci(
+            cost, stats.iqm, seed=_label_seed(seed, label, 1), n_resamples=n_resamples
+        )
+        row["total_cost_iqm_ci_low"], row["total_cost_iqm_ci_high"] = low, high
+        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
+        row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
+        row.update(_versus_reference(costs, label, ref, tests, seed, n_resamples))
+        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
+    table = table.sort_values(
+        ["friedman_rank", "total_cost_mean"], kind="mergesort", na_position="last"
+    ).reset_index(drop=True)
+    table.attrs["friedman"] = friedman
+    table.attrs["reference"] = ref
+    table.attrs["seeds"] = sorted(int(s) for s in frame["seed"].dropna().unique())
+    table.attrs["n_resamples"] = int(n_resamples)
+    # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
+    table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
+    return table
+
+
+def aggregate(column: Column, valid: pd.DataFrame) -> float:
+    """A policy's value of an aggregated column over its finished episodes (``column.board.aggregate``).
+
+    ``mean``: the mean over every finished episode (NaN if one has no value); ``mean_recorded``:
+    the mean over the episodes that recorded a value (NaN if none did).
+    """
+    values = valid[column.name].to_numpy(dtype=np.float64) if column.name in valid else np.array([])
+    if column.board.aggregate == "mean_recorded":
+        values = values[~np.isnan(values)]
+    return float(values.mean()) if values.size else np.nan
+
+
+def _versus_reference(
+    costs: pd.DataFrame, label: str, ref: str | None, tests: pd.DataFrame, seed: int, n_resamples: int
+) -> dict[str, float]:
+    empty = {
+        "delta_mean": np.nan,
+        "delta_mean_ci_low": np.nan,
+        "delta_mean_ci_high": np.nan,
+        "median_difference": np.nan,
+        "n_pairs": np.nan,
+        "wilcoxon_statistic": np.nan,
+        "pvalue": np.nan,
+        "pvalue_holm": np.nan,
+    }
+    if ref is None or label == ref or label not in tests.index:
+        return empty
+    pairs = costs[[label, ref]].dropna(axis=0, how="any")
+    a, b = pairs[label].to_numpy(dtype=np.float64), pairs[ref].to_numpy(dtype=np.float64)
+    test = tests.loc[label]
+    low, high = (
+        stats.paired_difference_ci(a, b, seed=_label_seed(seed, label, 2), n_resamples=n_resamples)
+        if len(pairs)
+        else (np.nan, np.nan)
+    )
+    return {
+        "delta_mean": float((a - b).mean()) if len(pairs) else np.nan,
+        "delta_mean_ci_low": low,
+        "delta_mean_ci_high": high,
+        "median_difference": float(test["median_difference"]),
+        "n_pairs": float(test["n_pairs"]),
+        "wilcoxon_statistic": float(test["statistic"]),
+        "pvalue": float(test["pvalue"]),
+        "pvalue_holm": float(test["pvalue_holm"]),
+    }

@@ -1,0 +1,128 @@
+"""Plug-ins found through entry points: extra policy kinds and extra ``uav-bench`` commands.
+
+The harness knows no optional package by name. A package extends it by declaring entry points
+in its ``pyproject.toml`` (``baselines`` does so for the ``rl`` extra)::
+
+    [project.entry-points."uav_penetration.policies"]
+    sb3 = "baselines.policy:SB3_POLICY_KIND"        # a PolicyKind: policies named "sb3:..."
+
+    [project.entry-points."uav_penetration.commands"]
+    train = "baselines.cli:TRAIN_COMMAND"           # a Command: `uav-bench train`
+    "plot.models" = "baselines.cli:LEARNING_CURVES" # a CommandExtension: `uav-bench plot --models`
+
+Each entry point names a module-level object that the plug-in's module builds without importing
+anything heavy; what the plug-in needs at run time (torch, ...) it lists in a :class:`Needs`,
+which the harness checks before it uses the plug-in, so a missing extra is refused with one line
+saying what to install, never half-way through a run.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import importlib.util
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+POLICY_GROUP = "uav_penetration.policies"
+COMMAND_GROUP = "uav_penetration.commands"
+
+
+class PluginUnavailable(ImportError):
+    """A plug-in whose modules are missing (its extra is not installed) or that failed to import."""
+
+
+@dataclass(frozen=True)
+class Needs:
+    """What a plug-in needs at run time, and how to install it.
+
+    Attributes:
+        modules: importable module names (e.g. ``("stable_baselines3", "torch")``).
+        install: how to get them, e.g. ``"the rl extra (pip install 'uav-penetration[rl]')"``.
+    """
+
+    modules: tuple[str, ...] = ()
+    install: str = ""
+
+    def missing(self) -> list[str]:
+        """The modules that cannot be imported here (found without importing them)."""
+        absent = []
+        for module in self.modules:
+            try:
+                found = importlib.util.find_spec(module) is not None
+            except (ImportError, ValueError):  # a parent package missing, or a module set to None
+                found = False
+            if not found:
+                absent.append(module)
+        return absent
+
+    def check(self, what: str) -> None:
+        """Raise :class:`PluginUnavailable` (one line) when a needed module is missing.
+
+        Args:
+            what: the thing that needs them, e.g. ``"policy 'sb3:m.zip'"``.
+        """
+        absent = self.missing()
+        if absent:
+            how = f"; install {self.install}" if self.install else ""
+            raise PluginUnavailable(f"{what} needs {', '.join(absent)} (not installed){how}")
+
+
+@dataclass(frozen=True)
+class PolicyKind:
+    """Policies named ``PREFIX:ARGUMENT`` (e.g. ``sb3:models/ppo.zip``), provided by a plug-in.
+
+    Attributes:
+        prefix: the name before the colon.
+        load: builds the policy from the text after the colon (may raise ``FileNotFoundError``,
+            ``ValueError``).
+        usage: the form shown in help and error messages, e.g. ``sb3:PATH.zip``.
+        label: the policy's name in result tables, from the text after the colon (default: the
+            whole ``PREFIX:ARGUMENT``).
+        needs: what :attr:`load` and the policy need at run time.
+    """
+
+    prefix: str
+    load: Callable[[str], Any]
+    usage: str
+    label: Callable[[str], str] | None = None
+    needs: Needs = field(default_factory=Needs)
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """One entry point of a group: its name, the loaded object, or why it could not be loaded."""
+
+    name: str
+    value: Any = None
+    error: str | None = None
+
+
+def discover(group: str) -> dict[str, Plugin]:
+    """Load every entry point of ``group``; a failing one is kept with its error (never raised).
+
+    Returns:
+        Entry-point name -> :class:`Plugin`, in name order.
+    """
+    found: dict[str, Plugin] = {}
+    for entry in sorted(importlib.metadata.entry_points(group=group), key=lambda e: e.name):
+        if entry.name in found:
+            continue  # the same distribution seen twice on sys.path: the first one wins, as imports do
+        try:
+            found[entry.name] = Plugin(entry.name, entry.load())
+        except Exception as error:  # a broken plug-in must not break the harness or `uav-bench --help`
+            found[entry.name] = Plugin(entry.name, error=f"{entry.value} failed to import ({error})")
+    return found
+
+
+def policy_kinds() -> dict[str, PolicyKind | Plugin]:
+    """The policy kinds of the installed plug-ins by prefix; a :class:`Plugin` with its error when broken."""
+    kinds: dict[str, PolicyKind | Plugin] = {}
+    for name, plugin in discover(POLICY_GROUP).items():
+        if plugin.error is not None:
+            kinds[name] = plugin
+        elif isinstance(plugin.value, PolicyKind):
+            kinds[plugin.value.prefix] = plugin.value
+        else:
+            kinds[name] = Plugin(name, error=f"entry point {name!r} of {POLICY_GROUP} is not a PolicyKind")
+    return kinds

@@ -1,0 +1,438 @@
+"""One self-contained HTML page per results store: provenance, tables, figures, 3-D tracks.
+
+``write_report(store, out_dir, tables=..., figures=...)`` writes ``out_dir/index.html``. The page
+needs no network: figures are embedded as data URIs and plotly's script is inlined once. Every
+part of the page is a *section*, a function from a :class:`ReportContext` to an HTML fragment,
+registered with :func:`register_section`; a new table or figure is one registration, never an edit
+of the page template (docs/architecture.md, "a new figure or report section").
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as dt
+import html
+import json
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from uav_penetration_env.benchmark.store import ResultsStore
+
+SectionRenderer = Callable[["ReportContext"], "str | None"]
+
+MAX_SURFACE_NODES = 120  # terrain surface nodes per axis in the 3-D view (keeps the page small)
+
+
+@dataclass(frozen=True)
+class Section:
+    """A part of the report: an anchor id, a heading and the function that renders its body."""
+
+    key: str
+    title: str
+    render: SectionRenderer
+
+
+_SECTIONS: list[Section] = []
+
+
+def register_section(key: str, title: str) -> Callable[[SectionRenderer], SectionRenderer]:
+    """Register a report section (decorator); sections appear in registration order.
+
+    The renderer gets the :class:`ReportContext` and returns an HTML fragment, or ``None`` to omit
+    the section (e.g. no figures were written).
+
+    Raises:
+        ValueError: ``key`` is already registered.
+    """
+
+    def decorator(render: SectionRenderer) -> SectionRenderer:
+        if any(s.key == key for s in _SECTIONS):
+            raise ValueError(f"report section {key!r} is already registered")
+        _SECTIONS.append(Section(key, title, render))
+        return render
+
+    return decorator
+
+
+def sections() -> list[Section]:
+    """The registered sections, in page order."""
+    return list(_SECTIONS)
+
+
+@dataclass
+class ReportContext:
+    """What sections read: the store's rows and the files written beside the report."""
+
+    store_path: Path
+    out_dir: Path
+    tables: Sequence[Path] = ()
+    figures: Sequence[Path] = ()
+    _store: ResultsStore | None = field(default=None, repr=False)
+
+    @property
+    def store(self) -> ResultsStore:
+        """The results store, opened on first use."""
+        if self._store is None:
+            self._store = ResultsStore(self.store_path)
+        return self._store
+
+    @cached_property
+    def episodes(self) -> pd.DataFrame:
+        """Episode rows; ``label`` = policy name, errors flagged in ``is_error``."""
+        frame = self.store.episodes()
+        frame["is_error"] = frame["error"].fillna("") != ""
+        frame["label"] = frame["policy"]
+        return frame
+
+    @cached_property
+    def runs(self) -> pd.DataFrame:
+        """Run provenance rows."""
+        return self.store.runs()
+
+    @cached_property
+    def scenarios(self) -> dict[str, tuple[str, str]]:
+        """Stored scenarios: ``hash -> (name, yaml text)``."""
+        return self.store.scenarios()
+
+    def steps(self, episode_ids: Sequence[int]) -> pd.DataFrame:
+        """Step rows of some episodes, the start state (step 0) included."""
+        return self.store.steps(episode_ids, include_start=True)
+
+
+# --- page assembly -------------------------------------------------------------------------------------
+
+_STYLE = """
+body{font-family:system-ui,sans-serif;margin:0;color:#1d2430}
+header{background:#1d2430;color:#fff;padding:12px 24px}
+nav{padding:8px 24px;background:#eef1f5;position:sticky;top:0;z-index:2}
+nav a{margin-right:16px;color:#1d4ed8;text-decoration:none}
+main{padding:0 24px 48px}
+section{margin-top:28px}
+table{border-collapse:collapse;font-size:13px;margin:8px 0 16px}
+th,td{border:1px solid #ccd3dd;padding:3px 7px;text-align:right;white-space:nowrap}
+th{background:#eef1f5;cursor:pointer;position:relative}
+th.sorted-asc::after{content:" \\25B2"} th.sorted-desc::after{content:" \\25BC"}
+td:first-child,th:first-child{text-align:left}
+.scroll{overflow-x:auto}
+figure{margin:12px 0;display:inline-block;max-width:100%}
+figure img{max-width:100%;border:1px solid #ccd3dd}
+figcaption{font-size:12px;color:#555}
+code{background:#eef1f5;padding:1px 4px}
+"""
+
+# Sorting: a click on a header sorts the rows by that column (numbers as numbers, "12.3 [1, 2]"
+# by its leading number); a second click reverses.
+_SORT_SCRIPT = """
+document.querySelectorAll("table.sortable").forEach(function (table) {
+  table.querySelectorAll("th").forEach(function (th, column) {
+    th.addEventListener("click", function () {
+      var body = table.tBodies[0];
+      var ascending = !th.classList.contains("sorted-asc");
+      table.querySelectorAll("th").forEach(function (h) { h.classList.remove("sorted-asc", "sorted-desc"); });
+      th.classList.add(ascending ? "sorted-asc" : "sorted-desc");
+      var key = function (row) {
+        var text = row.cells[column].textContent.trim();
+        var number = parseFloat(text.replace(/[%*]/g, ""));
+        return isNaN(number) ? text : number;
+      };
+      Array.from(body.rows).sort(function (a, b) {
+        var x = key(a), y = key(b);
+        var order = (typeof x === "number" && typeof y === "number") ? x - y : String(x).localeCompare(String(y));
+        return ascending ? order : -order;
+      }).forEach(function (row) { body.appendChild(row); });
+    });
+  });
+});
+"""
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename: never a truncated page."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def _plotly_script() -> str:
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs()
+
+
+def render_report(context: ReportContext) -> str:
+    """The whole page as HTML text (sections in registration order, empty ones left out)."""
+    parts, links = [], []
+    for section in sections():
+        body = section.render(context)
+        if body is None:
+            continue
+        links.append(f'<a href="#{section.key}">{html.escape(section.title)}</a>')
+        parts.append(f'<section id="{section.key}"><h2>{html.escape(section.title)}</h2>{body}</section>')
+    uses_plotly = any('class="plotly-graph-div"' in part for part in parts)
+    plotly = f"<script>{_plotly_script()}</script>" if uses_plotly else ""
+    title = f"uav-bench report: {context.store_path.name}"
+    return (
+        "<!DOCTYPE html>\n"
+        f'<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+        f"<style>{_STYLE}</style>{plotly}</head><body>"
+        f"<header><h1>{html.escape(title)}</h1></header><nav>{''.join(links)}</nav>"
+        f"<main>{''.join(parts)}</main><script>{_SORT_SCRIPT}</script></body></html>\n"
+    )
+
+
+def write_report(
+    store_path: str | Path,
+    out_dir: str | Path,
+    *,
+    tables: Sequence[str | Path] = (),
+    figures: Sequence[str | Path] = (),
+) -> Path:
+    """Write ``out_dir/index.html`` for a results store, atomically.
+
+    Args:
+        store_path: the SQLite results store.
+        out_dir: the folder of the report (created if needed).
+        tables: leaderboard CSV files to show (the Markdown twins are linked, not shown).
+        figures: PNG figures to embed (other formats are ignored).
+
+    Returns:
+        The path of ``index.html``.
+
+    Raises:
+        FileNotFoundError: there is no store at ``store_path``.
+    """
+    store_path, out_dir = Path(store_path), Path(out_dir)
+    if not store_path.is_file():
+        raise FileNotFoundError(f"--store {store_path}: no results store there")
+    context = ReportContext(
+        store_path,
+        out_dir,
+        tables=[Path(t) for t in tables if str(t).endswith(".csv")],
+        figures=[Path(f) for f in figures if str(f).endswith(".png")],
+    )
+    try:
+        page = render_report(context)
+    finally:
+        if context._store is not None:
+            context._store.close()
+    path = out_dir / "index.html"
+    _atomic_write(path, page)
+    return path
+
+
+# --- sections ------------------------------------------------------------------------------------------
+
+
+def _html_table(frame: pd.DataFrame) -> str:
+    header = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+    rows = []
+    for values in frame.itertuples(index=False):
+        cells = "".join(f"<td>{html.escape('' if _missing(v) else str(v))}</td>" for v in values)
+        rows.append(f"<tr>{cells}</tr>")
+    return (
+        f'<div class="scroll"><table class="sortable"><thead><tr>{header}</tr></thead>'
+        f"<tbody>{''.join(rows)}</tbody></table></div>"
+    )
+
+
+def _missing(value: object) -> bool:
+    return value is None or (isinstance(value, float) and np.isnan(value))
+
+
+@register_section("provenance", "Provenance")
+def _provenance(context: ReportContext) -> str:
+    episodes = context.episodes
+    lines = [
+        f"<p>Store <code>{html.escape(str(context.store_path))}</code>: {len(episodes)} episodes "
+        f"({int(episodes['is_error'].sum())} errors), {episodes['policy'].nunique()} policies, "
+        f"{episodes['scenario_hash'].nunique()} scenarios. Report written "
+        f"{dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()}.</p>"
+    ]
+    rows = []
+    for run in context.runs.itertuples(index=False):
+        record = json.loads(run.provenance or "{}")
+        versions = record.get("versions", {})
+        rows.append(
+            {
+                "run": run.run_id,
+                "started": record.get("date", ""),
+                "command": record.get("command", ""),
+                "commit": record.get("commit", ""),
+                "versions": ", ".join(f"{k} {v}" for k, v in sorted(versions.items())) if versions else "",
+                "machine": f"{record.get('cpu', '')} ({record.get('cores', '?')} cores)",
+            }
+        )
+    if rows:
+        lines.append(_html_table(pd.DataFrame(rows)))
+    return "".join(lines)
+
+
+@register_section("leaderboards", "Leaderboards")
+def _leaderboards(context: ReportContext) -> str | None:
+    if not context.tables:
+        return None
+    parts = []
+    for path in context.tables:
+        frame = pd.read_csv(path)
+        markdown = path.with_suffix(".md")
+        link = (
+            f' (<a href="{html.escape(os.path.relpath(markdown, context.out_dir))}">Markdown with provenance</a>)'
+            if markdown.exists()
+            else ""
+        )
+        parts.append(f"<h3>{html.escape(path.stem)}{link}</h3>{_html_table(frame)}")
+    return "".join(parts)
+
+
+@register_section("tracks-3d", "Tracks over the terrain (3-D, interactive)")
+def _tracks_3d(context: ReportContext) -> str | None:
+    episodes = context.episodes[~context.episodes["is_error"]]
+    if episodes.empty:
+        return None
+    parts = []
+    for scenario_hash, group in episodes.groupby("scenario_hash", sort=True):
+        name, yaml_text = context.scenarios.get(scenario_hash, (str(group["scenario"].iloc[0]), ""))
+        seed = int(group.groupby("seed")["policy"].nunique().idxmax())
+        chosen = group[group["seed"] == seed]
+        steps = context.steps(chosen["episode_id"].tolist())
+        if steps.empty:
+            continue
+        figure = tracks_figure(yaml_text, chosen, steps, title=f"{name}: seed {seed}")
+        parts.append(
+            figure.to_html(include_plotlyjs=False, full_html=False, div_id=f"tracks-{scenario_hash}")
+        )
+    return "".join(parts) or None
+
+
+def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, title: str):
+    """A plotly 3-D figure: the terrain surface, the radars and one track per policy [km, km, m]."""
+    import plotly.graph_objects as go
+
+    figure = go.Figure()
+    built = _built_scenario(yaml_text)
+    if built is not None:
+        stride = max(1, int(np.ceil(max(built.grid.nx, built.grid.ny) / MAX_SURFACE_NODES)))
+        x_km = built.grid.x_nodes[::stride] / 1000.0
+        y_km = built.grid.y_nodes[::stride] / 1000.0
+        heights = np.asarray(built.terrain)[::stride, ::stride]
+        figure.add_trace(
+            go.Surface(
+                x=x_km, y=y_km, z=heights.T, colorscale="Earth", showscale=False, opacity=0.9, name="terrain"
+            )
+        )
+        radars = np.asarray(built.radar_xyz)
+        if len(radars):
+            figure.add_trace(
+                go.Scatter3d(
+                    x=radars[:, 0] / 1000.0,
+                    y=radars[:, 1] / 1000.0,
+                    z=radars[:, 2],
+                    mode="markers+text",
+                    text=[r.name for r in built.scenario.radars],
+                    marker={"size": 6, "color": "red", "symbol": "diamond"},
+                    name="radars",
+                )
+            )
+    palette = _palette()
+    for index, (policy, ids) in enumerate(episodes.groupby("policy", sort=True)["episode_id"]):
+        rows = steps[steps["episode_id"].isin(ids)].sort_values("step", kind="mergesort")
+        figure.add_trace(
+            go.Scatter3d(
+                x=rows["x_km"],
+                y=rows["y_km"],
+                z=rows["z_m"],
+                mode="lines",
+                line={"width": 5, "color": palette[index % len(palette)]},
+                name=str(policy),
+            )
+        )
+    figure.update_layout(
+        title=title,
+        height=640,
+        margin={"l": 0, "r": 0, "t": 40, "b": 0},
+        scene={
+            "xaxis_title": "x [km]",
+            "yaxis_title": "y [km]",
+            "zaxis_title": "z [m]",
+            "aspectmode": "manual",
+            "aspectratio": {"x": 1, "y": 1, "z": 0.35},
+        },
+        legend={"x": 1.0, "xanchor": "left"},
+    )
+    return figure
+
+
+def _palette() -> list[str]:
+    import plotly.colors
+
+    return list(plotly.colors.qualitative.Dark24) + list(plotly.colors.qualitative.Light24)
+
+
+def _built_scenario(yaml_text: str):
+    """The stored scenario built (terrain grid, radars), or None when the YAML cannot be read."""
+    if not yaml_text:
+        return None
+    import yaml
+
+    from uav_penetration_env.build import build_scenario
+    from uav_penetration_env.scenario import load_scenario
+
+    try:
+        return build_scenario(load_scenario(yaml.safe_load(yaml_text)))
+    except (ValueError, KeyError, TypeError, OSError):  # ScenarioError is a ValueError
+        return None
+
+
+@register_section("figures", "Figures")
+def _figures(context: ReportContext) -> str | None:
+    if not context.figures:
+        return None
+    parts = []
+    for path in context.figures:
+        data = base64.b64encode(path.read_bytes()).decode("ascii")
+        parts.append(
+            f'<figure><img alt="{html.escape(path.stem)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(path.name)}</figcaption></figure>"
+        )
+    return "".join(parts)
+
+
+@register_section("policies", "Policies")
+def _policies(context: ReportContext) -> str | None:
+    episodes = context.episodes
+    if episodes.empty:
+        return None
+    parts = []
+    for policy, rows in episodes.groupby("policy", sort=True):
+        good = rows[~rows["is_error"]]
+        summary = (
+            good.groupby("scenario", sort=True)
+            .agg(
+                episodes=("seed", "size"),
+                success=("outcome", lambda o: f"{100.0 * np.mean(o == 'success'):.0f}%"),
+                mean_total_cost=("total_cost", lambda v: f"{v.mean():.4g}"),
+                median_total_cost=("total_cost", lambda v: f"{v.median():.4g}"),
+                mean_steps=("steps", lambda v: f"{v.mean():.1f}"),
+                evals_per_step=("nfev_per_step", lambda v: f"{v.mean():.0f}"),
+                planning_s_per_step=("planning_seconds", lambda v: f"{v.mean():.3g}"),
+            )
+            .reset_index()
+        )
+        errors = int(rows["is_error"].sum())
+        note = f"<p>{errors} error episodes (retried on the next run).</p>" if errors else ""
+        parts.append(f'<h3 id="policy-{html.escape(str(policy))}">{html.escape(str(policy))}</h3>{note}')
+        parts.append(_html_table(summary))
+    return "".join(parts)
