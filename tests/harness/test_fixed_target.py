@@ -110,6 +110,7 @@ def test_windows_command_writes_two_optimisers_two_seeds_two_windows(window_stor
         rows = s.window_runs()
         steps = s.steps()
     assert len(rows) == 2 * 2 * 2
+    assert rows["run_id"].nunique() == 1  # the rerun skipped every stored run rather than rewriting it
     assert sorted(set(rows["optimizer"])) == ["hpso", "ihpso"] and sorted(set(rows["step"])) == [1, 3]
     for row in rows.itertuples():
         history, nfev = json.loads(row.history), json.loads(row.history_nfev)
