@@ -112,9 +112,9 @@ def summary_table(frame: pd.DataFrame, title: str, reference: str | None = None)
     table = Table(title=title, box=box.SIMPLE_HEAD, title_justify="left", pad_edge=False, expand=False)
     for i, name in enumerate(header):
         if i == 0:
-            table.add_column(name, overflow="fold", min_width=8, max_width=34, no_wrap=False)
+            table.add_column(name, overflow="fold", min_width=12, max_width=34, no_wrap=False)
         else:
-            table.add_column(name, justify="right", overflow="fold")
+            table.add_column(name, justify="right", no_wrap=True)  # numbers never break
     for cells in rows:
         table.add_row(*cells)
     return table
@@ -137,14 +137,15 @@ def print_summary(
         figures: the folder of the figures, when they were written.
         reference: the reference policy (default: inferred from each CSV).
         file: the stream (default: standard output at call time).
-        width: console width (default: the terminal's, at most :data:`MAX_WIDTH`).
+        width: console width (default: the terminal's, at most :data:`MAX_WIDTH`; a pipe or
+            file gets :data:`MAX_WIDTH`).
     """
     from rich.console import Console
 
     stream = sys.stdout if file is None else file
     console = Console(file=stream, width=width, highlight=False, soft_wrap=False)
-    if width is None:
-        console.width = min(console.width, MAX_WIDTH)
+    if width is None:  # a terminal's own width up to MAX_WIDTH; a file or pipe gets MAX_WIDTH
+        console.width = min(console.width, MAX_WIDTH) if console.is_terminal else MAX_WIDTH
     for path in (Path(p) for p in tables):
         if path.suffix != ".csv":
             continue

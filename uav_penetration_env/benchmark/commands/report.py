@@ -23,6 +23,7 @@ from uav_penetration_env.benchmark.commands.common import (
     command_line,
     existing_store,
 )
+from uav_penetration_env.benchmark.commands.plot import add_altitude_argument
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ def write_results(
     command: str,
     reference: str = "ihpso",
     formats: Sequence[str] = ("png",),
+    altitude: float | None = None,
 ) -> Written:
     """Write the leaderboards, the figures and ``out/index.html`` of ``store``.
 
@@ -50,6 +52,8 @@ def write_results(
         command: the command line recorded in the tables' provenance.
         reference: the policy the paired tests compare against.
         formats: figure file types (the page embeds the PNGs).
+        altitude: the radar-coverage altitude of the track figures [m] (default: the MPC
+            planners' median).
 
     Returns:
         The written paths.
@@ -59,7 +63,7 @@ def write_results(
     from uav_penetration_env.benchmark.report import write_report
 
     tables = write_leaderboards(store, out, reference=reference, command=command)
-    figures = write_figures(store, out, formats=formats)
+    figures = write_figures(store, out, formats=formats, altitude=altitude)
     page = write_report(store, out, tables=tables, figures=figures)
     return Written(tables=tables, figures=figures, report=page)
 
@@ -85,6 +89,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
     )
+    add_altitude_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,7 +97,9 @@ def run(args: argparse.Namespace) -> int:
     store = existing_store(args.store)
     out = Path(args.out)
     check_writable_folder(out, "--out")
-    written = write_results(store, out, command=command_line(args), reference=args.reference)
+    written = write_results(
+        store, out, command=command_line(args), reference=args.reference, altitude=args.altitude
+    )
     print_written(written, out)
     return 0
 
