@@ -169,7 +169,7 @@ def coverage_altitude(
     return float(np.median(altitudes)), reason
 
 
-def _coverage(model, altitude: float, start: np.ndarray | None):
+def coverage_at(model, altitude: float, start: np.ndarray | None):
     """Coverage grid at ``altitude`` [m above datum] for a UAV flying the start-goal bearing."""
     from uav_penetration_env.render import coverage_grid
 
@@ -186,10 +186,9 @@ def _seed_inputs(inp: FigureInput):
     return seed, tracks, start
 
 
-def _draw_map(ax, model, coverage, altitude: float | None, start: np.ndarray | None) -> None:
-    """Hillshaded terrain, height contours, the coverage at ``altitude``, radars, goal and start."""
+def draw_map(ax, model, start: np.ndarray | None) -> None:
+    """Hillshaded terrain with height contours, radars, goal and start on a top-view axes [km]."""
     from matplotlib.colors import LightSource
-    from matplotlib.patches import Rectangle
 
     built = model.built[0]
     x_km, y_km = built.grid.x_nodes / 1000.0, built.grid.y_nodes / 1000.0
@@ -205,9 +204,28 @@ def _draw_map(ax, model, coverage, altitude: float | None, start: np.ndarray | N
     if float(terrain.max()) > float(terrain.min()):
         lines = ax.contour(x_km, y_km, terrain, levels=6, colors="0.3", linewidths=0.5)
         ax.clabel(lines, fontsize=6, fmt="%.0f m")
-    if coverage is not None:
-        xs, ys, threat = coverage
-        if threat.max() >= COVERAGE_LEVEL:
+    _scenario_markers(ax, model, start, three_d=False)
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
+
+
+def draw_coverage(ax, coverage, altitude: float) -> list[Any]:
+    """The shaded region where the coverage level is at least :data:`COVERAGE_LEVEL`, and its edge.
+
+    Args:
+        ax: a top-view axes [km].
+        coverage: ``(xs [km], ys [km], level (nx, ny))`` from :func:`coverage_at`.
+        altitude: the altitude of ``coverage`` [m above datum] (for the legend entry).
+
+    Returns:
+        The artists drawn (to remove them when the altitude changes).
+    """
+    from matplotlib.patches import Rectangle
+
+    xs, ys, threat = coverage
+    artists: list[Any] = []
+    if threat.max() >= COVERAGE_LEVEL:
+        artists.append(
             ax.contourf(
                 xs,
                 ys,
@@ -216,13 +234,14 @@ def _draw_map(ax, model, coverage, altitude: float | None, start: np.ndarray | N
                 colors=["red"],
                 alpha=0.15,
             )
-        if threat.max() > COVERAGE_LEVEL > threat.min():
-            ax.contour(xs, ys, threat.T, levels=[COVERAGE_LEVEL], colors="red", linewidths=1.0)
-        label = f"P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m"
+        )
+    if threat.max() > COVERAGE_LEVEL > threat.min():
+        artists.append(ax.contour(xs, ys, threat.T, levels=[COVERAGE_LEVEL], colors="red", linewidths=1.0))
+    label = f"P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m"
+    artists.append(
         ax.add_patch(Rectangle((0, 0), 0, 0, facecolor="red", alpha=0.15, edgecolor="red", label=label))
-    _scenario_markers(ax, model, start, three_d=False)
-    ax.set_xlim(extent[0], extent[1])
-    ax.set_ylim(extent[2], extent[3])
+    )
+    return artists
 
 
 def _coverage_title(altitude: float, reason: str) -> str:
@@ -244,12 +263,14 @@ def plot_tracks_top(inp: FigureInput):
         title += "\n(scenario not in the store: no terrain, radars or coverage)"
     elif tracks:
         altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
-        coverage = _coverage(model, altitude, start)
+        coverage = coverage_at(model, altitude, start)
         title += "\n" + _coverage_title(altitude, reason)
     for family, container, members in panels:
         ax = container.add_subplot()
         if model is not None:
-            _draw_map(ax, model, coverage, altitude, start)
+            draw_map(ax, model, start)
+            if coverage is not None:
+                draw_coverage(ax, coverage, altitude)
         for label in members:
             x, y, _ = _with_start(tracks[label], start)
             ax.plot(
@@ -292,7 +313,7 @@ def plot_tracks_3d(inp: FigureInput):
     coverage, altitude = None, None
     if model is not None and tracks:
         altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
-        coverage = _coverage(model, altitude, start)
+        coverage = coverage_at(model, altitude, start)
         title += "\n" + _coverage_title(altitude, reason).replace("P_d", "contour P_d")
     for family, container, members in panels:
         ax = container.add_subplot(projection="3d")
