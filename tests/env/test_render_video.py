@@ -44,9 +44,7 @@ def test_every_id_gives_rgb_frames_to_the_frame_capture_wrapper(env_id):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_record_video_records_a_short_episode(env_id, tmp_path):
-    pytest.importorskip(
-        "moviepy", reason="RecordVideo needs moviepy: pip install -e '.[video]'"
-    )
+    pytest.importorskip("moviepy", reason="RecordVideo needs moviepy: pip install -e '.[video]'")
     env = RecordVideo(
         make(env_id),
         video_folder=str(tmp_path / "videos"),
