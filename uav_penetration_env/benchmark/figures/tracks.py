@@ -245,7 +245,8 @@ def draw_coverage(ax, coverage, altitude: float) -> list[Any]:
 
 
 def _coverage_title(altitude: float, reason: str) -> str:
-    return f"radar coverage P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m above datum ({reason})"
+    # Two short lines: one long line is wider than the axes and runs under the legend.
+    return f"radar coverage P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m above datum\n({reason})"
 
 
 def plot_tracks_top(inp: FigureInput):
