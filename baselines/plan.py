@@ -52,7 +52,7 @@ class TrainConfig:
         eval_freq: evaluate every this many environment steps, and at the end (0: never).
         eval_episodes: episodes per evaluation, seeds ``20000 ...`` (deterministic policy).
         checkpoint_freq: save a checkpoint every this many environment steps (0/None: never).
-        progress_bar: show a tqdm bar (steps, ETA, last evaluation).
+        progress_bar: show a progress bar (steps, ETA, last evaluation).
         verbose: SB3's verbosity.
         torch_threads: torch intra-op threads while training (``None``: leave torch's setting).
         device: torch device (``cpu``: small MLPs run fastest there).

@@ -248,28 +248,31 @@ def _callbacks(run: _Run) -> list[Any]:
     plan = run.plan
 
     class ProgressBar(BaseCallback):
-        """A tqdm bar over environment steps (SB3's own bar needs rich, not a dependency here)."""
+        """The harness's progress bar over environment steps: done/total, elapsed, ETA, last evaluation."""
+
+        bar: Any = None
 
         def _on_training_start(self) -> None:
-            from tqdm.auto import tqdm
+            from uav_penetration_env.benchmark.progress import ProgressBar as Bar
 
-            self.bar = tqdm(
-                total=plan.total_timesteps, unit="step", desc=f"train {plan.algo}", smoothing=0.05
-            )
+            self.bar = Bar(plan.total_timesteps, f"train {plan.algo}", unit="steps")
 
         def _on_step(self) -> bool:
             self.bar.update(min(self.training_env.num_envs, plan.total_timesteps - self.bar.n))
             if run.evaluations:
                 last = run.evaluations[-1]
                 self.bar.set_postfix(
-                    eval_return=f"{last['mean_return']:.2f}",
-                    success=f"{last['success_rate']:.0%}",
-                    refresh=False,
+                    eval_return=f"{last['mean_return']:.2f}", success=f"{last['success_rate']:.0%}"
                 )
             return True
 
         def _on_training_end(self) -> None:
-            self.bar.close()
+            self.close()
+
+        def close(self) -> None:
+            """Stop drawing (also when Ctrl-C ends ``learn`` before ``_on_training_end``)."""
+            if self.bar is not None:
+                self.bar.close()
 
     class Periodic(BaseCallback):
         """Evaluate and checkpoint every ``eval_freq`` / ``checkpoint_freq`` environment steps.
@@ -331,11 +334,15 @@ def run_training(plan: TrainingPlan) -> TrainResult:
         if plan.eval_freq:
             with plan.files.evaluations.open("w", newline="") as handle:
                 csv.DictWriter(handle, EVALUATION_COLUMNS).writeheader()
-        callback = CallbackList(_callbacks(run))
+        callbacks = _callbacks(run)
+        callback = CallbackList(callbacks)
         run.started = time.perf_counter()
         try:
             run.model.learn(plan.total_timesteps, callback=callback, progress_bar=False)
         except KeyboardInterrupt:
+            for each in callbacks:
+                if hasattr(each, "close"):
+                    each.close()
             run.save(plan.files, time.perf_counter() - run.started, interrupted=True)
             raise
         if plan.eval_freq and (

@@ -214,6 +214,28 @@ def window_extent_km(config: DEMTerrain) -> tuple[float, float]:
     return width / 1000.0, height / 1000.0
 
 
+def local_to_lonlat(config: DEMTerrain, x_m: FloatArray, y_m: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Map coordinates [m] back to longitude and latitude [deg]: the inverse of the window's projection.
+
+    The map origin is the window's south-west corner and the projection equirectangular about the
+    window's centre latitude (model.md §2.5), as in :func:`dem_heights`.
+
+    Args:
+        config: the DEM window.
+        x_m: (...) metres east of the origin.
+        y_m: (...) metres north of the origin.
+
+    Returns:
+        Longitudes in [-180, 180) and latitudes [deg], each shaped like ``x_m``.
+    """
+    lat_c = math.radians(0.5 * (config.lat_deg[0] + config.lat_deg[1]))
+    lon = config.lon_deg[0] + np.degrees(
+        np.asarray(x_m, dtype=np.float64) / (EARTH_RADIUS_M * math.cos(lat_c))
+    )
+    lat = config.lat_deg[0] + np.degrees(np.asarray(y_m, dtype=np.float64) / EARTH_RADIUS_M)
+    return (lon + 180.0) % 360.0 - 180.0, lat
+
+
 def _fill_holes(
     heights: FloatArray, rows: slice, cols: slice, config: DEMTerrain, raster: Raster
 ) -> FloatArray:

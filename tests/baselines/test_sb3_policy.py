@@ -8,10 +8,10 @@ import shutil
 
 import numpy as np
 import pytest
+from conftest import RL_EXTRA, tiny_scenario
 
-pytest.importorskip("stable_baselines3")
+pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
 
-from conftest import tiny_scenario
 from sb3_helpers import baselines_plugins, trained_tiny_ppo  # noqa: F401 (a fixture)
 
 from baselines import SB3Policy, load_policy

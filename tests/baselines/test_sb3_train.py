@@ -6,10 +6,10 @@ import csv
 import json
 
 import pytest
+from conftest import RL_EXTRA, tiny_scenario
 
-pytest.importorskip("stable_baselines3")
+pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
 
-from conftest import tiny_scenario
 from sb3_helpers import TINY_PPO, baselines_plugins, tiny_run, trained_tiny_ppo  # noqa: F401 (a fixture)
 
 from baselines import load_policy, train_agent

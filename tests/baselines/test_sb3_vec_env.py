@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import RL_EXTRA, tiny_scenario
 
-pytest.importorskip("stable_baselines3")
+pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
 
-from conftest import tiny_scenario
 from gymnasium.wrappers import RescaleAction
 from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan, VecMonitor, VecNormalize
 

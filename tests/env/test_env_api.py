@@ -8,7 +8,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import tiny_scenario
+from conftest import RL_EXTRA, tiny_scenario
 from gymnasium.utils.env_checker import check_env
 
 import uav_penetration_env
@@ -42,7 +42,7 @@ def test_gymnasium_check_env(env_id):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_stable_baselines3_check_env(env_id):
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker", reason=RL_EXTRA)
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*symmetric and normalized.*")
         sb3_checker.check_env(gym.make(env_id), warn=True)

@@ -13,6 +13,8 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
 
@@ -77,8 +79,9 @@ def check_report(path: Path, timeout_s: float = 60.0) -> BrowserCheck:
             )
             if isinstance(url, str) and url.startswith("data:image/png;base64,"):
                 image = Image.open(io.BytesIO(base64.b64decode(url.split(",", 1)[1]))).convert("RGB")
-                background = image.getpixel((0, 0))
-                drawn = sum(1 for pixel in image.get_flattened_data() if pixel != background)
+                # numpy, not Image.getdata/get_flattened_data: the count works on every Pillow.
+                pixels = np.asarray(image)
+                drawn = int((pixels != pixels[0, 0]).any(axis=-1).sum())
         sorted_ok = _sorting_works(driver, By) if tables else False
         errors = [entry["message"] for entry in driver.get_log("browser") if entry["level"] == "SEVERE"]
         return BrowserCheck(errors, len(tables), len(plots), drawn, sorted_ok)

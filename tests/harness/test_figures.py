@@ -212,3 +212,127 @@ def test_figures_of_the_paper_scenario(tmp_path):
     evaluate(policies, [paper_scenario()], range(2), store=tmp_path / "paper.sqlite", progress=False)
     paths = figures.write_figures(tmp_path / "paper.sqlite", tmp_path / "out")
     assert_images(paths, ["paper-2022-sec5"])
+
+
+# --- figures a reader can read: 25 policies, families, unique styles, legends outside -------------------
+
+MANY_POLICIES = (
+    ["ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "ihpso-eq37", "hpso-literal"]
+    + ["pso", "pso-ldw", "cem", "cmaes", "de"]
+    + ["ihpso-literal", "ihpso-noterm", "ihpso-random", "ihpso-scheme1"]
+    + ["greedy", "random"]
+    + [f"sb3:{algo}-paper-seed{seed}-1000000steps" for algo in ("ppo", "sac") for seed in range(3)]
+)
+RL_ALTITUDE = 2000.0  # [m] the fake RL agents fly high; the coverage altitude must ignore them
+
+
+@pytest.fixture(scope="module")
+def many_store(tmp_path_factory):
+    path = tmp_path_factory.mktemp("fig") / "many.sqlite"
+    tiny = tiny_scenario()
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        for index, policy in enumerate(MANY_POLICIES):
+            family = figures.policy_family(policy)
+            for seed in range(3):
+                steps = synthetic_steps(seed, 8, history=family.endswith("(MPC)"))
+                for row in steps:
+                    row["y_km"] += 0.3 * index
+                    if family == "RL agents":
+                        row["z_m"] = RL_ALTITUDE
+                episode = synthetic_episode(policy, seed, "tiny", tiny.hash, 5.0 + 0.1 * index + seed)
+                store.write_episode(episode | {"policy_hash": f"h{index:015d}"}, steps)
+    return path
+
+
+def drawn_figures(path, altitude=None):
+    from uav_penetration_env.benchmark.leaderboard import scenario_groups
+
+    with ResultsStore(path) as store:
+        episodes, scenarios = store.episodes(), store.scenarios()
+        (group,) = scenario_groups(episodes)
+        rows = store.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
+    model = figures.scenario_model(scenarios[group.scenario_hash][1])
+    styles = figures.policy_styles(group.episodes["label"].unique())
+    inp = figures.FigureInput(group, rows[rows["step"] > 0], rows[rows["step"] == 0], model, styles, altitude)
+    for name, spec in figures.FIGURES.items():
+        figure = spec.draw(inp)
+        figure.canvas.draw()
+        yield name, figure
+
+
+def style_key(artist, linestyle=None):
+    from matplotlib.colors import to_hex
+
+    dashes = getattr(artist, "_unscaled_dash_pattern", None) if linestyle is None else linestyle
+    return to_hex(artist.get_edgecolor() if linestyle is not None else artist.get_color()), repr(dashes)
+
+
+def test_families_group_the_policy_names():
+    assert figures.policy_family("ihpso") == "paper planners (MPC)"
+    assert figures.policy_family("ccpso-ism-eq37") == "paper planners (MPC)"
+    assert figures.policy_family("ihpso-scheme2") == "IHPSO ablations (MPC)"
+    assert figures.policy_family("cmaes") == "reference optimisers (MPC)"
+    assert figures.policy_family("random") == "floors"
+    assert figures.policy_family("sb3:ppo-paper") == "RL agents"
+
+
+def test_every_policy_has_a_unique_colour_and_line_style_and_legends_lie_outside(many_store):
+    from matplotlib.axes import Axes
+    from matplotlib.legend import Legend
+
+    seen_names = []
+    for name, figure in drawn_figures(many_store):
+        seen_names.append(name)
+        renderer = figure.canvas.get_renderer()
+        axes = figure.findobj(Axes)
+        pairs: dict[tuple[str, str], set[str]] = {}
+        if name == "cost-box":
+            (ax,) = axes
+            labels = [t.get_text() for t in ax.get_xticklabels()]
+            boxes = [p for p in ax.patches if p.get_linestyle() is not None][: len(labels)]
+            assert sorted(labels) == sorted(MANY_POLICIES)
+            for label, box in zip(labels, boxes, strict=True):
+                pairs.setdefault(style_key(box, box._unscaled_dash_pattern), set()).add(label)
+        else:
+            for ax in axes:
+                for line in ax.get_lines():
+                    policy = line.get_label().split(" (", 1)[0]
+                    if policy in MANY_POLICIES:
+                        pairs.setdefault(style_key(line), set()).add(policy)
+            drawn = set().union(*pairs.values())
+            expected = {
+                p
+                for p in MANY_POLICIES
+                if name != "convergence" or figures.policy_family(p).endswith("(MPC)")
+            }
+            assert drawn == expected, name
+            # More than 10 policies: one panel per family (the track and line figures).
+            assert len([s for s in figure.subfigs if s.legends]) == len(
+                {figures.policy_family(p) for p in expected}
+            ), name
+        clashes = {pair: names for pair, names in pairs.items() if len(names) > 1}
+        assert not clashes, f"{name}: policies sharing a (colour, line style): {clashes}"
+        legends = figure.findobj(Legend)
+        assert legends or name == "cost-box", name
+        for legend in legends:
+            box = legend.get_window_extent(renderer)
+            for ax in axes:
+                assert not box.overlaps(ax.get_window_extent(renderer)), f"{name}: a legend over an axes"
+    assert seen_names == list(figures.FIGURES)
+
+
+def test_the_coverage_is_drawn_at_the_mpc_planners_median_altitude_and_says_so(many_store):
+    # Every synthetic MPC track point is at 150 + 20 k m, k = 1..8: median 240 m; the RL agents
+    # fly at 2000 m and must not count.
+    (_, top), *_ = drawn_figures(many_store)
+    title = top._suptitle.get_text()
+    assert "P_d ≥ 0.5 at 240 m above datum (the median altitude of the MPC planners' tracks)" in title
+    (_, top), *_ = drawn_figures(many_store, altitude=555.0)
+    assert "at 555 m above datum (chosen with --altitude)" in top._suptitle.get_text()
+
+
+def test_few_policies_get_distinct_colours_and_one_panel(synthetic_store):
+    styles = figures.policy_styles(["ihpso", "pso", "greedy", "random", "sb3:ppo"])
+    assert len({s.colour for s in styles.values()}) == 5
+    assert styles["greedy"].linestyle == styles["random"].linestyle != styles["ihpso"].linestyle

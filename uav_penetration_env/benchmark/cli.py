@@ -22,7 +22,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command."""
     parser = argparse.ArgumentParser(
         prog="uav-bench",
-        description="UAV penetration benchmark: run planners, build leaderboards and figures.",
+        description="UAV penetration benchmark: run planners; build leaderboards, figures and an HTML report; "
+        "export and replay tracks.",
     )
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     commands, extensions = available_commands()

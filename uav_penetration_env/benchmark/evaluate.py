@@ -281,7 +281,7 @@ def evaluate(
                 rows.append(row)
                 failures += row.get("outcome") == "error"
                 bar.update(1)
-                bar.set_postfix(failures=failures, refresh=False)
+                bar.set_postfix(failures=failures)
                 if stop_after is not None and len(rows) >= stop_after:
                     raise KeyboardInterrupt(f"stop_after={stop_after} episodes (testing hook)")
         finally:
@@ -314,12 +314,7 @@ def _yaml(scenario: Scenario) -> str:
 
 
 def _progress_bar(total: int, already: int, enabled: bool):
-    from tqdm.auto import tqdm
+    from uav_penetration_env.benchmark.progress import ProgressBar
 
-    return tqdm(
-        total=total,
-        desc=f"episodes ({already} already stored)" if already else "episodes",
-        unit="ep",
-        disable=not enabled,
-        smoothing=0.1,
-    )
+    description = f"episodes ({already} already stored)" if already else "episodes"
+    return ProgressBar(total, description, unit="ep", enabled=enabled)

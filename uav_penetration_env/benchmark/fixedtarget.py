@@ -364,32 +364,38 @@ def fixed_target_markdown(
 
 
 def write_fixed_target(
-    store: Any, out_dir: Path, stems: dict[str, str], *, reference: str = "ihpso", command: str = ""
+    store_path: str | Path, out_dir: str | Path, *, reference: str = "ihpso", command: str = ""
 ) -> list[Path]:
-    """Write ``<stem>-fixed-target.md`` and ``.csv`` per scenario hash with window runs.
+    """Write ``<stem>-fixed-target.md`` and ``.csv`` per scenario whose window runs the store holds.
+
+    The stem is the scenario's leaderboard stem (:func:`~.leaderboard.scenario_groups`), or its
+    sanitised name when the store has no episodes of that scenario hash.
 
     Args:
-        store: an open results store.
-        out_dir: output folder.
-        stems: scenario hash -> file stem (the leaderboard's); other hashes use their scenario name.
+        store_path: the SQLite results store.
+        out_dir: output folder (created if needed).
         reference: the optimiser the others are paired with (default IHPSO; the first name if absent).
         command: the command line recorded in the page.
 
     Returns:
-        The written paths (Markdown then CSV per scenario, sorted by stem).
+        The written paths (Markdown then CSV per scenario, sorted by stem); none without window runs.
     """
-    from uav_penetration_env.benchmark.leaderboard.groups import sanitize
+    from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
+    from uav_penetration_env.benchmark.store import ResultsStore
 
-    rows = store.window_runs()
+    out_dir = Path(out_dir)
+    with ResultsStore(store_path) as store:
+        rows, episodes = store.window_runs(), store.episodes()
     written: list[Path] = []
     if rows.empty:
         return written
-    groups = sorted(
-        rows.groupby("scenario_hash"),
-        key=lambda item: stems.get(item[0], sanitize(str(item[1]["scenario"].iloc[0]))),
+    stems = {group.scenario_hash: group.stem for group in scenario_groups(episodes)}
+    by_stem = sorted(
+        (stems.get(h) or sanitize(str(group["scenario"].iloc[0])), group)
+        for h, group in rows.groupby("scenario_hash")
     )
-    for scenario_hash, group in groups:
-        stem = stems.get(scenario_hash) or sanitize(str(group["scenario"].iloc[0]))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for stem, group in by_stem:
         markdown, table = fixed_target_markdown(group, reference, str(group["scenario"].iloc[0]), command)
         path = out_dir / f"{stem}-fixed-target.md"
         path.write_text(markdown, encoding="utf-8")

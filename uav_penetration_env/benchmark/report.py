@@ -346,8 +346,8 @@ def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, t
                     name="radars",
                 )
             )
-    palette = _palette()
-    for index, (policy, ids) in enumerate(episodes.groupby("policy", sort=True)["episode_id"]):
+    styles = _plotly_styles(episodes["policy"].astype(str).unique())
+    for policy, ids in episodes.groupby("policy", sort=True)["episode_id"]:
         rows = steps[steps["episode_id"].isin(ids)].sort_values("step", kind="mergesort")
         figure.add_trace(
             go.Scatter3d(
@@ -355,7 +355,7 @@ def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, t
                 y=rows["y_km"],
                 z=rows["z_m"],
                 mode="lines",
-                line={"width": 5, "color": palette[index % len(palette)]},
+                line={"width": 5, **styles[str(policy)]},
                 name=str(policy),
             )
         )
@@ -375,10 +375,31 @@ def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, t
     return figure
 
 
-def _palette() -> list[str]:
-    import plotly.colors
+# plotly's 3-D lines know six dash names only: one per family (the second style of a large family
+# is drawn long-dashed).
+_PLOTLY_DASH = {
+    "paper planners (MPC)": "solid",
+    "reference optimisers (MPC)": "dash",
+    "IHPSO ablations (MPC)": "dashdot",
+    "floors": "dot",
+    "RL agents": "longdashdot",
+}
 
-    return list(plotly.colors.qualitative.Dark24) + list(plotly.colors.qualitative.Light24)
+
+def _plotly_styles(labels) -> dict[str, dict[str, str]]:
+    """The figures' colour of each policy and its family's dash, as plotly ``line`` keys."""
+    from matplotlib.colors import to_hex
+
+    from uav_penetration_env.benchmark.figures.common import FAMILY_LINESTYLES, policy_styles
+
+    styles = {}
+    for label, style in policy_styles(labels).items():
+        first = style.linestyle == FAMILY_LINESTYLES[style.family][0]
+        styles[label] = {
+            "color": to_hex(style.colour),
+            "dash": _PLOTLY_DASH[style.family] if first else "longdash",
+        }
+    return styles
 
 
 def _built_scenario(yaml_text: str):

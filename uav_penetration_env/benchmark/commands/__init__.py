@@ -15,7 +15,17 @@ from uav_penetration_env.benchmark import plugins
 from uav_penetration_env.benchmark.commands.common import CLIError, Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import COMMAND_GROUP
 
-BUILTIN_COMMANDS = ("run", "leaderboard", "plot", "export", "calibrate", "scenario", "windows")
+BUILTIN_COMMANDS = (
+    "run",
+    "leaderboard",
+    "plot",
+    "report",
+    "export",
+    "replay",
+    "calibrate",
+    "scenario",
+    "windows",
+)
 
 
 def builtin_commands() -> dict[str, Command]:

@@ -1,4 +1,9 @@
-"""``uav-bench export``: the store's episodes and steps tables as CSV or Parquet files."""
+"""``uav-bench export``: the store's episodes and steps tables as CSV or Parquet files.
+
+With ``--tracks``: every episode's track points from step 0 (state, action, cost terms, detection,
+altitude above terrain) as ``<stem>-tracks.<format>``, and ``<stem>-tracks.geojson`` (one
+LineString per episode; longitude/latitude for DEM scenarios), :mod:`~..track_export`.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=["csv", "parquet"], required=True)
     add_store_argument(parser)
     parser.add_argument("--out", help="output stem (default: the store path without suffix)")
+    parser.add_argument(
+        "--tracks",
+        action="store_true",
+        help="write the track points of every episode (from step 0) and a GeoJSON file instead",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else store_path.with_suffix("")
     check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
     with ResultsStore(store_path) as store:
+        if args.tracks:
+            return _export_tracks(store, out, args.format)
         tables = {"episodes": store.episodes(), "steps": store.steps()}
     for name, frame in tables.items():
         path = out.parent / f"{out.name}-{name}.{args.format}"
@@ -39,9 +51,28 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_tracks(store, out: Path, extension: str) -> int:
+    """``--tracks``: the track table and its GeoJSON twin; print their paths."""
+    import json
+
+    from uav_penetration_env.benchmark.track_export import track_rows, tracks_geojson
+
+    rows = track_rows(store)
+    table = out.parent / f"{out.name}-tracks.{extension}"
+    if extension == "csv":
+        rows.to_csv(table, index=False)
+    else:
+        rows.to_parquet(table, index=False)
+    geojson = out.parent / f"{out.name}-tracks.geojson"
+    geojson.write_text(json.dumps(tracks_geojson(rows)))
+    print(table)
+    print(geojson)
+    return 0
+
+
 COMMAND = Command(
     name="export",
-    help="write the episodes and steps tables as CSV or Parquet",
+    help="write the episodes and steps tables, or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
     add_arguments=add_arguments,
     run=run,
 )

@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the tables and print their paths."""
+    """Write the tables; print a compact summary of each and their paths."""
     store = existing_store(args.store)
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
 
@@ -36,8 +36,18 @@ def run(args: argparse.Namespace) -> int:
     written = write_leaderboards(
         store, Path(args.out), reference=args.reference, command=command_line(args), suite=args.suite
     )
-    for path in written:
-        print(path)
+    from uav_penetration_env.benchmark.fixedtarget import write_fixed_target
+    from uav_penetration_env.benchmark.summary import print_summary
+
+    # Window runs (uav-bench windows): the fixed-target and fixed-budget tables per scenario (api.md §4.7).
+    fixed = (
+        []
+        if args.suite
+        else write_fixed_target(store, Path(args.out), reference=args.reference, command=command_line(args))
+    )
+    print_summary(written)  # the reference of each table is read from it (a label may differ)
+    for path in fixed:
+        print(f"fixed target: {path}")
     return 0
 
 

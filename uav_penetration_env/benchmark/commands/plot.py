@@ -18,11 +18,22 @@ from uav_penetration_env.benchmark.commands.common import (
 )
 
 
+def add_altitude_argument(parser: argparse.ArgumentParser) -> None:
+    """``--altitude M``: the radar-coverage altitude of the track figures (plot, report)."""
+    parser.add_argument(
+        "--altitude",
+        type=float,
+        help="altitude of the radar coverage in the track figures [m above datum] "
+        "(default: the median altitude of the MPC planners' tracks)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench plot``."""
     add_store_argument(parser)
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument("--suite", help="aggregate figures over all the store's scenarios, named SUITE")
+    add_altitude_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     store = existing_store(args.store)
     from uav_penetration_env.benchmark.figures import write_figures
 
-    for path in write_figures(store, Path(args.out), suite=args.suite):
+    for path in write_figures(store, Path(args.out), suite=args.suite, altitude=args.altitude):
         print(path)
     return 0
 

@@ -2,7 +2,8 @@
 
 With no flags it is the main job (api.md): the paper scenario (weights 0.3/0.4/0.3), the six
 swarm planners plus ``pso``, ``cem`` and the ``greedy`` floor, 5 seeds, all cores, results in
-``results/uav-bench.sqlite``, then the leaderboard and figures in ``results/``.
+``results/uav-bench.sqlite``, then the leaderboards, figures and HTML report (``index.html``) in
+``results/``, and a compact summary in the terminal.
 
 Every input (flags, ``--config`` file, policy names and the extras they need, scenarios, the
 store's folder) is checked before the store is opened, so a typo never damages a store. Ctrl-C
@@ -113,7 +114,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         dest="report",
         action="store_const",
         const=False,
-        help="skip the leaderboard and figures",
+        help="skip the leaderboards, figures and HTML report (the store is still written)",
     )
     parser.add_argument(
         "--no-progress", dest="progress", action="store_const", const=False, help="no progress bar"
@@ -188,7 +189,7 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Validate everything, evaluate into the store, then write the leaderboard and figures."""
+    """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
     from uav_penetration_env.benchmark.store import ResultsStore, StoreError
 
@@ -258,28 +259,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def report(store: Path, out: Path, command: str) -> None:
-    """Write the leaderboards and figures of ``store`` into ``out`` and print a table excerpt."""
-    from uav_penetration_env.benchmark.figures import write_figures
-    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    """Write the leaderboards, figures (PNG + PDF) and HTML report of ``store`` into ``out``; summarise."""
+    from uav_penetration_env.benchmark.commands.report import print_written, write_results
 
-    tables = write_leaderboards(store, out, command=command)
-    figures = write_figures(store, out)
-    for path in tables:
-        print(f"leaderboard: {path}")
-    for path in figures:
-        if path.suffix == ".png":
-            print(f"figure: {path}")
-    markdown = [p for p in tables if p.suffix == ".md"]
-    if markdown:
-        print()
-        print(excerpt(markdown[0]))
-
-
-def excerpt(path: Path, rows: int = 14) -> str:
-    """The table part of a generated leaderboard (for the terminal)."""
-    lines = path.read_text().splitlines()
-    table = [line for line in lines if line.startswith("|")]
-    return "\n".join(table[: rows + 2])
+    written = write_results(store, out, command=command, formats=("png", "pdf"))
+    print()
+    print_written(written, out)
 
 
 COMMAND = Command(

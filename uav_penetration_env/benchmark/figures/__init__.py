@@ -3,7 +3,8 @@
 For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scenario_groups`):
 
 * ``<stem>-tracks-top`` / ``<stem>-tracks-3d``: every planner's track for one seed over the terrain,
-  with the radars and their coverage at the median flown altitude (Figs. 14/16). The seed is the
+  with the radars and their coverage at a stated altitude: the median altitude of the MPC
+  planners' tracks, or ``altitude`` (Figs. 14/16). The seed is the
   smallest one every planner finished, so the tracks are paired (same start, same jitter).
 * ``<stem>-j-per-point``: mean J(k) per track point against k with 95 % bands over seeds, runs of
   different length NaN-padded, and the number of runs still flying at each k (Figs. 15/18, A30).
@@ -15,6 +16,11 @@ For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scena
 * ``<stem>-runtime-ecdf``: when the store has window runs (``uav-bench windows``), the share of
   (run, target) pairs each optimiser solved within x evaluations on identical MPC windows
   (api.md §4.7).
+
+Policies are grouped by family (:data:`FAMILIES`: the paper's planners, reference optimisers,
+IHPSO ablations, floors, RL agents): line style by family, colour by member, never the same
+(colour, line style) pair twice in a figure; with more than ``PANEL_THRESHOLD`` policies the
+line figures get one panel per family. Legends lie outside the plotting area.
 
 Each figure is one entry of :data:`FIGURES` (a draw function and whether it shows one
 scenario) or, drawn from window runs, of :data:`WINDOW_FIGURES`; the modules hold one idea each: :mod:`.common` (canvas, colours, bands),
@@ -29,15 +35,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import pandas as pd
-
 from uav_penetration_env.benchmark.figures.common import (
+    FAMILIES,
     PNG_DPI,
+    FigureInput,
+    PolicyStyle,
+    family_figure,
     finished_steps,
     mean_band,
     new_figure,
     note_empty,
+    outside_legend,
     policy_colours,
+    policy_family,
+    policy_styles,
     save_figure,
 )
 from uav_penetration_env.benchmark.figures.convergence import (
@@ -55,6 +66,7 @@ from uav_penetration_env.benchmark.figures.runtime_ecdf import plot_runtime_ecdf
 from uav_penetration_env.benchmark.figures.tracks import (
     COVERAGE_LEVEL,
     SURFACE_NODES,
+    coverage_altitude,
     plot_timeline,
     plot_tracks_3d,
     plot_tracks_top,
@@ -62,7 +74,7 @@ from uav_penetration_env.benchmark.figures.tracks import (
     start_state,
     track_seed,
 )
-from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, scenario_groups, suite_group
+from uav_penetration_env.benchmark.leaderboard import scenario_groups, suite_group
 from uav_penetration_env.benchmark.store import ResultsStore
 
 
@@ -71,12 +83,11 @@ class FigureSpec:
     """One figure of a scenario group.
 
     Attributes:
-        draw: ``(group, steps, model, colours, starts) -> Figure``; ``steps`` are the transition
-            rows (k >= 1), ``starts`` the step-0 rows, ``model`` the scenario's model or None.
+        draw: ``(FigureInput) -> Figure``.
         per_scenario: drawn over one scenario's terrain (left out of a suite's figures).
     """
 
-    draw: Callable[[ScenarioGroup, pd.DataFrame, Any, dict[str, Any], pd.DataFrame], Any]
+    draw: Callable[[FigureInput], Any]
     per_scenario: bool = False
 
 
@@ -84,23 +95,15 @@ class FigureSpec:
 FIGURES: dict[str, FigureSpec] = {
     "tracks-top": FigureSpec(plot_tracks_top, per_scenario=True),
     "tracks-3d": FigureSpec(plot_tracks_3d, per_scenario=True),
-    "j-per-point": FigureSpec(
-        lambda group, steps, model, colours, starts: plot_j_per_point(group, steps, colours)
-    ),
-    "cost-box": FigureSpec(lambda group, steps, model, colours, starts: plot_cost_box(group, colours)),
-    "performance-profile": FigureSpec(
-        lambda group, steps, model, colours, starts: plot_performance_profile(group, colours)
-    ),
-    "convergence": FigureSpec(
-        lambda group, steps, model, colours, starts: plot_convergence(group, steps, colours)
-    ),
-    "timeline": FigureSpec(
-        lambda group, steps, model, colours, starts: plot_timeline(group, steps, colours), per_scenario=True
-    ),
+    "j-per-point": FigureSpec(plot_j_per_point),
+    "cost-box": FigureSpec(plot_cost_box),
+    "performance-profile": FigureSpec(plot_performance_profile),
+    "convergence": FigureSpec(plot_convergence),
+    "timeline": FigureSpec(plot_timeline, per_scenario=True),
 }
 # Figures of the window runs (``uav-bench windows``, api.md §4.7), drawn after the others for a scenario
 # whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
-WINDOW_FIGURES: dict[str, Callable[[ScenarioGroup, pd.DataFrame, dict[str, Any]], Any]] = {
+WINDOW_FIGURES: dict[str, Callable[..., Any]] = {
     "runtime-ecdf": plot_runtime_ecdf,
 }
 SCENARIO_FIGURES = tuple(name for name, spec in FIGURES.items() if spec.per_scenario)
@@ -108,17 +111,23 @@ SCENARIO_FIGURES = tuple(name for name, spec in FIGURES.items() if spec.per_scen
 __all__ = [
     "CONVERGENCE_NODES",
     "COVERAGE_LEVEL",
+    "FAMILIES",
     "FIGURES",
     "PNG_DPI",
     "SCENARIO_FIGURES",
     "SURFACE_NODES",
     "WINDOW_FIGURES",
+    "FigureInput",
     "FigureSpec",
+    "PolicyStyle",
     "convergence_curves",
+    "coverage_altitude",
+    "family_figure",
     "finished_steps",
     "mean_band",
     "new_figure",
     "note_empty",
+    "outside_legend",
     "performance_profile",
     "plot_convergence",
     "plot_cost_box",
@@ -129,6 +138,8 @@ __all__ = [
     "plot_tracks_3d",
     "plot_tracks_top",
     "policy_colours",
+    "policy_family",
+    "policy_styles",
     "save_figure",
     "scenario_model",
     "start_state",
@@ -143,6 +154,7 @@ def write_figures(
     *,
     formats: Sequence[str] = ("png", "pdf"),
     suite: str | None = None,
+    altitude: float | None = None,
 ) -> list[Path]:
     """Write every figure of every scenario group of a results store, in each of ``formats``.
 
@@ -155,6 +167,8 @@ def write_figures(
         out_dir: output folder (created if needed).
         formats: file types, each one of ``png``, ``pdf``, ``svg``.
         suite: draw one group over all scenarios, named ``suite``.
+        altitude: the altitude of the radar coverage in the track figures [m above datum]
+            (default: the median altitude of the MPC planners' tracks, named in the title).
 
     Returns:
         The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
@@ -191,9 +205,10 @@ def write_figures(
                 if group.scenarios
                 else scenario_model(scenarios.get(group.scenario_hash, (None, None))[1])
             )
-            colours = policy_colours(group.episodes["label"].unique())
+            styles = policy_styles(group.episodes["label"].unique())
+            inp = FigureInput(group, steps, starts, model, styles, altitude)
             for name in names:
-                figure = FIGURES[name].draw(group, steps, model, colours, starts)
+                figure = FIGURES[name].draw(inp)
                 written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
             runs = window_runs[window_runs["scenario_hash"].astype(str) == group.scenario_hash]
             if suite is None and not runs.empty:

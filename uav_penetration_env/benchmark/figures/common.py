@@ -1,4 +1,4 @@
-"""What every figure shares: an Agg canvas, saving, a colour per policy, mean bands, step selection.
+"""What every figure shares: an Agg canvas, saving, policy families and styles, legends, mean bands.
 
 matplotlib is used through :class:`matplotlib.figure.Figure` and the Agg canvas only, never
 pyplot, so nothing touches global state and figures can be drawn in any thread or process.
@@ -7,6 +7,7 @@ pyplot, so nothing touches global state and figures can be drawn in any thread o
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,17 +51,205 @@ def note_empty(ax, text: str) -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, fontsize=10, wrap=True)
 
 
-def policy_colours(labels: Sequence[str]) -> dict[str, Any]:
-    """One colour per policy label, fixed by the sorted label order (the same planner, the same colour)."""
+@dataclass(frozen=True)
+class FigureInput:
+    """What a figure of a scenario group is drawn from.
+
+    Attributes:
+        group: the scenario group (its episodes, labels, name).
+        steps: the transition rows (k >= 1) of the group's episodes.
+        starts: the step-0 rows (start states).
+        model: the scenario's PenetrationModel, or None (a suite, or no stored YAML).
+        styles: label -> :class:`PolicyStyle` of every policy of the group.
+        altitude: the radar-coverage altitude chosen by the user [m], or None (the MPC
+            policies' median, :func:`~.tracks.coverage_altitude`).
+    """
+
+    group: ScenarioGroup
+    steps: pd.DataFrame
+    starts: pd.DataFrame
+    model: Any
+    styles: dict[str, Any]
+    altitude: float | None = None
+
+
+# --- who is who: families, colours, line styles, legends -------------------------------------------
+
+FAMILIES = (
+    "paper planners (MPC)",
+    "reference optimisers (MPC)",
+    "IHPSO ablations (MPC)",
+    "floors",
+    "RL agents",
+)
+MPC_FAMILIES = FAMILIES[:3]  # the families whose policies are MPC planners
+PAPER_PLANNERS = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism")
+FLOORS = ("greedy", "random")
+PANEL_THRESHOLD = 10  # more policies than this in a figure: one panel per family
+# Line style by family; a family with more members than colours continues with its second style.
+FAMILY_LINESTYLES: dict[str, tuple[Any, ...]] = {
+    "paper planners (MPC)": ("solid", (0, (9, 2, 2, 2, 2, 2))),
+    "reference optimisers (MPC)": ((0, (5, 2)), (0, (2, 1, 2, 4))),
+    "IHPSO ablations (MPC)": ((0, (3, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2, 1, 2, 1, 2, 1, 2))),
+    "floors": ((0, (1, 1.5)), (0, (1, 4))),
+    "RL agents": ((0, (6, 2, 1.5, 2)), (0, (12, 2, 1.5, 2))),
+}
+
+
+@dataclass(frozen=True)
+class PolicyStyle:
+    """How one policy is drawn: its family, colour and line style (``Line2D`` keywords by :meth:`line`)."""
+
+    family: str
+    colour: Any
+    linestyle: Any
+
+    def line(self) -> dict[str, Any]:
+        """``color`` and ``linestyle`` keywords for ``plot``/``step``."""
+        return {"color": self.colour, "linestyle": self.linestyle}
+
+
+def policy_family(label: str) -> str:
+    """The family of a policy label (one of :data:`FAMILIES`).
+
+    DECISION (api.md §4.1): a plug-in policy (``PREFIX:...``, e.g. ``sb3:ppo``) is an RL agent;
+    ``greedy`` and ``random`` are floors; the paper's six swarm planners and their variants
+    (``hpso-literal``, ``NAME-eq37``) are the paper planners; other ``ihpso-*`` configurations
+    are IHPSO ablations; every other optimiser name (``pso``, ``cem``, ``cmaes``, ``de``, ...)
+    is a reference optimiser.
+    """
+    if ":" in label:
+        return "RL agents"
+    base = label.removesuffix("-eq37")
+    if base in FLOORS:
+        return "floors"
+    if base == "ihpso":
+        return "paper planners (MPC)"
+    if base.startswith("ihpso-"):
+        return "IHPSO ablations (MPC)"
+    if any(base == name or base.startswith(f"{name}-") for name in PAPER_PLANNERS):
+        return "paper planners (MPC)"
+    return "reference optimisers (MPC)"
+
+
+def _palette() -> list[Any]:
     from matplotlib import colormaps
 
-    ordered = sorted(labels)
-    # Red is kept for the radars and their coverage, so no track is drawn in it.
-    if len(ordered) <= 9:
-        palette = [c for i, c in enumerate(colormaps["tab10"].colors) if i != 3]
-    else:
-        palette = [c for i, c in enumerate(colormaps["tab20"].colors) if i not in (6, 7)]
-    return {label: palette[i % len(palette)] for i, label in enumerate(ordered)}
+    # Red is kept for the radars and their coverage, grey vanishes on the grey hillshade.
+    return [c for i, c in enumerate(colormaps["tab10"].colors) if i not in (3, 7)]
+
+
+def policy_order(labels: Sequence[str]) -> list[str]:
+    """Labels sorted by family (in :data:`FAMILIES` order), then by name."""
+    return sorted(set(labels), key=lambda label: (FAMILIES.index(policy_family(label)), label))
+
+
+def policy_styles(labels: Sequence[str]) -> dict[str, PolicyStyle]:
+    """A (colour, line style) pair per policy label, never the same pair twice.
+
+    With at most as many policies as colours, every policy gets its own colour (in family order)
+    and its family's line style; with more, the colour is the policy's index inside its family,
+    so the line style tells the family and the colour the member.
+
+    DECISION (api.md §4.6): colours come from tab10 without red (radars) and grey (terrain); a
+    family with more members than colours continues with its second line style, so pairs are
+    unique up to twice as many members per family as colours (16); beyond that they repeat.
+    """
+    palette = _palette()
+    ordered = policy_order(labels)
+    styles = {}
+    distinct = len(ordered) <= len(palette)
+    members: dict[str, int] = {}
+    for overall, label in enumerate(ordered):
+        family = policy_family(label)
+        index = overall if distinct else members.get(family, 0)
+        members[family] = members.get(family, 0) + 1
+        dashes = FAMILY_LINESTYLES[family]
+        round_ = (members[family] - 1) // len(palette) if not distinct else 0
+        styles[label] = PolicyStyle(
+            family, palette[index % len(palette)], dashes[min(round_, len(dashes) - 1)]
+        )
+    return styles
+
+
+def policy_colours(labels: Sequence[str]) -> dict[str, Any]:
+    """One colour per policy label, from :func:`policy_styles` (stable for the same set of labels)."""
+    return {label: style.colour for label, style in policy_styles(labels).items()}
+
+
+def family_figure(labels: Sequence[str], width: float, height: float):
+    """A figure with one panel per family when there are many policies, else one panel.
+
+    Args:
+        labels: the policies the figure draws.
+        width: the width of one panel [in].
+        height: the height of one panel [in].
+
+    Returns:
+        The figure and a list of ``(family or None, container, labels)``: the container is the
+        figure itself (one panel) or a sub-figure per family present, in :data:`FAMILIES` order.
+    """
+    ordered = policy_order(labels)
+    if len(ordered) <= PANEL_THRESHOLD:
+        figure = new_figure(width, height)
+        return figure, [(None, figure, ordered)]
+    families = [f for f in FAMILIES if any(policy_family(label) == f for label in ordered)]
+    columns = 1 if len(families) == 1 else 2
+    rows = -(-len(families) // columns)
+    figure = new_figure(width * columns, height * rows)
+    containers = figure.subfigures(rows, columns, squeeze=False).ravel()
+    return figure, [
+        (family, containers[i], [label for label in ordered if policy_family(label) == family])
+        for i, family in enumerate(families)
+    ]
+
+
+def outside_legend(container, fontsize: float = 7.0) -> None:
+    """One legend for a (sub-)figure's labelled artists, outside its axes (right, top).
+
+    Policies are listed by family; with more than one family, each family's entries follow a
+    bold header line. Other entries (radars, goal, start, coverage) come last.
+    """
+    from matplotlib.lines import Line2D
+
+    entries: dict[str, Any] = {}
+    for ax in container.axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    if not entries:
+        return
+    policies = [label for label in entries if _is_policy(label)]
+    others = [label for label in entries if not _is_policy(label)]
+    families = [f for f in FAMILIES if any(policy_family(_policy_of(label)) == f for label in policies)]
+    handles, texts, headers = [], [], []
+    for family in families:
+        if len(families) > 1:
+            headers.append(len(texts))
+            handles.append(Line2D([], [], linestyle="none"))
+            texts.append(family)
+        for label in sorted(
+            (x for x in policies if policy_family(_policy_of(x)) == family), key=lambda x: _policy_of(x)
+        ):
+            handles.append(entries[label])
+            texts.append(label)
+    for label in others:
+        handles.append(entries[label])
+        texts.append(label)
+    legend = container.legend(handles, texts, loc="outside right upper", fontsize=fontsize)
+    for index in headers:
+        legend.get_texts()[index].set_fontweight("bold")
+
+
+_NON_POLICY_PREFIXES = ("radars", "goal", "start", "P_d", "best known")
+
+
+def _is_policy(label: str) -> bool:
+    return not label.startswith(_NON_POLICY_PREFIXES)
+
+
+def _policy_of(label: str) -> str:
+    """The policy of a legend label such as ``ihpso (5 runs)``."""
+    return label.split(" (", 1)[0]
 
 
 def mean_band(matrix: np.ndarray, confidence: float = 0.95) -> tuple[np.ndarray, ...]:

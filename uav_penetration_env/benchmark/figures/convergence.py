@@ -9,8 +9,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env.benchmark.figures.common import finished_steps, mean_band, new_figure, note_empty
-from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
+from uav_penetration_env.benchmark.figures.common import (
+    FigureInput,
+    family_figure,
+    finished_steps,
+    mean_band,
+    note_empty,
+    outside_legend,
+)
 
 CONVERGENCE_NODES = 200  # points of the common evaluation grid of the convergence plot
 
@@ -57,11 +63,9 @@ def convergence_curves(steps: pd.DataFrame, grid: np.ndarray) -> tuple[np.ndarra
     return np.array(curves).reshape(len(curves), grid.size), flat
 
 
-def plot_convergence(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, Any]):
+def plot_convergence(inp: FigureInput):
     """Mean normalised best-so-far against evaluations per optimiser, over all MPC steps and seeds."""
-    figure = new_figure(7.0, 4.8)
-    ax = figure.add_subplot()
-    episodes = finished_steps(group, steps)
+    episodes = finished_steps(inp.group, inp.steps)
     rows = {label: pd.concat(runs, ignore_index=True) for label, runs in episodes.items()}
     most = 0.0
     for frame in rows.values():
@@ -69,25 +73,36 @@ def plot_convergence(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[st
             values = _parse_list(text)
             if values.size:
                 most = max(most, float(values.max()))
-    drawn = 0
+    grid = np.linspace(0.0, most, CONVERGENCE_NODES)
+    curves = {}
     if most > 0:
-        grid = np.linspace(0.0, most, CONVERGENCE_NODES)
         for label, frame in rows.items():
-            curves, flat = convergence_curves(frame, grid)
-            if not len(curves):
-                continue  # no optimiser history (a floor or an RL agent), or no step ever improved
-            mean, low, high, _ = mean_band(curves)
-            text = f"{label} ({len(curves)} MPC steps; {flat} without improvement not drawn)"
-            ax.plot(grid, mean, color=colours[label], linewidth=1.6, label=text)
-            ax.fill_between(grid, low, high, color=colours[label], alpha=0.18, linewidth=0)
-            drawn += 1
-    if drawn:
-        ax.legend(fontsize=7)
-    else:
-        note_empty(ax, "no optimiser history in this group (floors and RL agents have none)")
-    ax.set_xlabel("objective evaluations within one MPC step")
-    ax.set_ylabel(
-        "normalised best-so-far (h − h_end)/(h_0 − h_end)\nmean over improving MPC steps, 95% t-band"
+            drawn, flat = convergence_curves(frame, grid)
+            if len(drawn):  # else no optimiser history (a floor or an RL agent), or no step improved
+                curves[label] = (drawn, flat)
+    figure, panels = family_figure(list(curves), 6.5, 4.6)
+    title = (
+        f"{inp.group.name}: optimiser convergence per planning step\n"
+        "(legend: improving MPC steps drawn; flat: steps without improvement, not drawn)"
     )
-    ax.set_title(f"{group.name}: optimiser convergence per planning step", fontsize=9)
+    for family, container, members in panels:
+        ax = container.add_subplot()
+        for label in members:
+            drawn, flat = curves[label]
+            mean, low, high, _ = mean_band(drawn)
+            text = f"{label} ({len(drawn)} steps; {flat} flat)"
+            style = inp.styles[label]
+            ax.plot(grid, mean, **style.line(), linewidth=1.6, label=text)
+            ax.fill_between(grid, low, high, color=style.colour, alpha=0.18, linewidth=0)
+        if curves:
+            outside_legend(container)
+        else:
+            note_empty(ax, "no optimiser history in this group (floors and RL agents have none)")
+        ax.set_xlabel("objective evaluations within one MPC step")
+        ax.set_ylabel(
+            "normalised best-so-far (h − h_end)/(h_0 − h_end)\nmean over improving MPC steps, 95% t-band"
+        )
+        ax.set_title(family if family is not None else title, fontsize=9)
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure

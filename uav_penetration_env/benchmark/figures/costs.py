@@ -2,53 +2,69 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env.benchmark.figures.common import finished_steps, mean_band, new_figure, note_empty
-from uav_penetration_env.benchmark.leaderboard import ScenarioGroup, cost_table
+from uav_penetration_env.benchmark.figures.common import (
+    FigureInput,
+    family_figure,
+    finished_steps,
+    mean_band,
+    new_figure,
+    note_empty,
+    outside_legend,
+)
+from uav_penetration_env.benchmark.leaderboard import cost_table
 
 
-def plot_j_per_point(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, Any]):
+def plot_j_per_point(inp: FigureInput):
     """Mean J(k) per track point vs k with 95 % t-bands over seeds, and how many runs reach each k (A30)."""
-    figure = new_figure(7.5, 6.0)
-    top, bottom = figure.subplots(2, 1, sharex=True, height_ratios=[3, 1])
-    episodes = finished_steps(group, steps)
-    for label, runs in episodes.items():
-        length = max(int(r["step"].max()) for r in runs)
-        matrix = np.full((len(runs), length), np.nan)
-        for i, rows in enumerate(runs):
-            matrix[i, rows["step"].to_numpy(dtype=int) - 1] = rows["J"].to_numpy(dtype=np.float64)
-        mean, low, high, count = mean_band(matrix)
-        # With two runs the t quantile is 12.7 and the band fills the panel without saying anything.
-        low, high = np.where(count >= 3, low, np.nan), np.where(count >= 3, high, np.nan)
-        k = np.arange(1, length + 1)
-        top.plot(k, mean, color=colours[label], linewidth=1.5, label=f"{label} ({len(runs)} runs)")
-        top.fill_between(k, low, high, color=colours[label], alpha=0.18, linewidth=0)
-        bottom.step(k, count, where="mid", color=colours[label], linewidth=1.2)
-    if not episodes:
-        note_empty(top, "no finished episode with stored steps")
-    top.set_ylabel("J(k) per track point\n(mean over seeds; 95% t-band where ≥ 3 runs)")
-    top.set_title(f"{group.name}: cost per track point (runs NaN-padded after they end)", fontsize=9)
-    top.legend(fontsize=7)
-    bottom.set_ylabel("runs at k")
-    bottom.set_xlabel("track point k")
+    episodes = finished_steps(inp.group, inp.steps)
+    figure, panels = family_figure(list(episodes), 7.0, 5.5)
+    title = f"{inp.group.name}: cost per track point (runs NaN-padded after they end)"
+    for family, container, members in panels:
+        top, bottom = container.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+        for label in members:
+            runs = episodes[label]
+            style = inp.styles[label]
+            length = max(int(r["step"].max()) for r in runs)
+            matrix = np.full((len(runs), length), np.nan)
+            for i, rows in enumerate(runs):
+                matrix[i, rows["step"].to_numpy(dtype=int) - 1] = rows["J"].to_numpy(dtype=np.float64)
+            mean, low, high, count = mean_band(matrix)
+            # With two runs the t quantile is 12.7 and the band fills the panel without saying anything.
+            low, high = np.where(count >= 3, low, np.nan), np.where(count >= 3, high, np.nan)
+            k = np.arange(1, length + 1)
+            top.plot(k, mean, **style.line(), linewidth=1.5, label=f"{label} ({len(runs)} runs)")
+            top.fill_between(k, low, high, color=style.colour, alpha=0.18, linewidth=0)
+            bottom.step(k, count, where="mid", **style.line(), linewidth=1.2)
+        if not episodes:
+            note_empty(top, "no finished episode with stored steps")
+        top.set_ylabel("J(k) per track point\n(mean over seeds; 95% t-band where ≥ 3 runs)")
+        top.set_title(family if family is not None else title, fontsize=9)
+        bottom.set_ylabel("runs at k")
+        bottom.set_xlabel("track point k")
+        outside_legend(container)
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure
 
 
-def plot_cost_box(group: ScenarioGroup, colours: dict[str, Any]):
-    """Box plots of total cost (ΣJ + failure penalty) per planner, ordered by median, points overlaid."""
-    figure = new_figure(7.5, 4.8)
-    ax = figure.add_subplot()
-    valid = group.episodes[~group.episodes["is_error"]]
+def plot_cost_box(inp: FigureInput):
+    """Box plots of total cost (ΣJ + failure penalty) per planner, ordered by median, points overlaid.
+
+    One panel whatever the number of policies: the policies are named on the axis, and each box's
+    edge has the policy's line style (its family) and its fill the policy's colour.
+    """
+    valid = inp.group.episodes[~inp.group.episodes["is_error"]]
     samples = {
         label: valid.loc[valid["label"] == label, "total_cost"].dropna().to_numpy(dtype=np.float64)
         for label in sorted(valid["label"].unique())
     }
     samples = {k: v for k, v in samples.items() if v.size}
     order = sorted(samples, key=lambda label: (float(np.median(samples[label])), label))
+    figure = new_figure(max(7.5, 0.42 * len(order) + 2.5), 5.2)
+    ax = figure.add_subplot()
     if order:
         boxes = ax.boxplot(
             [samples[label] for label in order],
@@ -58,21 +74,30 @@ def plot_cost_box(group: ScenarioGroup, colours: dict[str, Any]):
             medianprops={"color": "black"},
         )
         for patch, label in zip(boxes["boxes"], order, strict=True):
-            patch.set_facecolor(colours[label])
-            patch.set_alpha(0.35)
+            style = inp.styles[label]
+            patch.set_facecolor((*style.colour[:3], 0.35))
+            patch.set_edgecolor(style.colour)
+            patch.set_linestyle(style.linestyle)
+            patch.set_linewidth(1.4)
         for i, label in enumerate(order, start=1):
             values = samples[label]
             # Deterministic spread instead of random jitter, so the figure is reproducible.
             offsets = np.linspace(-0.12, 0.12, values.size) if values.size > 1 else np.zeros(1)
             ax.scatter(
-                i + offsets, values, color=colours[label], s=14, edgecolors="black", linewidths=0.4, zorder=3
+                i + offsets,
+                values,
+                color=inp.styles[label].colour,
+                s=14,
+                edgecolors="black",
+                linewidths=0.4,
+                zorder=3,
             )
         ax.set_xticks(range(1, len(order) + 1))
-        ax.set_xticklabels(order, rotation=20, ha="right")
+        ax.set_xticklabels(order, rotation=35 if len(order) > 8 else 20, ha="right", fontsize=8)
     else:
         note_empty(ax, "no finished episode")
     ax.set_ylabel("total J incl. failure penalty (= −return)")
-    ax.set_title(f"{group.name}: total cost per episode (lower is better)", fontsize=9)
+    ax.set_title(f"{inp.group.name}: total cost per episode (lower is better)", fontsize=9)
     return figure
 
 
@@ -98,35 +123,44 @@ def performance_profile(table: pd.DataFrame) -> tuple[dict[str, np.ndarray], flo
     return {label: ratios[:, j] for j, label in enumerate(complete.columns)}, shift
 
 
-def plot_performance_profile(group: ScenarioGroup, colours: dict[str, Any]):
-    """Fraction of seeds on which each planner's total cost is within a factor τ of the best planner's."""
+def plot_performance_profile(inp: FigureInput):
+    """Fraction of seeds on which each planner's total cost is within a factor τ of the best planner's.
+
+    The ratios are taken against the best of *all* policies, also when the figure has one panel
+    per family.
+    """
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-    figure = new_figure(7.0, 4.8)
-    ax = figure.add_subplot()
-    ratios, shift = performance_profile(cost_table(group.episodes))
+    ratios, shift = performance_profile(cost_table(inp.group.episodes))
+    figure, panels = family_figure(list(ratios), 6.5, 4.6)
     if ratios:
         worst = max(float(r.max()) for r in ratios.values())
         end = max(worst * 1.1, 1.1)
-        for label, r in ratios.items():
-            taus = np.concatenate([[1.0], np.sort(r), [end]])
-            fraction = (r[None, :] <= taus[:, None]).mean(axis=1)
-            ax.step(taus, fraction, where="post", color=colours[label], linewidth=1.6, label=label)
-        ax.set_xscale("log")
-        ax.set_xlim(1.0, end)
-        ax.xaxis.set_major_formatter(ScalarFormatter())
-        # Label the minor ticks (2, 3, ...) only on short ranges, where they do not crowd.
-        ax.xaxis.set_minor_formatter(ScalarFormatter() if end < 20 else NullFormatter())
         seeds = len(next(iter(ratios.values())))
         note = f"; costs shifted by {shift:.3g} to be positive" if shift else ""
-        ax.set_title(
-            f"{group.name}: performance profile over {seeds} seeds every planner finished{note}", fontsize=9
-        )
-        ax.legend(fontsize=7, loc="lower right")
+        title = f"{inp.group.name}: performance profile over {seeds} seeds every planner finished{note}"
     else:
-        note_empty(ax, "no seed finished by every planner")
-        ax.set_title(f"{group.name}: performance profile", fontsize=9)
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel("τ (total cost / best total cost on the same seed, log scale)")
-    ax.set_ylabel("fraction of seeds within τ of the best")
+        title = f"{inp.group.name}: performance profile"
+    for family, container, members in panels:
+        ax = container.add_subplot()
+        if ratios:
+            for label in members:
+                r = ratios[label]
+                taus = np.concatenate([[1.0], np.sort(r), [end]])
+                fraction = (r[None, :] <= taus[:, None]).mean(axis=1)
+                ax.step(taus, fraction, where="post", **inp.styles[label].line(), linewidth=1.6, label=label)
+            ax.set_xscale("log")
+            ax.set_xlim(1.0, end)
+            ax.xaxis.set_major_formatter(ScalarFormatter())
+            # Label the minor ticks (2, 3, ...) only on short ranges, where they do not crowd.
+            ax.xaxis.set_minor_formatter(ScalarFormatter() if end < 20 else NullFormatter())
+            outside_legend(container)
+        else:
+            note_empty(ax, "no seed finished by every planner")
+        ax.set_title(family if family is not None else title, fontsize=9)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("τ (total cost / best total cost on the same seed, log scale)")
+        ax.set_ylabel("fraction of seeds within τ of the best")
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure

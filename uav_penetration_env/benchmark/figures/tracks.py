@@ -13,8 +13,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env.benchmark.figures.common import new_figure, note_empty
-from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
+from uav_penetration_env.benchmark.figures.common import (
+    MPC_FAMILIES,
+    FigureInput,
+    family_figure,
+    note_empty,
+    outside_legend,
+)
 
 COVERAGE_LEVEL = (
     0.5  # the envelope is where the model's coverage level (fused P_d or ratio detection) crosses 0.5
@@ -136,83 +141,158 @@ def _scenario_markers(ax, model, start: np.ndarray | None, three_d: bool) -> Non
     ax.scatter([sx], [sy], c="white", edgecolors="black", marker="o", s=50, zorder=6, label="start")
 
 
-def _coverage(model, tracks: dict[str, pd.DataFrame], start: np.ndarray | None):
-    """Coverage grid at the median flown altitude [m above datum] and a representative heading."""
+def coverage_altitude(
+    tracks: dict[str, pd.DataFrame], styles: dict[str, Any], chosen: float | None = None
+) -> tuple[float, str]:
+    """The altitude at which the radar coverage is drawn [m above datum], and why that one.
+
+    DECISION (model.md §5): the median altitude of the MPC policies' track points (the paper's
+    planners, the reference optimisers and the ablations), not of every track: high-flying RL
+    agents or floors would lift it to where the radars see the whole map. Without MPC tracks it is
+    the median of every track; ``chosen`` (``--altitude``) overrides both.
+
+    Returns:
+        The altitude and the phrase that says how it was chosen (for the title).
+    """
+    if chosen is not None:
+        return float(chosen), "chosen with --altitude"
+    mpc = [label for label in tracks if styles[label].family in MPC_FAMILIES]
+    members, reason = (
+        (mpc, "the median altitude of the MPC planners' tracks")
+        if mpc
+        else (
+            list(tracks),
+            "the median altitude of all tracks (no MPC planner)",
+        )
+    )
+    altitudes = np.concatenate([tracks[label]["z_m"].to_numpy(dtype=np.float64) for label in members])
+    return float(np.median(altitudes)), reason
+
+
+def coverage_at(model, altitude: float, start: np.ndarray | None):
+    """Coverage grid at ``altitude`` [m above datum] for a UAV flying the start-goal bearing."""
     from uav_penetration_env.render import coverage_grid
 
-    altitudes = np.concatenate([rows["z_m"].to_numpy(dtype=np.float64) for rows in tracks.values()])
-    altitude = float(np.median(altitudes))
     sx, sy = (start[0], start[1]) if start is not None else model.start[0]
     heading = math.atan2(model.goal[0, 1] - sy, model.goal[0, 0] - sx)  # the start-goal bearing
-    xs, ys, threat = coverage_grid(model, altitude, heading)
-    return altitude, xs, ys, threat
+    return coverage_grid(model, altitude, heading)
 
 
-def plot_tracks_top(
-    group: ScenarioGroup,
-    steps: pd.DataFrame,
-    model,
-    colours: dict[str, Any],
-    starts: pd.DataFrame | None = None,
-):
-    """Top view: hillshaded terrain, radar coverage at the median flown altitude, every planner's track."""
+def _seed_inputs(inp: FigureInput):
+    """The track seed, each policy's rows on it, and its start state."""
+    seed = track_seed(inp.group.episodes, inp.steps)
+    tracks = seed_tracks(inp.group.episodes, inp.steps, seed) if seed is not None else {}
+    start = start_state(inp.group.episodes, inp.starts, seed) if seed is not None else None
+    return seed, tracks, start
+
+
+def draw_map(ax, model, start: np.ndarray | None) -> None:
+    """Hillshaded terrain with height contours, radars, goal and start on a top-view axes [km]."""
     from matplotlib.colors import LightSource
+
+    built = model.built[0]
+    x_km, y_km = built.grid.x_nodes / 1000.0, built.grid.y_nodes / 1000.0
+    extent = (x_km[0], x_km[-1], y_km[0], y_km[-1])
+    terrain = built.terrain.T  # [iy, ix] for imshow
+    # A grey hillshade with labelled height contours keeps the red coverage and the coloured
+    # tracks legible; a coloured terrain would mix with both.
+    spacing = built.grid.dx_m  # [m], so the shading slope is the true slope times vert_exag
+    shade = LightSource(azdeg=315, altdeg=45).hillshade(terrain, vert_exag=10.0, dx=spacing, dy=spacing)
+    ax.imshow(
+        shade, extent=extent, origin="lower", cmap="gray", vmin=-0.3, vmax=1.3, interpolation="bilinear"
+    )
+    if float(terrain.max()) > float(terrain.min()):
+        lines = ax.contour(x_km, y_km, terrain, levels=6, colors="0.3", linewidths=0.5)
+        ax.clabel(lines, fontsize=6, fmt="%.0f m")
+    _scenario_markers(ax, model, start, three_d=False)
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
+
+
+def draw_coverage(ax, coverage, altitude: float) -> list[Any]:
+    """The shaded region where the coverage level is at least :data:`COVERAGE_LEVEL`, and its edge.
+
+    Args:
+        ax: a top-view axes [km].
+        coverage: ``(xs [km], ys [km], level (nx, ny))`` from :func:`coverage_at`.
+        altitude: the altitude of ``coverage`` [m above datum] (for the legend entry).
+
+    Returns:
+        The artists drawn (to remove them when the altitude changes).
+    """
     from matplotlib.patches import Rectangle
 
-    figure = new_figure(7.5, 6.5)
-    ax = figure.add_subplot()
-    seed = track_seed(group.episodes, steps)
-    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
-    start = start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
-    title = f"{group.name}: tracks, seed {seed}"
-    if model is None:
-        title += " (scenario not in the store: no terrain, radars or coverage)"
-    else:
-        built = model.built[0]
-        x_km, y_km = built.grid.x_nodes / 1000.0, built.grid.y_nodes / 1000.0
-        extent = (x_km[0], x_km[-1], y_km[0], y_km[-1])
-        terrain = built.terrain.T  # [iy, ix] for imshow
-        # A grey hillshade with labelled height contours keeps the red coverage and the coloured
-        # tracks legible; a coloured terrain would mix with both.
-        spacing = built.grid.dx_m  # [m], so the shading slope is the true slope times vert_exag
-        shade = LightSource(azdeg=315, altdeg=45).hillshade(terrain, vert_exag=10.0, dx=spacing, dy=spacing)
-        ax.imshow(
-            shade, extent=extent, origin="lower", cmap="gray", vmin=-0.3, vmax=1.3, interpolation="bilinear"
-        )
-        if float(terrain.max()) > float(terrain.min()):
-            lines = ax.contour(x_km, y_km, terrain, levels=6, colors="0.3", linewidths=0.5)
-            ax.clabel(lines, fontsize=6, fmt="%.0f m")
-        if tracks:
-            altitude, xs, ys, threat = _coverage(model, tracks, start)
-            if threat.max() >= COVERAGE_LEVEL:
-                ax.contourf(
-                    xs,
-                    ys,
-                    threat.T,
-                    levels=[COVERAGE_LEVEL, max(1.0, float(threat.max())) + 1e-9],
-                    colors=["red"],
-                    alpha=0.15,
-                )
-            if threat.max() > COVERAGE_LEVEL > threat.min():
-                ax.contour(xs, ys, threat.T, levels=[COVERAGE_LEVEL], colors="red", linewidths=1.0)
-            coverage = f"P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m"
-            ax.add_patch(
-                Rectangle((0, 0), 0, 0, facecolor="red", alpha=0.15, edgecolor="red", label=coverage)
+    xs, ys, threat = coverage
+    artists: list[Any] = []
+    if threat.max() >= COVERAGE_LEVEL:
+        artists.append(
+            ax.contourf(
+                xs,
+                ys,
+                threat.T,
+                levels=[COVERAGE_LEVEL, max(1.0, float(threat.max())) + 1e-9],
+                colors=["red"],
+                alpha=0.15,
             )
-            title += f"; radar coverage {coverage} (the median flown altitude)"
-        _scenario_markers(ax, model, start, three_d=False)
-        ax.set_xlim(extent[0], extent[1])
-        ax.set_ylim(extent[2], extent[3])
-    for label, rows in tracks.items():
-        x, y, _ = _with_start(rows, start)
-        ax.plot(x, y, color=colours[label], linewidth=1.6, marker="o", markersize=2.2, label=label, zorder=4)
-    if not tracks:
-        note_empty(ax, "no finished episode with stored steps")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [km]")
-    ax.set_ylabel("y [km]")
-    ax.set_title(title, fontsize=9)
-    ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+        )
+    if threat.max() > COVERAGE_LEVEL > threat.min():
+        artists.append(ax.contour(xs, ys, threat.T, levels=[COVERAGE_LEVEL], colors="red", linewidths=1.0))
+    label = f"P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m"
+    artists.append(
+        ax.add_patch(Rectangle((0, 0), 0, 0, facecolor="red", alpha=0.15, edgecolor="red", label=label))
+    )
+    return artists
+
+
+def _coverage_title(altitude: float, reason: str) -> str:
+    # Two short lines: one long line is wider than the axes and runs under the legend.
+    return f"radar coverage P_d ≥ {COVERAGE_LEVEL} at {altitude:.0f} m above datum\n({reason})"
+
+
+def plot_tracks_top(inp: FigureInput):
+    """Top view: hillshaded terrain, radar coverage at a stated altitude, every planner's track.
+
+    One panel per family when there are many policies (:func:`~.common.family_figure`); every
+    panel shows the same terrain, coverage, radars and start.
+    """
+    seed, tracks, start = _seed_inputs(inp)
+    figure, panels = family_figure(list(tracks), 7.0, 6.2)
+    model = inp.model
+    title = f"{inp.group.name}: tracks, seed {seed}"
+    coverage, altitude = None, None
+    if model is None:
+        title += "\n(scenario not in the store: no terrain, radars or coverage)"
+    elif tracks:
+        altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
+        coverage = coverage_at(model, altitude, start)
+        title += "\n" + _coverage_title(altitude, reason)
+    for family, container, members in panels:
+        ax = container.add_subplot()
+        if model is not None:
+            draw_map(ax, model, start)
+            if coverage is not None:
+                draw_coverage(ax, coverage, altitude)
+        for label in members:
+            x, y, _ = _with_start(tracks[label], start)
+            ax.plot(
+                x,
+                y,
+                **inp.styles[label].line(),
+                linewidth=1.6,
+                marker="o",
+                markersize=2.2,
+                label=label,
+                zorder=4,
+            )
+        if not tracks:
+            note_empty(ax, "no finished episode with stored steps")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [km]")
+        ax.set_ylabel("y [km]")
+        ax.set_title(family if family is not None else title, fontsize=9)
+        outside_legend(container)
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure
 
 
@@ -224,76 +304,84 @@ def _terrain_colormap():
     return ListedColormap(colormaps["terrain"](np.linspace(0.25, 0.95, 256)))
 
 
-def plot_tracks_3d(
-    group: ScenarioGroup,
-    steps: pd.DataFrame,
-    model,
-    colours: dict[str, Any],
-    starts: pd.DataFrame | None = None,
-):
-    """3-D view: terrain surface, radars, coverage contour at the median flown altitude, tracks."""
-    figure = new_figure(8.0, 6.5)
-    ax = figure.add_subplot(projection="3d")
-    seed = track_seed(group.episodes, steps)
-    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
-    start = start_state(group.episodes, starts, seed) if seed is not None and starts is not None else None
+def plot_tracks_3d(inp: FigureInput):
+    """3-D view: terrain surface, radars, the coverage contour at a stated altitude, the tracks."""
+    seed, tracks, start = _seed_inputs(inp)
+    figure, panels = family_figure(list(tracks), 7.5, 6.2)
+    model = inp.model
+    title = f"{inp.group.name}: tracks, seed {seed}"
     top = max((float(rows["z_m"].max()) for rows in tracks.values()), default=0.0)
-    if model is not None:
-        built = model.built[0]
-        stride = max(1, math.ceil(max(built.grid.nx, built.grid.ny) / SURFACE_NODES))
-        x = built.grid.x_nodes[::stride] / 1000.0
-        y = built.grid.y_nodes[::stride] / 1000.0
-        gx, gy = np.meshgrid(x, y, indexing="ij")
-        heights = built.terrain[::stride, ::stride]
-        ax.plot_surface(gx, gy, heights, cmap=_terrain_colormap(), linewidth=0, antialiased=False, alpha=0.6)
-        if tracks:
-            altitude, xs, ys, threat = _coverage(model, tracks, start)
-            if threat.max() > COVERAGE_LEVEL > threat.min():
-                cx, cy = np.meshgrid(xs, ys, indexing="ij")
-                ax.contour(
-                    cx,
-                    cy,
-                    threat,
-                    levels=[COVERAGE_LEVEL],
-                    offset=altitude,
-                    colors="red",
-                    linewidths=0.8,
-                    linestyles="dashed",
-                )
-        _scenario_markers(ax, model, start, three_d=True)
-        top = max(top, float(built.terrain.max()))
-    for label, rows in tracks.items():
-        x, y, z = _with_start(rows, start)
-        ax.plot(x, y, z, color=colours[label], linewidth=1.6, label=label)
-    if not tracks:
-        ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
-    ax.set_zlim(0.0, max(top * 1.3, 1.0))
-    ax.view_init(elev=35, azim=-60)
-    ax.set_xlabel("x [km]")
-    ax.set_ylabel("y [km]")
-    ax.set_zlabel("z [m]")
-    ax.set_title(f"{group.name}: tracks, seed {seed}", fontsize=9)
-    ax.legend(loc="upper left", fontsize=7)
+    coverage, altitude = None, None
+    if model is not None and tracks:
+        altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
+        coverage = coverage_at(model, altitude, start)
+        title += "\n" + _coverage_title(altitude, reason).replace("P_d", "contour P_d")
+    for family, container, members in panels:
+        ax = container.add_subplot(projection="3d")
+        if model is not None:
+            built = model.built[0]
+            stride = max(1, math.ceil(max(built.grid.nx, built.grid.ny) / SURFACE_NODES))
+            x = built.grid.x_nodes[::stride] / 1000.0
+            y = built.grid.y_nodes[::stride] / 1000.0
+            gx, gy = np.meshgrid(x, y, indexing="ij")
+            heights = built.terrain[::stride, ::stride]
+            ax.plot_surface(
+                gx, gy, heights, cmap=_terrain_colormap(), linewidth=0, antialiased=False, alpha=0.6
+            )
+            if coverage is not None:
+                xs, ys, threat = coverage
+                if threat.max() > COVERAGE_LEVEL > threat.min():
+                    cx, cy = np.meshgrid(xs, ys, indexing="ij")
+                    ax.contour(
+                        cx,
+                        cy,
+                        threat,
+                        levels=[COVERAGE_LEVEL],
+                        offset=altitude,
+                        colors="red",
+                        linewidths=0.8,
+                        linestyles="dashed",
+                    )
+            _scenario_markers(ax, model, start, three_d=True)
+            top = max(top, float(built.terrain.max()))
+        for label in members:
+            x, y, z = _with_start(tracks[label], start)
+            ax.plot(x, y, z, **inp.styles[label].line(), linewidth=1.6, label=label)
+        if not tracks:
+            ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
+        ax.set_zlim(0.0, max(top * 1.3, 1.0))
+        ax.view_init(elev=35, azim=-60)
+        ax.set_xlabel("x [km]")
+        ax.set_ylabel("y [km]")
+        ax.set_zlabel("z [m]")
+        ax.set_title(family if family is not None else title, fontsize=9)
+        outside_legend(container)
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure
 
 
-def plot_timeline(group: ScenarioGroup, steps: pd.DataFrame, colours: dict[str, Any]):
+def plot_timeline(inp: FigureInput):
     """Altitude above ground and detection probability per step, one line per planner, the track seed."""
-    figure = new_figure(7.5, 5.5)
-    altitude_ax, detection_ax = figure.subplots(2, 1, sharex=True)
-    seed = track_seed(group.episodes, steps)
-    tracks = seed_tracks(group.episodes, steps, seed) if seed is not None else {}
-    for label, rows in tracks.items():
-        k = rows["step"].to_numpy(dtype=int)
-        style = {"color": colours[label], "marker": "o", "markersize": 2.5, "linewidth": 1.3}
-        altitude_ax.plot(k, rows["altitude_agl"].to_numpy(dtype=np.float64), label=label, **style)
-        detection_ax.plot(k, rows["detection_prob"].to_numpy(dtype=np.float64), **style)
-    if not tracks:
-        note_empty(altitude_ax, "no finished episode with stored steps")
-    altitude_ax.set_ylabel("altitude AGL [m]")
-    altitude_ax.set_title(f"{group.name}: seed {seed}", fontsize=9)
-    altitude_ax.legend(fontsize=7)
-    detection_ax.set_ylabel("detection probability")
-    detection_ax.set_ylim(-0.02, 1.02)
-    detection_ax.set_xlabel("track point k")
+    seed, tracks, _ = _seed_inputs(inp)
+    figure, panels = family_figure(list(tracks), 7.0, 5.0)
+    title = f"{inp.group.name}: altitude and detection, seed {seed}"
+    for family, container, members in panels:
+        altitude_ax, detection_ax = container.subplots(2, 1, sharex=True)
+        for label in members:
+            rows = tracks[label]
+            k = rows["step"].to_numpy(dtype=int)
+            style = {**inp.styles[label].line(), "marker": "o", "markersize": 2.5, "linewidth": 1.3}
+            altitude_ax.plot(k, rows["altitude_agl"].to_numpy(dtype=np.float64), label=label, **style)
+            detection_ax.plot(k, rows["detection_prob"].to_numpy(dtype=np.float64), **style)
+        if not tracks:
+            note_empty(altitude_ax, "no finished episode with stored steps")
+        altitude_ax.set_ylabel("altitude AGL [m]")
+        altitude_ax.set_title(family if family is not None else title, fontsize=9)
+        detection_ax.set_ylabel("detection probability")
+        detection_ax.set_ylim(-0.02, 1.02)
+        detection_ax.set_xlabel("track point k")
+        outside_legend(container)
+    if len(panels) > 1:
+        figure.suptitle(title, fontsize=10)
     return figure

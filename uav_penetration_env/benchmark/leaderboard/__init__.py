@@ -117,9 +117,8 @@ def write_leaderboards(
         suite: write one table over all scenarios, named ``suite``.
 
     Returns:
-        The written paths, Markdown then CSV per group, groups sorted by (name, hash); then, when
-        the store has window runs (``uav-bench windows``), ``<stem>-fixed-target.md`` and ``.csv``
-        per scenario (api.md §4.7).
+        The written paths, Markdown then CSV per group, groups sorted by (name, hash). The
+        fixed-target tables of window runs are written by :func:`~.fixedtarget.write_fixed_target`.
 
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
@@ -150,11 +149,4 @@ def write_leaderboards(
         csv = out_dir / f"{group.stem}.csv"
         table.to_csv(csv, index=False, lineterminator="\n")
         written += [markdown, csv]
-    if suite is None:
-        # Window runs (``uav-bench windows``): the fixed-target and fixed-budget comparison per scenario.
-        from uav_penetration_env.benchmark.fixedtarget import write_fixed_target
-
-        stems = {group.scenario_hash: group.stem for group in groups}
-        with ResultsStore(store_path) as store:
-            written += write_fixed_target(store, out_dir, stems, reference=reference, command=command)
     return written

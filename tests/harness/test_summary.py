@@ -1,0 +1,134 @@
+"""The terminal summary (100 columns whatever the names), the progress bar, `report` and `run`'s report."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import tiny_scenario
+
+from uav_penetration_env.benchmark import cli
+from uav_penetration_env.benchmark.progress import ProgressBar
+from uav_penetration_env.benchmark.summary import MAX_WIDTH, gap_column, print_summary, summary_rows
+
+PLANNERS = ["ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "cmaes", "de"]
+FLOORS = ["greedy", "random", "ihpso-eq37", "ihpso-no-adaptive-inertia", "ihpso-no-mutation"]
+AGENTS = [
+    f"sb3:models/{algo}-paper-seed{seed}-1000000steps.zip" for algo in ("ppo", "sac") for seed in range(5)
+]
+POLICIES = PLANNERS + FLOORS + AGENTS  # 25 policies, ten of them 44 characters long
+
+
+def leaderboard_frame(policies, gap: bool = False) -> pd.DataFrame:
+    """A leaderboard CSV's summary columns; the first policy is the reference (no paired difference)."""
+    n = len(policies)
+    mean = 10.0 + 1.2345 * np.arange(n)
+    frame = pd.DataFrame(
+        {
+            "policy": policies,
+            "success_rate": np.linspace(1.0, 0.0, n),
+            "total_cost_mean": mean,
+            "total_cost_mean_ci_low": mean - 0.5678,
+            "total_cost_mean_ci_high": mean + 123.456,
+            "total_cost_iqm": mean - 0.25,
+            "friedman_rank": np.linspace(1.0, float(n), n),
+            "delta_mean": mean - mean[0],
+            "pvalue_holm": np.linspace(0.0001, 1.0, n),
+        }
+    )
+    frame.loc[0, ["delta_mean", "pvalue_holm"]] = np.nan
+    frame.loc[1, "pvalue_holm"] = 0.0001
+    if gap:
+        frame["gap_best_known_mean"] = np.linspace(0.0, 0.5, n)
+        frame["gap_best_known_mean_ci_low"] = 0.0
+    return frame
+
+
+def render(tmp_path, frame, width=MAX_WIDTH) -> str:
+    path = tmp_path / "paper.csv"
+    frame.to_csv(path, index=False)
+    stream = io.StringIO()
+    print_summary([path, path.with_suffix(".md")], report=tmp_path / "index.html", file=stream, width=width)
+    return stream.getvalue()
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_the_summary_fits_100_columns_with_25_long_names(tmp_path, gap):
+    text = render(tmp_path, leaderboard_frame(POLICIES, gap=gap))
+    lines = text.splitlines()
+    assert max(len(line) for line in lines) <= MAX_WIDTH
+    for name in POLICIES:  # long names fold inside their cell: their start is on one line
+        assert name[:20] in text
+    assert ("gap to best" in text) == gap
+    assert "Δ vs ihpso (p)" in text and "reference" in text
+    assert "p<0.001" in text  # the second row: p = 0.0001
+    assert f"full table: {tmp_path / 'paper.csv'}" in text and f"report: {tmp_path / 'index.html'}" in text
+
+
+def test_summary_cells_say_what_the_csv_says():
+    frame = leaderboard_frame(["ihpso", "greedy"], gap=True)
+    header, rows = summary_rows(frame)
+    assert header == ["policy", "success", "total J [95% CI]", "IQM", "gap to best", "rank", "Δ vs ihpso (p)"]
+    assert rows[0] == ["ihpso", "100%", "10 [9.43, 133]", "9.75", "0.0%", "1", "reference"]
+    # greedy: mean 11.2345, CI [10.67, 134.7], delta 1.2345 at p = 0.0001 (set), gap 50 %
+    assert rows[1] == ["greedy", "0%", "11.2 [10.7, 135]", "11", "50.0%", "2", "1.23 (p<0.001)"]
+    assert (
+        gap_column(["policy", "gap_best_known_mean_ci_low", "gap_best_known_mean"]) == "gap_best_known_mean"
+    )
+    assert gap_column(list(leaderboard_frame(["a"]).columns)) is None
+
+
+def test_the_progress_bar_counts_and_shows_an_eta():
+    from rich.console import Console
+
+    stream = io.StringIO()
+    console = Console(file=stream, width=100, force_terminal=False)
+    with ProgressBar(10, "episodes", unit="ep", console=console) as bar:
+        bar.update(3)
+        bar.set_postfix(failures=1)
+    assert bar.n == 3
+    text = stream.getvalue()
+    assert "episodes" in text and "3/10" in text and "ETA" in text and "failures=1" in text
+    silent = ProgressBar(5, "x", enabled=False)
+    silent.update(2)
+    silent.close()
+    assert silent.n == 2
+
+
+@pytest.fixture(scope="module")
+def tiny_yaml(tmp_path_factory):
+    return str(
+        tiny_scenario(time={"max_steps": 12}).to_yaml(tmp_path_factory.mktemp("scenario") / "tiny.yaml")
+    )
+
+
+def test_run_writes_the_report_by_default_and_report_rewrites_it(tmp_path, tiny_yaml, capsys):
+    store, out = tmp_path / "s.sqlite", tmp_path / "out"
+    common = ["--scenarios", tiny_yaml, "--seeds", "2", "--store", store, "--no-progress", "--jobs", "1"]
+    assert cli.main([str(a) for a in ["run", "--policies", "greedy", "random", *common, "--out", out]]) == 0
+    printed = capsys.readouterr().out
+    assert (out / "index.html").is_file() and (out / "tiny.csv").is_file()
+    assert f"report: {out / 'index.html'}" in printed
+    assert "total J [95% CI]" in printed and "greedy" in printed
+    table = [line for line in printed.splitlines() if str(tmp_path) not in line]  # paths print whole
+    assert max(len(line) for line in table) <= MAX_WIDTH
+
+    # --no-report: the store grows, and no table, figure or page is written.
+    quiet = tmp_path / "quiet"
+    argv = ["run", "--policies", "greedy", *common, "--out", quiet, "--no-report"]
+    assert cli.main([str(a) for a in argv]) == 0
+    assert not quiet.exists() or not any(quiet.iterdir())
+    assert "report:" not in capsys.readouterr().out
+
+    page = tmp_path / "page"
+    assert cli.main(["report", "--store", str(store), "--out", str(page), "--reference", "greedy"]) == 0
+    printed = capsys.readouterr().out
+    assert f"report: {page / 'index.html'}" in printed and "Δ vs greedy (p)" in printed
+    html = (page / "index.html").read_text()
+    assert 'id="policy-greedy"' in html and 'id="policy-random"' in html
+    assert sorted(p.suffix for p in page.iterdir() if p.name.startswith("tiny-")) == [".png"] * 7
+
+    assert cli.main(["report", "--store", str(tmp_path / "none.sqlite"), "--out", str(page)]) == 2
+    assert "--store: no results store" in capsys.readouterr().err

@@ -1,0 +1,112 @@
+"""``uav-bench report``: the leaderboards, the figures and one self-contained HTML page of a store.
+
+``uav-bench run`` ends with the same :func:`write_results` unless ``--no-report``; this command
+writes them again from any store (e.g. after adding episodes, or on another machine).
+
+DECISION (api.md §4.6): the page is written together with the tables and figures it shows, so it
+never shows stale files left in ``--out`` by an earlier run; the figures are PNG only here (the
+page embeds PNGs; ``uav-bench plot`` writes the PDFs).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from uav_penetration_env.benchmark.commands.common import (
+    DEFAULT_OUT,
+    Command,
+    add_store_argument,
+    check_writable_folder,
+    command_line,
+    existing_store,
+)
+from uav_penetration_env.benchmark.commands.plot import add_altitude_argument
+
+
+@dataclass(frozen=True)
+class Written:
+    """What :func:`write_results` wrote: leaderboard files, figure files and the HTML page."""
+
+    tables: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    report: Path | None = None
+
+
+def write_results(
+    store: Path,
+    out: Path,
+    *,
+    command: str,
+    reference: str = "ihpso",
+    formats: Sequence[str] = ("png",),
+    altitude: float | None = None,
+) -> Written:
+    """Write the leaderboards, the figures and ``out/index.html`` of ``store``.
+
+    Args:
+        store: an existing results store.
+        out: the output folder (created if needed).
+        command: the command line recorded in the tables' provenance.
+        reference: the policy the paired tests compare against.
+        formats: figure file types (the page embeds the PNGs).
+        altitude: the radar-coverage altitude of the track figures [m] (default: the MPC
+            planners' median).
+
+    Returns:
+        The written paths.
+    """
+    from uav_penetration_env.benchmark.figures import write_figures
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.benchmark.report import write_report
+
+    tables = write_leaderboards(store, out, reference=reference, command=command)
+    figures = write_figures(store, out, formats=formats, altitude=altitude)
+    page = write_report(store, out, tables=tables, figures=figures)
+    return Written(tables=tables, figures=figures, report=page)
+
+
+def print_written(written: Written, out: Path, reference: str | None = None) -> None:
+    """The terminal summary of each table, then the paths of the full tables and the report."""
+    from uav_penetration_env.benchmark.summary import print_summary
+
+    print_summary(
+        written.tables,
+        report=written.report,
+        figures=out if written.figures else None,
+        reference=reference,
+    )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench report``."""
+    add_store_argument(parser)
+    parser.add_argument(
+        "--out", default=str(DEFAULT_OUT), help=f"folder of index.html and its files (default: {DEFAULT_OUT})"
+    )
+    parser.add_argument(
+        "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
+    )
+    add_altitude_argument(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the tables, figures and page; print the summary and where they are."""
+    store = existing_store(args.store)
+    out = Path(args.out)
+    check_writable_folder(out, "--out")
+    written = write_results(
+        store, out, command=command_line(args), reference=args.reference, altitude=args.altitude
+    )
+    print_written(written, out)
+    return 0
+
+
+COMMAND = Command(
+    name="report",
+    help="one self-contained HTML page (tables, figures, 3-D tracks) from a store",
+    add_arguments=add_arguments,
+    run=run,
+)
