@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from uav_penetration_env.benchmark.commands import available_commands
-from uav_penetration_env.benchmark.commands.common import CLIError
+from uav_penetration_env.benchmark.commands.common import CLIError, store_error
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
 
 
@@ -57,6 +57,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.handler.run(args) or 0)
     except (CLIError, PluginUnavailable) as error:
         print(f"uav-bench: error: {error}", file=sys.stderr)
+        return 2
+    except Exception as error:
+        # A store that goes bad while a command reads it (a damaged page met mid-way) is an input
+        # problem like one refused up front; the store module (pandas) is imported only if needed.
+        if type(error).__name__ != "StoreError":
+            raise
+        from uav_penetration_env.benchmark.store import StoreError
+
+        if not isinstance(error, StoreError):
+            raise
+        print(f"uav-bench: error: {store_error(error)}", file=sys.stderr)
         return 2
 
 

@@ -80,7 +80,7 @@ class ReportContext:
     def store(self) -> ResultsStore:
         """The results store, opened on first use."""
         if self._store is None:
-            self._store = ResultsStore(self.store_path)
+            self._store = ResultsStore(self.store_path, create=False)
         return self._store
 
     @cached_property

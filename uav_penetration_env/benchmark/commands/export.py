@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     store_path = existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_suffix("")
     check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         tables = {"episodes": store.episodes(), "steps": store.steps()}
     for name, frame in tables.items():
         path = out.parent / f"{out.name}-{name}.{args.format}"

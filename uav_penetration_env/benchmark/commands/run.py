@@ -30,6 +30,7 @@ from uav_penetration_env.benchmark.commands.common import (
     parse_weights,
     resolve_scenarios,
     split_list,
+    store_error,
 )
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
 from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
@@ -190,7 +191,7 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboard and figures."""
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
-    from uav_penetration_env.benchmark.store import ResultsStore, StoreError
+    from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
 
     settings = run_settings(args)
     try:
@@ -209,13 +210,17 @@ def run(args: argparse.Namespace) -> int:
     )
     store_path = Path(settings["store"])
     out = Path(settings["out"])
-    check_writable_folder(store_path.parent, "--store")
+    try:
+        inspect_store_file(store_path)  # before anything is written: a bad store is left as it is
+    except StoreError as error:
+        raise store_error(error) from None
+    check_writable_folder(store_path.parent, "--store", store_path)
     if settings["report"]:
         check_writable_folder(out, "--out")
     try:
         store = ResultsStore(store_path)
     except StoreError as error:
-        raise CLIError(f"--store: {error}") from None
+        raise store_error(error) from None
     jobs = settings["jobs"]
     episodes = len(policies) * len(scenarios) * len(seeds)
     print(

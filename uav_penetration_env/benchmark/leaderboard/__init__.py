@@ -127,7 +127,7 @@ def write_leaderboards(
         raise FileNotFoundError(
             f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
         )
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         episodes, runs = store.episodes(), store.runs()
     if command is None:
         command = (
