@@ -4,7 +4,8 @@ This module is the program: it builds the parser from the command registry
 (:mod:`uav_penetration_env.benchmark.commands`, one module per command, plus the plug-in
 commands of the entry-point group ``uav_penetration.commands``), dispatches, and turns every
 :class:`~uav_penetration_env.benchmark.commands.common.CLIError` (bad input) and every missing
-extra into one line ``uav-bench: error: ...`` with exit status 2.
+extra into one line ``uav-bench: error: ...`` with exit status 2. The exit statuses are
+listed in :data:`EXIT_STATUS` (the epilog of ``uav-bench --help``).
 """
 
 from __future__ import annotations
@@ -17,12 +18,21 @@ from uav_penetration_env.benchmark.commands import available_commands
 from uav_penetration_env.benchmark.commands.common import CLIError, store_error
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
 
+EXIT_STATUS = """exit status:
+  0    all the work was done
+  1    some work failed (e.g. `run` episodes that ended in an error: stored as error rows,
+       counted in the summary line, retried by rerunning the same command)
+  2    bad arguments or inputs (one line `uav-bench: error: ...`; nothing written)
+  130  interrupted (Ctrl-C); finished work is kept"""
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command."""
     parser = argparse.ArgumentParser(
         prog="uav-bench",
         description="UAV penetration benchmark: run planners, build leaderboards and figures.",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     commands, extensions = available_commands()

@@ -250,7 +250,8 @@ def run(args: argparse.Namespace) -> int:
         return 130
     store.close()
     errors = int((frame["error"] != "").sum())
-    print(f"results: {store_path} ({len(frame)} episodes, {errors} errors)")
+    failed = f"; {errors} of {len(frame)} episodes FAILED, exit status 1" if errors else ""
+    print(f"results: {store_path} ({len(frame)} episodes, {errors} errors{failed})")
     if errors:
         first = frame.loc[frame["error"] != "", ["policy", "seed", "error"]].iloc[0]
         print(
@@ -259,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if settings["report"]:
         report(store_path, out, command)
-    return 0
+    return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
 
 
 def report(store: Path, out: Path, command: str) -> None:
