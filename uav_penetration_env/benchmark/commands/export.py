@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from uav_penetration_env.atomic import atomic_path
 from uav_penetration_env.benchmark.commands.common import (
     Command,
     add_store_argument,
@@ -31,10 +32,11 @@ def run(args: argparse.Namespace) -> int:
         tables = {"episodes": store.episodes(), "steps": store.steps()}
     for name, frame in tables.items():
         path = out.parent / f"{out.name}-{name}.{args.format}"
-        if args.format == "csv":
-            frame.to_csv(path, index=False)
-        else:
-            frame.to_parquet(path, index=False)
+        with atomic_path(path) as temporary:  # an interrupted export never looks complete
+            if args.format == "csv":
+                frame.to_csv(temporary, index=False)
+            else:
+                frame.to_parquet(temporary, index=False)
         print(path)
     return 0
 
