@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from uav_penetration_env.benchmark.commands import available_commands
 from uav_penetration_env.benchmark.commands.common import CLIError, store_error
@@ -26,9 +27,25 @@ EXIT_STATUS = """exit status:
   130  interrupted (Ctrl-C); finished work is kept"""
 
 
+class UsageError(CLIError):
+    """A command line argparse cannot parse (unknown flag, missing value, a value of the wrong type)."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``uav-bench: error: PROG: MESSAGE``), not a usage dump.
+
+    ``--help`` still prints the full usage; a parse error raises :class:`UsageError`, which
+    :func:`main` prints as one line with exit status 2, like every other bad input.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        """Raise :class:`UsageError` naming the (sub-)command and pointing at its ``--help``."""
+        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="uav-bench",
         description="UAV penetration benchmark: run planners, build leaderboards and figures.",
         epilog=EXIT_STATUS,
@@ -54,9 +71,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CLIError as error:  # a clashing plug-in: say so even for --help
         print(f"uav-bench: error: {error}", file=sys.stderr)
         return 2
-    args, unknown = parser.parse_known_args(argv)
-    if unknown and not getattr(args, "accepts_any_arguments", False):
-        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    try:
+        args, unknown = parser.parse_known_args(argv)
+        if unknown and not getattr(args, "accepts_any_arguments", False):
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    except UsageError as error:
+        print(f"uav-bench: error: {error}", file=sys.stderr)
+        return 2
     args.argv = argv
     try:
         for extension in args.extensions:

@@ -12,6 +12,7 @@ from uav_penetration_env.benchmark.commands.common import (
     Command,
     check_writable_folder,
     command_line,
+    int_at_least,
     resolve_scenarios,
     split_list,
 )
@@ -28,19 +29,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-evals",
         dest="max_evals",
-        type=int,
+        type=int_at_least(1),
         default=defaults["max_evals"],
         help=f"objective evaluations per planning step (default: {defaults['max_evals']})",
     )
     parser.add_argument(
         "--runs",
-        type=int,
+        type=int_at_least(1),
         default=defaults["runs"],
         help=f"episodes per objective (default: {defaults['runs']})",
     )
     parser.add_argument(
         "--horizon",
-        type=int,
+        type=int_at_least(1),
         default=defaults["horizon"],
         help=f"MPC horizon H (default: {defaults['horizon']})",
     )

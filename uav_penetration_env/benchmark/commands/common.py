@@ -76,6 +76,22 @@ class CommandExtension:
 # --- the small languages of api.md ------------------------------------------------------------------
 
 
+def int_at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse ``type=``: an integer >= ``minimum`` (errors become ``argument --FLAG: got ...``)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected an integer >= {minimum}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
 def parse_seeds(text: str | int) -> list[int]:
     """``20`` -> 0..19; ``5:10`` -> 5..9 (half-open, like ``range``).
 

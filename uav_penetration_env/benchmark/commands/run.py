@@ -12,6 +12,7 @@ leaves every finished episode stored (exit status 130); rerunning the same comma
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -159,6 +160,46 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
     return settings
 
 
+def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """The numeric settings (from flags or ``--config``) checked against their domains and converted.
+
+    Raises:
+        CLIError: ``--FLAG: got VALUE, expected DOMAIN`` for the first bad one (a config file's
+            values reach here unconverted: ``max_evals: lots`` is refused, not a traceback).
+    """
+    rules: dict[str, tuple[Any, Any, str]] = {
+        "max_evals": (int, lambda v: v >= 1, "an integer >= 1"),
+        "horizon": (int, lambda v: v >= 1, "an integer >= 1"),
+        "discount": (float, lambda v: 0.0 < v <= 1.0, "a number in (0, 1]"),
+        "terminal_cost": (float, lambda v: math.isfinite(v) and v >= 0.0, "a finite number >= 0"),
+        "difficulty": (float, lambda v: 0.0 <= v <= 1.0, "a number in [0, 1]"),
+        "jobs": (int, lambda v: True, "an integer (0: all cores, -N: all but N-1)"),
+    }
+    checked = dict(settings)
+    for key, (kind, allowed, expected) in rules.items():
+        value = settings[key]
+        if value is None:
+            continue
+        flag = "--" + key.replace("_", "-")
+        try:
+            if isinstance(value, bool) or (
+                kind is int and isinstance(value, float) and not value.is_integer()
+            ):
+                raise ValueError
+            converted = kind(value)
+            ok = bool(allowed(converted))
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise CLIError(f"{flag}: got {value!r}, expected {expected}")
+        checked[key] = converted
+    for key in ("backend", "store", "out", "seeds", "profile", "scheduler"):
+        value = settings[key]
+        if value is not None and not isinstance(value, (str, int, float)):
+            raise CLIError(f"--{key}: got {value!r}, expected a single value")
+    return checked
+
+
 def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     """The policies of ``--policies`` by table name; plug-in kinds are checked for their extras here.
 
@@ -193,7 +234,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
     from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
 
-    settings = run_settings(args)
+    settings = check_settings(run_settings(args))
     try:
         import_plugins(settings["import"])
     except ImportError as error:
@@ -208,6 +249,8 @@ def run(args: argparse.Namespace) -> int:
         parse_weights(settings["weights"]),
         float(settings["difficulty"]),
     )
+    if not scenarios:
+        raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
     store_path = Path(settings["store"])
     out = Path(settings["out"])
     try:
