@@ -1,6 +1,11 @@
 """Environment speed, measured in one run on the paper scenario (issue 3's targets as ratios).
 
-Prints:
+Prints, side by side with the numpy formulation (the test oracle tests/numpy_model.py, issue 10):
+* the compiled kernels' first-call cost in a fresh process, cold (empty compile cache) and warm;
+* ``rollout_cost`` particle-steps per second at batch 100, 1 000 and 10 000 (H = 5), compiled on
+  one thread and on every thread, against the numpy model (target: >= 1.5 M at 100 x 5, one
+  thread);
+* single-env steps per second, compiled against numpy (target: >= 10x);
 * single-env steps per second (``gym.make``, and the unwrapped env);
 * native vector-env env-steps per second at 1, 16, 256 and 1024 envs, and the ratio to the
   single env (target: >= 30x at 256 envs);
@@ -9,22 +14,61 @@ Prints:
 * scenario build time, cold (fresh cache folder) and cached, for the paper, DEM and random
   scenarios with 4 and 8 radars (target: <= 2 s per 4 radars on one core).
 
-Usage: ``python benchmarks/bench_env.py [--quick]``.
+Usage: ``python benchmarks/bench_env.py [--quick]`` (``--quick`` skips the cold compile).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
+import sys
 import tempfile
 import time
+from pathlib import Path
 
 import gymnasium as gym
+import numba
 import numpy as np
 
 import uav_penetration_env  # noqa: F401  (registers the ids)
 from uav_penetration_env import PenetrationModel, cache, dem_scenario, paper_scenario, random_scenario
 from uav_penetration_env.build import build_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.append(str(ROOT / "tests"))  # appended: tests/optimizers must not shadow optimizers
+from numpy_model import NumpyPenetrationModel  # noqa: E402  (the oracle lives under tests/)
+
+FIRST_CALLS = """
+import time
+start = time.perf_counter()
+import numpy as np
+from uav_penetration_env import PenetrationModel, paper_scenario
+model = PenetrationModel(paper_scenario())
+imported = time.perf_counter()
+state = model.initial_state()
+result = model.step(state[None], np.zeros((1, 3)), 0)
+model.observe(result.state, result.step_index, result)
+model.observe(state[None], 0)
+model.rollout_cost(state, np.zeros((4, 5, 3)), step=0)
+print(imported - start, time.perf_counter() - imported)
+"""
+
+
+def first_call_seconds(cache_folder: str | None) -> tuple[float, float]:
+    """(import + build, first step/observe/rollout calls) seconds in a fresh process.
+
+    ``cache_folder``: numba's compile cache for that process (``None``: the default, next to the
+    sources).
+    """
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cache_folder is not None:
+        environment["NUMBA_CACHE_DIR"] = cache_folder
+    output = subprocess.run(
+        [sys.executable, "-c", FIRST_CALLS], env=environment, capture_output=True, text=True, check=True
+    ).stdout
+    setup, calls = (float(value) for value in output.split())
+    return setup, calls
 
 
 def timed(function, repeat: int) -> float:
@@ -116,6 +160,57 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
             os.environ[cache.ENV_VAR] = saved
         cache.clear_memory()
 
+    print("\n== compiled kernels: first calls in a fresh process (step, observe x2, rollout_cost) ==")
+    if args.quick:  # the package's own cache, filled by whoever ran first
+        setup, warm = first_call_seconds(None)
+    else:
+        with tempfile.TemporaryDirectory() as folder:
+            setup, cold = first_call_seconds(folder)
+            results["compile_cold_s"] = cold
+            print(f"cold (empty compile cache)  {cold:7.2f} s   (import + scenario {setup:5.2f} s)")
+            setup, warm = first_call_seconds(folder)
+    results["compile_warm_s"] = warm
+    print(f"warm (compile cache filled) {warm:7.2f} s   (import + scenario {setup:5.2f} s)")
+
+    print("\n== rollout_cost particle-steps/s (H = 5), compiled against numpy in this process ==")
+    compiled = PenetrationModel(paper_scenario())
+    oracle = NumpyPenetrationModel(compiled.built)
+    start_state = compiled.initial_state()
+    high = compiled.limits.action_high
+    threads = numba.get_num_threads()
+    print(f"{'batch':>7}{'numpy':>12}{'1 thread':>12}{'x numpy':>9}{f'{threads} threads':>12}{'x numpy':>9}")
+    for batch in (100, 1_000, 10_000):
+        sequences = np.random.default_rng(0).uniform(-high, high, size=(batch, 5, 3)) * [1.0, 1.0, 0.3]
+        repeat = max(1, (3 if args.quick else 30) * 100 // batch)
+
+        def call(model, sequences=sequences):
+            return lambda: model.rollout_cost(start_state, sequences, step=0, terminal_cost=0.06)
+
+        slow = batch * 5 / timed(call(oracle), repeat)
+        numba.set_num_threads(1)
+        one = batch * 5 / timed(call(compiled), repeat)
+        numba.set_num_threads(threads)
+        many = batch * 5 / timed(call(compiled), repeat)
+        results[f"rollout_{batch}_numpy"] = slow
+        results[f"rollout_{batch}_1thread"] = one
+        results[f"rollout_{batch}_threads"] = many
+        print(
+            f"{batch:>7}{slow / 1e6:>11.3f}M{one / 1e6:>11.3f}M{one / slow:>8.1f}x{many / 1e6:>11.3f}M{many / slow:>8.1f}x"
+        )
+
+    print("\n== single env, compiled against numpy (paper scenario, unwrapped, 1 thread) ==")
+    numba.set_num_threads(1)
+    fast_env = gym.make("UAVPenetration-v0").unwrapped
+    slow_env = gym.make("UAVPenetration-v0").unwrapped
+    for key, model in slow_env._models.items():  # the env's model cache: swap in the numpy model
+        slow_env._models[key] = NumpyPenetrationModel(model.built)
+    fast = single_env_rate(fast_env, steps)
+    slow = single_env_rate(slow_env, max(50, steps // 5))
+    numba.set_num_threads(threads)
+    results["single_env_compiled"] = fast
+    results["single_env_numpy"] = slow
+    print(f"numpy {slow:10.0f} steps/s   compiled {fast:10.0f} steps/s   {fast / slow:6.1f}x")
+
     print("\n== single env (paper scenario) ==")
     wrapped = single_env_rate(gym.make("UAVPenetration-v0"), steps)
     bare = single_env_rate(gym.make("UAVPenetration-v0").unwrapped, steps)
@@ -130,7 +225,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         results[f"vector_{num_envs}"] = rate
         print(f"{num_envs:>9}{rate:>14.0f}{rate / wrapped:>14.1f}")
 
-    print("\n== rollout_cost (100 particles x 5 steps) ==")
+    print("\n== rollout_cost (100 particles x 5 steps, every thread) ==")
     model = PenetrationModel(paper_scenario())
     state = model.initial_state()
     rng = np.random.default_rng(0)

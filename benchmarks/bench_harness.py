@@ -1,48 +1,91 @@
-"""Harness speed, measured in one run on the paper scenario (issue 5's targets).
+"""Harness speed, measured in one run on the paper scenario (issue 5's and issue 10's targets).
 
-Prints, for each planner as an MPC policy (horizon 5, ``--max-evals`` per step):
-* planning seconds per MPC step;
-* the share of it spent inside ``model.rollout_cost`` (the rest is optimiser + harness overhead;
-  target: overhead < 25 % for every swarm planner);
+Prints, for each planner as an MPC policy (horizon 5, ``--max-evals`` per step), on one thread:
+* planning seconds per MPC step with the numpy model (the test oracle tests/numpy_model.py) and
+  with the compiled model, and the speed-up (issue 10 target: >= 5x for ihpso, pso, cem at 10 000
+  evaluations);
+* the share of the compiled step spent inside ``model.rollout_cost`` (the rest is optimiser +
+  harness overhead), and for DE its own overhead per iteration;
 and the speed-up of ``n_jobs=2`` over ``n_jobs=1`` on a sweep of 8 episodes (target: >= 1.7x on
 2 cores), both timed end to end (worker start-up included).
 
-Usage: ``python benchmarks/bench_harness.py [--quick] [--steps 8] [--max-evals 10000]``.
+With ``--main-job``, also the wall time of ``uav-bench run`` with no flags (45 episodes, all cores,
+a fresh store, the compile cache as it is).
+
+Usage: ``python benchmarks/bench_harness.py [--quick] [--steps 8] [--max-evals 10000] [--main-job]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
+import sys
 import tempfile
 import time
+from pathlib import Path
+
+import numba
 
 from uav_penetration_env import paper_scenario
 from uav_penetration_env.benchmark.evaluate import evaluate
 from uav_penetration_env.benchmark.policies import make_policy
 from uav_penetration_env.env import UAVPenetrationEnv
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.append(str(ROOT / "tests"))  # appended: tests/optimizers must not shadow optimizers
+from numpy_model import NumpyPenetrationModel  # noqa: E402  (the oracle lives under tests/)
+
 SWARM = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso")
 REFERENCES = ("cem", "de", "cmaes")
 
 
-def planning_profile(name: str, steps: int, max_evals: int) -> tuple[float, float, float]:
-    """(planning seconds per step, share inside rollout_cost, evaluations per step) over ``steps`` MPC steps."""
+def planning_profile(
+    name: str, steps: int, max_evals: int, numpy_model: bool = False
+) -> tuple[float, float, float, float]:
+    """Per-MPC-step figures of one planner over ``steps`` steps.
+
+    Returns:
+        (planning seconds, share inside rollout_cost, evaluations, optimiser + harness seconds per
+        optimiser iteration).
+    """
     env = UAVPenetrationEnv(paper_scenario())
+    if numpy_model:
+        for key, model in env._models.items():  # the env's model cache: swap in the numpy model
+            env._models[key] = NumpyPenetrationModel(model.built)
     policy = make_policy(name, max_evals=max_evals)
     observation, info = env.reset(seed=0)
     policy.reset(env.model, 0)
-    planning = inside = evaluations = 0.0
+    planning = inside = evaluations = iterations = 0.0
     for _ in range(steps):
         action = policy.act(observation, info)
         record = policy.last_record
         planning += record["planning_seconds"]
         inside += record["objective_seconds"]
         evaluations += record["nfev"]
+        iterations += max(1, len(record["history"]) - 1)
         observation, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             observation, info = env.reset(seed=0)
-    return planning / steps, inside / planning, evaluations / steps
+    return planning / steps, inside / planning, evaluations / steps, (planning - inside) / iterations
+
+
+def main_job_seconds() -> float:
+    """Wall seconds of ``uav-bench run`` with no flags, into a fresh store and output folder."""
+    with tempfile.TemporaryDirectory() as folder:
+        command = [
+            sys.executable,
+            "-c",
+            "import sys; from uav_penetration_env.benchmark.cli import main; sys.exit(main(sys.argv[1:]))",
+            "run",
+            "--store",
+            os.path.join(folder, "results.sqlite"),
+            "--out",
+            os.path.join(folder, "out"),
+        ]
+        start = time.perf_counter()
+        subprocess.run(command, env=dict(os.environ, PYTHONPATH=str(ROOT)), check=True, capture_output=True)
+        return time.perf_counter() - start
 
 
 def sweep_seconds(n_jobs: int, max_evals: int, episodes: int = 8, max_steps: int | None = None) -> float:
@@ -68,6 +111,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--quick", action="store_true", help="tiny budgets (a smoke run, not a measurement)")
     parser.add_argument("--steps", type=int, default=8, help="MPC steps timed per planner")
     parser.add_argument("--max-evals", type=int, default=10_000, help="evaluations per planning step")
+    parser.add_argument("--main-job", action="store_true", help="also time `uav-bench run` with no flags")
     parser.add_argument(
         "--sweep-max-evals", type=int, default=5_000, help="evaluations per step in the 8-episode sweep"
     )
@@ -76,13 +120,30 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     max_evals = 300 if args.quick else args.max_evals
     results: dict[str, float] = {}
 
-    print(f"== planning per MPC step (paper scenario, H = 5, {max_evals} evaluations, {steps} steps) ==")
-    print(f"{'planner':<12}{'s/step':>9}{'in rollout_cost':>17}{'overhead':>10}{'evals/step':>12}")
-    for name in (*SWARM, *REFERENCES):
-        per_step, share, evals = planning_profile(name, steps, max_evals)
-        results[f"{name}_share"] = share
-        flag = "" if name in REFERENCES or share >= 0.75 else "  <-- overhead above 25 %"
-        print(f"{name:<12}{per_step:>9.3f}{share:>16.1%}{1 - share:>10.1%}{evals:>12.0f}{flag}")
+    print(
+        f"== planning per MPC step (paper scenario, H = 5, {max_evals} evaluations, {steps} steps, 1 thread) =="
+    )
+    print(
+        f"{'planner':<12}{'numpy s':>9}{'compiled s':>12}{'speed-up':>10}"
+        f"{'in rollout_cost':>17}{'overhead/iter':>15}{'evals/step':>12}"
+    )
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    planning_profile("pso", 1, 300)  # load (or compile) the kernels before anything is timed
+    try:
+        for name in (*SWARM, *REFERENCES):
+            slow, _, _, _ = planning_profile(name, steps, max_evals, numpy_model=True)
+            per_step, share, evals, per_iteration = planning_profile(name, steps, max_evals)
+            results[f"{name}_share"] = share
+            results[f"{name}_speedup"] = slow / per_step
+            results[f"{name}_overhead_per_iteration_s"] = per_iteration
+            flag = "" if name in REFERENCES or share >= 0.75 else "  <-- overhead above 25 %"
+            print(
+                f"{name:<12}{slow:>9.4f}{per_step:>12.4f}{slow / per_step:>9.1f}x{share:>16.1%}"
+                f"{per_iteration * 1e3:>12.3f} ms{evals:>12.0f}{flag}"
+            )
+    finally:
+        numba.set_num_threads(threads)
 
     sweep_evals = 300 if args.quick else args.sweep_max_evals
     print(
@@ -95,6 +156,12 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     print(
         f"n_jobs=1 {one:7.1f} s   n_jobs=2 {two:7.1f} s   speed-up {one / two:4.2f}x  (cores: {os.cpu_count()})"
     )
+    if args.main_job:
+        seconds = main_job_seconds()
+        results["main_job_s"] = seconds
+        print(
+            f"\n== main job: `uav-bench run` (no flags, {os.cpu_count()} cores) ==\nwall time {seconds:7.1f} s"
+        )
     return results
 
 

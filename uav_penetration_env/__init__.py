@@ -11,7 +11,13 @@ from gymnasium.envs.registration import register, registry
 
 from uav_penetration_env._version import __version__
 from uav_penetration_env.build import BuiltScenario, build_scenario
-from uav_penetration_env.catalogue import HELD_OUT_SEEDS, dem_scenario, generate_dem_scenario, random_scenario
+from uav_penetration_env.catalogue import (
+    HELD_OUT_SEEDS,
+    default_max_steps,
+    dem_scenario,
+    generate_dem_scenario,
+    random_scenario,
+)
 from uav_penetration_env.model import PenetrationModel, StepResult
 from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
 
@@ -32,7 +38,8 @@ __all__ = [
     "random_scenario",
 ]
 
-# model.md §7a: four ids, no TimeLimit wrapper (the envs truncate themselves at time.max_steps).
+# model.md §7a: four ids. Each truncates itself at its scenario's K_max (time.max_steps) and
+# registers that K_max as max_episode_steps, so gym.make's TimeLimit truncates at the same step.
 _ENV = "uav_penetration_env.env:UAVPenetrationEnv"
 _VECTOR = "uav_penetration_env.vector_env:UAVPenetrationVectorEnv"
 ENV_IDS = {
@@ -52,5 +59,5 @@ for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
             entry_point=_entry,
             vector_entry_point=_vector_entry,
             kwargs=_kwargs,
-            max_episode_steps=None,
+            max_episode_steps=default_max_steps(_kwargs.get("default_scenario")),
         )

@@ -37,6 +37,7 @@ from uav_penetration_env.scenario import (
     ScenarioError,
     StartConfig,
     TerrainConfig,
+    TimeConfig,
     _load_bundled,
     load_scenario,
     paper_scenario,
@@ -269,6 +270,17 @@ class UnknownScenarioError(ScenarioError):
         super().__init__("scenario", name, SCENARIO_HELP)
         hint = did_you_mean(name, [*NAMED_SCENARIOS, *RANDOM_FORMS])
         self.args = (f"unknown scenario {name!r} — {hint}expected {SCENARIO_HELP}",)
+
+
+def default_max_steps(name: str | None) -> int:
+    """K_max (``time.max_steps``) of a catalogue scenario, or of a procedural one when ``name`` is None.
+
+    The env ids register it as ``max_episode_steps`` (model.md §7a). Procedural scenarios keep the
+    default time settings (:class:`TimeConfig`), so no scenario is generated to read it.
+    """
+    if name is None:
+        return TimeConfig().max_steps
+    return resolve_scenario(name).time.max_steps
 
 
 def scenario_names() -> list[str]:

@@ -3,7 +3,8 @@
 Model.md §6-7: the third objective C(k) is the fuel burned on the step plus a potential-based
 progress term (paper eqs. 16-18 resolved, A22-A25); every term is normalised (analytic bounds or
 the paper's payoff table, eq. 39) and weighted into J(k) = w_e Th_e^n + w_r Th_r^n + w_C C^n
-(eq. 19). Pure functions; constants arrive as frozen dataclasses.
+(eq. 19). Here: the constants as frozen dataclasses and the analytic bounds; the per-step
+formulas are compiled in ``kernels.py`` (``fuel_burned``, ``third_term``, ``failure_penalty``).
 """
 
 from __future__ import annotations
@@ -11,10 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from uav_penetration_env.scenario import Scenario
-from uav_penetration_env.types import FloatArray
 
 GRAVITY = 9.80665  # [m/s^2]
 
@@ -54,41 +52,6 @@ class FuelParams:
         return self.tsfc * self.level_thrust_n / self.speed_max
 
 
-def thrust(pitch: FloatArray, params: FuelParams) -> FloatArray:
-    """Steady-flight thrust T = W (1/E + sin theta) clipped to [T_idle, T_max] [N] (model.md §6.1).
-
-    theta > 0 is eq. 17's ascent state, theta = 0 level flight and theta < 0 descent down to idle.
-    """
-    raw = params.level_thrust_n + params.weight_n * np.sin(pitch)
-    return np.clip(raw, params.idle_thrust_n, params.max_thrust_n)
-
-
-def fuel_burned(pitch: FloatArray, params: FuelParams) -> FloatArray:
-    """Fuel for one step, C_fuel = eta T dt [kg]."""
-    return params.tsfc * params.dt * thrust(pitch, params)
-
-
-def third_term(
-    third: str,
-    fuel_kg: FloatArray,
-    step_length_m: FloatArray,
-    goal_distance_before_m: FloatArray,
-    goal_distance_after_m: FloatArray,
-    params: FuelParams,
-) -> FloatArray:
-    """The third objective C(k) with its progress (cost-to-go) shaping (model.md §6.2, A22/A24).
-
-    ``fuel``: C = C_fuel + G(p_{k+1}) - G(p_k) with G = eta T_level d_goal / v_max, so straight level
-    flight at v_max toward the goal costs 0. ``length``: C = s + d_goal(p_{k+1}) - d_goal(p_k) >= 0.
-    Either way the sum over an episode telescopes: shaping never changes which complete
-    trajectory is cheaper among those ending at the same distance from the goal.
-    """
-    change = goal_distance_after_m - goal_distance_before_m
-    if third == "length":
-        return step_length_m + change
-    return fuel_kg + params.potential_per_m * change
-
-
 def third_term_bounds(third: str, params: FuelParams) -> tuple[float, float]:
     """Analytic per-step bounds of C (model.md §6.2)."""
     if third == "length":
@@ -120,33 +83,3 @@ class Normalisation:
             constants = scenario.normalisation.payoff.constants
             return cls(constants.terrain, constants.radar, constants.third)
         return cls((0.0, 1.0), (0.0, 1.0), third_term_bounds(scenario.cost.third_term, params))
-
-
-def normalise(value: FloatArray, bounds: tuple[float, float]) -> FloatArray:
-    """(x - lo) / (hi - lo)."""
-    low, high = bounds
-    return (value - low) / (high - low)
-
-
-def weighted_cost(
-    terrain_n: FloatArray, radar_n: FloatArray, third_n: FloatArray, weights: tuple[float, float, float]
-) -> FloatArray:
-    """J(k) = w_e Th_e^n + w_r Th_r^n + w_C C^n (eq. 19)."""
-    return weights[0] * terrain_n + weights[1] * radar_n + weights[2] * third_n
-
-
-def failure_penalty(
-    failed: FloatArray, step_index: FloatArray, max_steps: int, per_step: float
-) -> FloatArray:
-    """Penalty for ending the episode by failure at step k: per_step (K_max - k + 1) (model.md §7a).
-
-    DECISION: charging every remaining step (the + 1 counts the failing step itself) makes an early
-    crash never cheaper than flying on, since J(k) <= per_step in the benchmark profile.
-    """
-    remaining = np.maximum(max_steps - np.asarray(step_index) + 1, 0)
-    return np.where(failed, per_step * remaining, 0.0)
-
-
-def terminal_cost_to_go(goal_distance_m: FloatArray, step_length_m: float, per_step: float) -> FloatArray:
-    """MPC cost-to-go: c_T d_goal / (v_max dt), the remaining steps at full speed (model.md §7)."""
-    return per_step * goal_distance_m / step_length_m

@@ -193,12 +193,6 @@ def batched_info(
     }
 
 
-def reset_result(
-    model: PenetrationModel, states: FloatArray, scenario_index: np.ndarray | None
-) -> StepResult:
-    """The model's description of states at reset (:meth:`PenetrationModel.reset_result`)."""
-    return model.reset_result(states, scenario_index)
-
 
 def unbatch(info: dict[str, np.ndarray], row: int) -> dict[str, Any]:
     """One row of a batched info as Python scalars and small arrays."""

@@ -2,7 +2,8 @@
 
 State ``(x, y, z, v, phi, theta)`` in m, m, m, m/s, rad, rad; control ``(dv, dphi, dtheta)``.
 Heading phi is counter-clockwise from +x (east) and wrapped to (-pi, pi]; pitch theta is the
-flight-path angle, positive nose-up. No roll.
+flight-path angle, positive nose-up. No roll. The step itself is compiled in ``kernels.py``
+(``kinematics``); this module holds the limits and the heading wrap.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from uav_penetration_env import kernels
 from uav_penetration_env.scenario import Scenario
 from uav_penetration_env.types import FloatArray
 
@@ -58,45 +60,5 @@ class UAVLimits:
 
 
 def wrap_angle(angle: FloatArray) -> FloatArray:
-    """Wrap angles to (-pi, pi]."""
-    wrapped = np.mod(angle + np.pi, 2.0 * np.pi) - np.pi  # [-pi, pi)
-    return np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
-
-
-def clip_action(control: FloatArray, limits: UAVLimits) -> FloatArray:
-    """Clip controls (..., 3) to the per-step action box."""
-    high = limits.action_high
-    return np.clip(control, -high, high)
-
-
-def step_kinematics(state: FloatArray, control: FloatArray, limits: UAVLimits) -> FloatArray:
-    """Advance UAV states one step, action-then-move (model.md §1, DECISION A2).
-
-    The control first updates speed, heading and pitch; the UAV then flies the whole step with
-    the updated values, so every input affects the very next track point.
-
-    Args:
-        state: (..., 6) [x, y, z, v, phi, theta] in m, m, m, m/s, rad, rad.
-        control: (..., 3) [dv, dphi, dtheta] in m/s, rad, rad; clipped to ``limits``.
-        limits: flight envelope and step limits.
-
-    Returns:
-        (..., 6) next states.
-    """
-    control = clip_action(control, limits)
-    speed = np.clip(state[..., SPEED] + control[..., 0], limits.speed_min, limits.speed_max)
-    heading = wrap_angle(state[..., HEADING] + control[..., 1])
-    pitch = np.clip(state[..., PITCH] + control[..., 2], -limits.pitch_max, limits.pitch_max)
-    step = speed * limits.dt
-    horizontal = step * np.cos(pitch)
-    return np.stack(
-        (
-            state[..., X] + horizontal * np.cos(heading),
-            state[..., Y] + horizontal * np.sin(heading),
-            state[..., Z] + step * np.sin(pitch),
-            speed,
-            heading,
-            pitch,
-        ),
-        axis=-1,
-    )
+    """Wrap angles to (-pi, pi] (the compiled ``kernels.wrap_angle`` the model steps with)."""
+    return kernels.wrap_angles(angle)

@@ -11,6 +11,11 @@ optional ``scenario_index`` ``(B,)`` into the pool.
 * :meth:`rollout_cost` scores ``(B, H, 3)`` control sequences from one state with the very same
   code, so it equals the summed ``-(reward)`` of the env flying the same controls.
 * :meth:`observe` packs the 67-slot observation of §7a.
+
+The physics itself is compiled (``kernels.py``, issue 10): every method above hands its batch to
+one of a few numba loop kernels built from the same scalar functions, with the scenario passed as
+typed arrays (:class:`kernels.ModelArrays`). Results do not depend on the thread count; batches of
+fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 """
 
 from __future__ import annotations
@@ -21,38 +26,35 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uav_penetration_env import rcs
+from uav_penetration_env import kernels
 from uav_penetration_env.build import BuiltScenario, build_scenario
-from uav_penetration_env.cost import (
-    FuelParams,
-    Normalisation,
-    failure_penalty,
-    fuel_burned,
-    normalise,
-    terminal_cost_to_go,
-    third_term,
-    weighted_cost,
+from uav_penetration_env.cost import FuelParams, Normalisation
+from uav_penetration_env.kernels import (
+    FAR_RANGE_RATIO,
+    OBSERVATION_LIMIT,
+    OBSERVATION_SIZE,
+    OBSERVED_RADARS,
+    RADAR_FEATURES,
+    TERRAIN_ACROSS_M,
+    TERRAIN_AHEAD_M,
+    ModelArrays,
 )
-from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, UAVLimits, step_kinematics, wrap_angle
-from uav_penetration_env.radar import (
-    detection_ratio,
-    fuse,
-    horizon_range,
-    reference_snr,
-    swerling1_detection_probability,
-    visibility_probability,
-)
+from uav_penetration_env.kinematics import UAVLimits, wrap_angle
+from uav_penetration_env.radar import fuse, reference_snr
 from uav_penetration_env.scenario import Scenario, ScenarioError
-from uav_penetration_env.terrain import bilinear, terrain_threat
 from uav_penetration_env.types import BoolArray, FloatArray, IntArray
 
-OBSERVATION_SIZE = 67
-OBSERVATION_LIMIT = 10.0
-OBSERVED_RADARS = 4
-RADAR_FEATURES = 7
-FAR_RANGE_RATIO = 5.0  # observed R / R_ref is capped here; a missing radar reads as this far
-TERRAIN_AHEAD_M = np.array([0.0, 1500.0, 3000.0, 4500.0, 6000.0])
-TERRAIN_ACROSS_M = np.array([-3000.0, -1500.0, 0.0, 1500.0, 3000.0])
+__all__ = [
+    "FAR_RANGE_RATIO",
+    "OBSERVATION_LIMIT",
+    "OBSERVATION_SIZE",
+    "OBSERVED_RADARS",
+    "RADAR_FEATURES",
+    "TERRAIN_ACROSS_M",
+    "TERRAIN_AHEAD_M",
+    "PenetrationModel",
+    "StepResult",
+]
 
 _POOL_SHARED = ("map", "uav", "time", "radar_model", "cost", "normalisation", "profile")
 
@@ -196,24 +198,111 @@ class PenetrationModel:
                     b.scenario.terrain.mountain_decay_per_km2,
                     f"{self._decay}",
                 )
+        self.arrays = self._kernel_arrays()
 
-    def _pick(self, array: np.ndarray, index: IntArray | None) -> np.ndarray:
-        """Pool parameters for each batch row: ``array[index]``, or the one scenario broadcast."""
+    def _kernel_arrays(self) -> ModelArrays:
+        """The pool, the RCS table and the constants as the typed arrays the kernels read."""
+        k = kernels
+        first = self.scenario
+        limits, fuel, norm = self.limits, self.fuel, self.normalisation
+        params = np.zeros(k.N_PARAMS)
+        params[k.P_DT] = limits.dt
+        params[k.P_SPEED_MIN] = limits.speed_min
+        params[k.P_SPEED_MAX] = limits.speed_max
+        params[k.P_DV_MAX] = limits.dv_max
+        params[k.P_DHEADING_MAX] = limits.dheading_max
+        params[k.P_DPITCH_MAX] = limits.dpitch_max
+        params[k.P_PITCH_MAX] = limits.pitch_max
+        params[k.P_GRID_X0] = self.grid.x0_m
+        params[k.P_GRID_Y0] = self.grid.y0_m
+        params[k.P_GRID_DX] = self.grid.dx_m
+        params[k.P_CLEARANCE] = self.clearance
+        params[[k.P_X_MIN, k.P_X_MAX, k.P_Y_MIN, k.P_Y_MAX]] = self.bounds
+        params[k.P_CEILING] = self.ceiling
+        params[k.P_MOUNTAIN_DECAY] = self._decay
+        fade = self.threat_altitude_scale is not None
+        params[k.P_THREAT_ALTITUDE_SCALE] = self.threat_altitude_scale if fade else 1.0
+        model = first.radar_model
+        params[k.P_MIN_RANGE] = model.min_range_m
+        params[k.P_HORIZON_SCALE] = math.sqrt(2.0 * self.earth_radius)
+        params[k.P_SOFTNESS] = model.masking_softness_m
+        params[k.P_LOG_FALSE_ALARM] = math.log(model.false_alarm_prob)
+        params[k.P_SNR_REF] = self.snr_ref
+        params[k.P_TSFC] = fuel.tsfc
+        params[k.P_WEIGHT] = fuel.weight_n
+        params[k.P_LEVEL_THRUST] = fuel.level_thrust_n
+        params[k.P_IDLE_THRUST] = fuel.idle_thrust_n
+        params[k.P_MAX_THRUST] = fuel.max_thrust_n
+        params[k.P_POTENTIAL_PER_M] = fuel.potential_per_m
+        params[[k.P_TERRAIN_LO, k.P_TERRAIN_HI]] = norm.terrain
+        params[[k.P_RADAR_LO, k.P_RADAR_HI]] = norm.radar
+        params[[k.P_THIRD_LO, k.P_THIRD_HI]] = norm.third
+        params[[k.P_W_TERRAIN, k.P_W_RADAR, k.P_W_THIRD]] = self.weights
+        params[k.P_CRASH_PER_STEP] = self.crash_penalty_per_step
+        params[k.P_MAX_STEP_LENGTH] = limits.max_step_length
+        params[k.P_MAP_SIDE] = self.map_side
+        options = np.zeros(k.N_OPTIONS, dtype=np.int64)
+        options[k.O_DETECTION] = k.DETECTION[self.detection]
+        options[k.O_MASKING] = k.MASKING[self.masking]
+        options[k.O_FUSION] = k.FUSION[model.fusion]
+        options[k.O_THIRD] = k.THIRD_TERM[first.cost.third_term]
+        options[k.O_ALTITUDE_FADE] = int(fade)
+        options[k.O_MAX_STEPS] = self.max_steps
+
+        def f64(array: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(array, dtype=np.float64)
+
+        return ModelArrays(
+            terrain=f64(self.terrain),
+            floors=f64(self.floors),
+            radar_xyz=f64(self.radar_xyz),
+            radar_present=f64(self.radar_present),
+            ref_range=f64(self.ref_range),
+            ref_rcs=f64(self.ref_rcs),
+            floor_layer=np.ascontiguousarray(self.floor_layer, dtype=np.int64),
+            mountain_centres=f64(self.mountain_centres),
+            mountain_present=f64(self.mountain_present),
+            goal=f64(self.goal),
+            rcs_table=f64(self.rcs_table),
+            sample_t=f64(self._sample_t),
+            params=params,
+            options=options,
+        )
+
+    def _rows(self, index: IntArray | int | None, batch: int) -> np.ndarray:
+        """Pool index of each of ``batch`` rows as contiguous int64 (the kernels' layout)."""
         if index is None:
             if self.pool_size != 1:
                 raise ValueError("scenario_index: required for a model with a pool of scenarios")
-            return array[0][None]
-        return array[index]
+            return np.zeros(batch, dtype=np.int64)
+        rows = np.ascontiguousarray(np.broadcast_to(np.asarray(index, dtype=np.int64), (batch,)))
+        if batch and (rows.min() < 0 or rows.max() >= self.pool_size):
+            raise ValueError(
+                f"scenario_index: got values in [{rows.min()}, {rows.max()}], expected [0, {self.pool_size})"
+            )
+        return rows
 
-    def _layer(self, index: IntArray | None) -> IntArray | int:
-        return 0 if index is None else index
+    @staticmethod
+    def _batch(array: FloatArray, name: str, width: int) -> np.ndarray:
+        """``array`` as a contiguous float64 (B, width) batch."""
+        out = np.ascontiguousarray(array, dtype=np.float64)
+        if out.ndim != 2 or out.shape[1] != width:
+            raise ValueError(f"{name}: got shape {out.shape}, expected (B, {width})")
+        return out
 
     # --- queries --------------------------------------------------------------------------------
 
     def height(self, x_m: FloatArray, y_m: FloatArray, scenario_index: IntArray | None = None) -> FloatArray:
-        """Terrain height [m] at points [m] (bilinear, edge values outside the grid)."""
-        fi, fj = self.grid.fractional_index(x_m, y_m)
-        return bilinear(self.terrain, fi, fj, self._layer(scenario_index))
+        """Terrain height [m] at points [m] (bilinear, edge values outside the grid; model.md §2.1)."""
+        x, y = np.broadcast_arrays(np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64))
+        shape = x.shape
+        x, y = np.ascontiguousarray(x).reshape(-1), np.ascontiguousarray(y).reshape(-1)
+        index = self._rows(
+            None if scenario_index is None else np.broadcast_to(scenario_index, shape).reshape(-1), x.size
+        )
+        out = np.empty(x.size)
+        kernels.heights_batch(self.arrays, x, y, index, out)
+        return out.reshape(shape)
 
     def initial_state(self, rng: np.random.Generator | None = None, scenario_index: int = 0) -> FloatArray:
         """The scenario's start state (6,), with the start jitter drawn from ``rng`` when configured."""
@@ -245,7 +334,12 @@ class PenetrationModel:
 
     def goal_distance(self, states: FloatArray, scenario_index: IntArray | None = None) -> FloatArray:
         """Horizontal distance to the goal [m]."""
-        goal = self._pick(self.goal, scenario_index)
+        states = np.asarray(states, dtype=np.float64)
+        if scenario_index is None:
+            goal = self._rows(None, 1)[:1]
+        else:
+            goal = np.asarray(scenario_index, dtype=np.int64)
+        goal = self.goal[goal]
         return np.hypot(goal[..., 0] - states[..., 0], goal[..., 1] - states[..., 1])
 
     def reset_result(
@@ -338,11 +432,13 @@ class PenetrationModel:
 
         Returns:
             The :class:`StepResult`; ``step_index`` in it is k + 1.
+
+        Raises:
+            ValueError: on arrays of the wrong shape or a missing/out-of-range ``scenario_index``.
         """
-        states = np.asarray(states, dtype=np.float64)
-        next_states = step_kinematics(states, np.asarray(controls, dtype=np.float64), self.limits)
-        k_next = np.broadcast_to(np.asarray(step_index, dtype=np.int64) + 1, states.shape[:1])
-        return self._evaluate(states, next_states, k_next, scenario_index)
+        states = self._batch(states, "states", 6)
+        controls = self._batch(controls, "controls", 3)
+        return self._transitions(states, controls, True, step_index, scenario_index)
 
     def costs(
         self,
@@ -352,85 +448,76 @@ class PenetrationModel:
         scenario_index: IntArray | None = None,
     ) -> StepResult:
         """Score a given transition ``states -> next_states`` taken at step k (no kinematics)."""
-        states = np.asarray(states, dtype=np.float64)
-        k_next = np.broadcast_to(np.asarray(step_index, dtype=np.int64) + 1, states.shape[:1])
-        return self._evaluate(states, np.asarray(next_states, dtype=np.float64), k_next, scenario_index)
+        states = self._batch(states, "states", 6)
+        next_states = self._batch(next_states, "next_states", 6)
+        return self._transitions(states, next_states, False, step_index, scenario_index)
 
-    def _evaluate(
-        self, states: FloatArray, next_states: FloatArray, k_next: IntArray, index: IntArray | None
+    def _transitions(
+        self,
+        states: np.ndarray,
+        moves: np.ndarray,
+        moves_are_controls: bool,
+        step_index: IntArray | int,
+        scenario_index: IntArray | None,
     ) -> StepResult:
-        goal = self._pick(self.goal, index)
-        layer = self._layer(index)
-
-        # Events along the segment, in flight order (model.md §7a).
-        start_xyz, end_xyz = states[:, :3], next_states[:, :3]
-        delta = end_xyz - start_xyz
-        samples = start_xyz[:, None, :] + self._sample_t[None, :, None] * delta[:, None, :]
-        fi, fj = self.grid.fractional_index(samples[..., 0], samples[..., 1])
-        ground = bilinear(self.terrain, fi, fj, layer if index is None else index[:, None])
-        below = samples[..., 2] < ground + self.clearance
-        hit = below.any(axis=1)
-        first_hit_t = np.where(hit, self._sample_t[np.argmax(below, axis=1)], np.inf)
-        to_goal = goal[:, :2] - start_xyz[:, :2]
-        travel = delta[:, :2]
-        travel_sq = np.einsum("bi,bi->b", travel, travel)
-        closest_t = np.clip(np.einsum("bi,bi->b", to_goal, travel) / np.maximum(travel_sq, 1e-12), 0.0, 1.0)
-        miss = to_goal - closest_t[:, None] * travel
-        reaches = np.einsum("bi,bi->b", miss, miss) <= goal[:, 2] ** 2
-        reached_goal = reaches & (closest_t < first_hit_t)
-        collided = hit & ~reached_goal
-        x, y, z = next_states[:, 0], next_states[:, 1], next_states[:, 2]
-        outside = (
-            (x < self.bounds[0])
-            | (x > self.bounds[1])
-            | (y < self.bounds[2])
-            | (y > self.bounds[3])
-            | (z > self.ceiling)
+        batch = states.shape[0]
+        if moves.shape[0] != batch:
+            raise ValueError(
+                f"controls/next_states: got {moves.shape[0]} rows, expected {batch} (one per state)"
+            )
+        if isinstance(step_index, (int, np.integer)):
+            k_next = np.full(batch, int(step_index) + 1, dtype=np.int64)
+        else:
+            k_next = np.ascontiguousarray(
+                np.broadcast_to(np.asarray(step_index, dtype=np.int64) + 1, (batch,))
+            )
+        index = self._rows(scenario_index, batch)
+        slots = self.radar_slots
+        next_states = np.empty((batch, 6))
+        per_radar = np.empty((batch, slots))
+        visible = np.empty((batch, slots))
+        scalars = np.empty((batch, kernels.N_SCALARS))
+        flags = np.empty((batch, kernels.N_FLAGS), dtype=np.bool_)
+        kernels.run_kernel(
+            kernels.transition_batch,
+            kernels.transition_rows,
+            batch,
+            self.arrays,
+            states,
+            moves,
+            moves_are_controls,
+            k_next,
+            index,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
         )
-        out_of_area = outside & ~reached_goal & ~collided
-        terminated = reached_goal | collided | out_of_area
-        truncated = (k_next >= self.max_steps) & ~terminated
-
-        altitude_agl = z - ground[:, -1]
-        threat_e, per_radar, visibility, detection = self.state_threats(next_states, index, altitude_agl)
-        threat_r = fuse(per_radar, self.scenario.radar_model.fusion)
-
-        # Third term: fuel plus potential-based progress (model.md §6).
-        fuel = fuel_burned(next_states[:, PITCH], self.fuel)
-        before = np.hypot(to_goal[:, 0], to_goal[:, 1])
-        after = np.hypot(goal[:, 0] - x, goal[:, 1] - y)
-        step_length = next_states[:, SPEED] * self.limits.dt
-        third = third_term(self.scenario.cost.third_term, fuel, step_length, before, after, self.fuel)
-
-        norm = self.normalisation
-        terrain_n = normalise(threat_e, norm.terrain)
-        radar_n = normalise(threat_r, norm.radar)
-        third_n = normalise(third, norm.third)
-        cost = weighted_cost(terrain_n, radar_n, third_n, self.weights)
-        penalty = failure_penalty(collided | out_of_area, k_next, self.max_steps, self.crash_penalty_per_step)
+        before, after = scalars[:, kernels.S_GOAL_BEFORE], scalars[:, kernels.S_GOAL_AFTER]
         return StepResult(
             state=next_states,
             step_index=k_next,
-            J=cost,
-            penalty=penalty,
-            terrain_threat=threat_e,
-            radar_threat=threat_r,
-            third_term=third,
-            terrain_threat_n=terrain_n,
-            radar_threat_n=radar_n,
-            third_term_n=third_n,
-            fuel_kg=fuel,
+            J=scalars[:, kernels.S_J],
+            penalty=scalars[:, kernels.S_PENALTY],
+            terrain_threat=scalars[:, kernels.S_TERRAIN],
+            radar_threat=scalars[:, kernels.S_RADAR],
+            third_term=scalars[:, kernels.S_THIRD],
+            terrain_threat_n=scalars[:, kernels.S_TERRAIN_N],
+            radar_threat_n=scalars[:, kernels.S_RADAR_N],
+            third_term_n=scalars[:, kernels.S_THIRD_N],
+            fuel_kg=scalars[:, kernels.S_FUEL],
             progress_km=(before - after) / 1000.0,
             radar_threat_per_radar=per_radar,
-            visibility=visibility,
-            detection_prob=detection,
-            altitude_agl=altitude_agl,
+            visibility=visible,
+            detection_prob=scalars[:, kernels.S_DETECTION],
+            altitude_agl=scalars[:, kernels.S_ALTITUDE_AGL],
             goal_distance=after,
-            reached_goal=reached_goal,
-            collided=collided,
-            out_of_area=out_of_area,
-            terminated=terminated,
-            truncated=truncated,
+            reached_goal=flags[:, kernels.F_REACHED],
+            collided=flags[:, kernels.F_COLLIDED],
+            out_of_area=flags[:, kernels.F_OUT_OF_AREA],
+            terminated=flags[:, kernels.F_TERMINATED],
+            truncated=flags[:, kernels.F_TRUNCATED],
         )
 
     def state_threats(
@@ -441,62 +528,29 @@ class PenetrationModel:
         Args:
             states: (B, 6) states.
             index: (B,) pool index of each row.
-            altitude_agl: (B,) height above the terrain when already known (saves a lookup).
+            altitude_agl: ignored (the height above the terrain is looked up in the kernel); kept for
+                callers of the earlier signature.
 
         Returns:
             terrain threat (B,), per-radar threat (B, M), visibility (B, M), detection probability (B,).
         """
-        x, y = states[:, 0], states[:, 1]
-        # Terrain threat (eq. 6), optionally fading with height above the terrain (model.md §3).
-        centres = self._pick(self.mountain_centres, index)
-        present = self._pick(self.mountain_present, index)
-        threat_e = terrain_threat(x / 1000.0, y / 1000.0, centres, self._decay, present)
-        if self.threat_altitude_scale is not None:
-            if altitude_agl is None:
-                altitude_agl = states[:, 2] - self.height(x, y, index)
-            threat_e = threat_e * np.exp(-np.maximum(altitude_agl, 0.0) / self.threat_altitude_scale)
-        per_radar, visibility, detection = self._radar(states, index)
-        return threat_e, per_radar, visibility, detection
-
-    def _radar(self, states: FloatArray, index: IntArray | None) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Per-radar threat (D or P_d), visibility and the network detection probability (model.md §4-5)."""
-        radars = self._pick(self.radar_xyz, index)  # (B, M, 3)
-        present = self._pick(self.radar_present, index)
-        position = states[:, None, :3]
-        offset = radars - position
-        distance = np.sqrt(np.einsum("bmi,bmi->bm", offset, offset))
-        distance = np.maximum(distance, self.scenario.radar_model.min_range_m)
-        direction = offset / distance[..., None]
-        az, el = rcs.aspect_angles(direction, states[:, HEADING], states[:, PITCH])
-        sigma = rcs.rcs_lookup(self.rcs_table, az, el)
-        ratio = detection_ratio(
-            sigma, self._pick(self.ref_rcs, index), self._pick(self.ref_range, index), distance
+        threat_e, per_radar, visible, detection, _ = self._state_threats(
+            self._batch(states, "states", 6), index
         )
-        z = states[:, 2:3]
-        if self.masking == "off":
-            visible = (distance <= horizon_range(radars[..., 2], z, self.earth_radius)).astype(np.float64)
-        else:
-            fi, fj = self.grid.fractional_index(states[:, 0], states[:, 1])
-            layers = self._pick(self.floor_layer, index)
-            floor = bilinear(self.floors, fi[:, None], fj[:, None], layers)
-            softness = self.scenario.radar_model.masking_softness_m if self.masking == "soft" else 0.0
-            visible = visibility_probability(z, floor, softness)
-        visible = visible * present
-        if self.detection == "ratio":
-            # Eqs. 11/13 (A19): D counts iff D >= 1 inside the horizon and, with masking on, in sight.
-            gate = (
-                (ratio >= 1.0)
-                & (distance <= horizon_range(radars[..., 2], z, self.earth_radius))
-                & (visible >= 0.5)
-            )
-            per_radar = np.where(gate, ratio, 0.0)
-            detection = np.any(gate, axis=1).astype(np.float64)
-        else:
-            per_radar = visible * swerling1_detection_probability(
-                ratio, self.scenario.radar_model.false_alarm_prob, self.snr_ref
-            )
-            detection = per_radar.max(axis=1) if per_radar.shape[1] else np.zeros(len(states))
-        return per_radar, visible, detection
+        return threat_e, per_radar, visible, detection
+
+    def _state_threats(
+        self, states: np.ndarray, index: IntArray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        batch = states.shape[0]
+        rows = self._rows(index, batch)
+        terrain = np.empty(batch)
+        per_radar = np.empty((batch, self.radar_slots))
+        visible = np.empty((batch, self.radar_slots))
+        detection = np.empty(batch)
+        altitude_agl = np.empty(batch)
+        kernels.threats_batch(self.arrays, states, rows, terrain, per_radar, visible, detection, altitude_agl)
+        return terrain, per_radar, visible, detection, altitude_agl
 
     # --- planning -----------------------------------------------------------------------------------
 
@@ -527,31 +581,31 @@ class PenetrationModel:
 
         Returns:
             (B,) window costs.
+
+        Raises:
+            ValueError: on arrays of the wrong shape or a ``scenario_index`` outside the pool.
         """
-        controls = np.asarray(controls, dtype=np.float64)
+        controls = np.ascontiguousarray(controls, dtype=np.float64)
         if controls.ndim != 3 or controls.shape[2] != 3:
             raise ValueError(f"controls: got shape {controls.shape}, expected (B, H, 3)")
-        state = np.asarray(state, dtype=np.float64)
+        state = np.ascontiguousarray(state, dtype=np.float64)
         if state.shape != (6,):
             raise ValueError(f"state: got shape {state.shape}, expected (6,)")
-        batch, horizon = controls.shape[:2]
-        index = None if self.pool_size == 1 else np.full(batch, scenario_index)
-        states = np.broadcast_to(state, (batch, 6))
-        total = np.zeros(batch)
-        flying = np.ones(batch, dtype=bool)
-        steps = max(0, min(horizon, self.max_steps - step))
-        weight = 1.0
-        for j in range(steps):
-            result = self.step(states, controls[:, j], step + j, index)
-            total += np.where(flying, weight * (result.J + result.penalty), 0.0)
-            flying &= ~result.terminated
-            states = result.state
-            weight *= discount
-        if terminal_cost > 0.0 and step + horizon < self.max_steps:
-            to_go = terminal_cost_to_go(
-                self.goal_distance(states, index), self.limits.max_step_length, terminal_cost
+        if not 0 <= int(scenario_index) < self.pool_size:
+            raise ValueError(
+                f"scenario_index: got {scenario_index}, expected an integer in [0, {self.pool_size})"
             )
-            total += np.where(flying, weight * to_go, 0.0)
+        total = np.empty(controls.shape[0])
+        kernels.rollout_batch(
+            self.arrays,
+            state,
+            controls,
+            int(step),
+            float(discount),
+            float(terminal_cost),
+            int(scenario_index),
+            total,
+        )
         return total
 
     # --- observation ------------------------------------------------------------------------------------
@@ -571,79 +625,34 @@ class PenetrationModel:
             result: the transition that produced ``states`` (its per-radar threat and visibility are
                 reused); ``None`` at reset, where they are evaluated for ``states``.
             scenario_index: (B,) pool index of each row.
+
+        Returns:
+            (B, 67) float32 observations.
         """
-        states = np.asarray(states, dtype=np.float64)
+        states = self._batch(states, "states", 6)
         batch = states.shape[0]
-        x, y, z = states[:, 0], states[:, 1], states[:, 2]
-        speed, heading, pitch = states[:, SPEED], states[:, HEADING], states[:, PITCH]
-        cos_h, sin_h = np.cos(heading), np.sin(heading)
-        limits = self.limits
-        index = scenario_index
-        layer = self._layer(index)
-        obs = np.zeros((batch, OBSERVATION_SIZE))
-
-        ground = self.height(x, y, index)
-        obs[:, 0] = (x - self.bounds[0]) / (self.bounds[1] - self.bounds[0])
-        obs[:, 1] = (y - self.bounds[2]) / (self.bounds[3] - self.bounds[2])
-        obs[:, 2] = (z - ground) / 1000.0
-        obs[:, 3] = z / self.ceiling
-        obs[:, 4] = (speed - limits.speed_min) / (limits.speed_max - limits.speed_min)
-        obs[:, 5], obs[:, 6] = cos_h, sin_h
-        obs[:, 7] = pitch / limits.pitch_max
-
-        goal = self._pick(self.goal, index)
-        gx, gy = goal[:, 0] - x, goal[:, 1] - y
-        obs[:, 8] = gx / self.map_side
-        obs[:, 9] = gy / self.map_side
-        obs[:, 10] = np.hypot(gx, gy) / self.map_side
-        relative = np.arctan2(gy, gx) - heading
-        obs[:, 11], obs[:, 12] = np.cos(relative), np.sin(relative)
-
-        # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
-        ahead = TERRAIN_AHEAD_M[:, None]
-        across = TERRAIN_ACROSS_M[None, :]
-        px = x[:, None, None] + ahead * cos_h[:, None, None] - across * sin_h[:, None, None]
-        py = y[:, None, None] + ahead * sin_h[:, None, None] + across * cos_h[:, None, None]
-        fi, fj = self.grid.fractional_index(px, py)
-        sample_layer = layer if index is None else index[:, None, None]
-        obs[:, 13:38] = ((bilinear(self.terrain, fi, fj, sample_layer) - z[:, None, None]) / 1000.0).reshape(
-            batch, 25
-        )
-
+        index = self._rows(scenario_index, batch)
         if result is None:
-            threat, visibility, _ = self._radar(states, index)
+            _, per_radar, visible, _, _ = self._state_threats(states, scenario_index)
         else:
-            threat, visibility = result.radar_threat_per_radar, result.visibility
-        if self.detection == "ratio":
-            threat = np.minimum(threat, 1.0)
-        slots = self.radar_slots
-        radars = np.broadcast_to(self._pick(self.radar_xyz, index), (batch, slots, 3))
-        present = np.broadcast_to(self._pick(self.radar_present, index), (batch, slots))
-        offset = radars - states[:, None, :3]
-        distance = np.sqrt(np.einsum("bmi,bmi->bm", offset, offset))
-        order = np.argsort(np.where(present > 0, distance, np.inf), axis=1, kind="stable")[
-            :, :OBSERVED_RADARS
-        ]
-        rows = np.arange(batch)[:, None]
-        features = np.zeros((batch, OBSERVED_RADARS, RADAR_FEATURES))
-        features[..., 1] = FAR_RANGE_RATIO
-        taken = order.shape[1]
-        sel_present = present[rows, order]
-        bearing = np.arctan2(offset[rows, order, 1], offset[rows, order, 0]) - heading[:, None]
-        ref_range = np.broadcast_to(self._pick(self.ref_range, index), (batch, slots))[rows, order]
-        values = np.stack(
-            (
-                sel_present,
-                np.minimum(distance[rows, order] / ref_range, FAR_RANGE_RATIO),
-                np.cos(bearing),
-                np.sin(bearing),
-                (radars[rows, order, 2] - z[:, None]) / 1000.0,
-                visibility[rows, order],
-                threat[rows, order],
-            ),
-            axis=-1,
+            per_radar = np.ascontiguousarray(result.radar_threat_per_radar, dtype=np.float64)
+            visible = np.ascontiguousarray(result.visibility, dtype=np.float64)
+        fraction = np.ascontiguousarray(
+            np.broadcast_to(np.asarray(step_index) / self.max_steps, (batch,)), dtype=np.float64
         )
-        features[:, :taken] = np.where(sel_present[..., None] > 0, values, features[:, :taken])
-        obs[:, 38:66] = features.reshape(batch, OBSERVED_RADARS * RADAR_FEATURES)
-        obs[:, 66] = np.asarray(step_index) / self.max_steps
-        return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)
+        out = np.empty((batch, OBSERVATION_SIZE), dtype=np.float32)
+        kernels.run_kernel(
+            kernels.observe_batch,
+            kernels.observe_rows,
+            batch,
+            self.arrays,
+            states,
+            fraction,
+            index,
+            per_radar,
+            visible,
+            TERRAIN_AHEAD_M,
+            TERRAIN_ACROSS_M,
+            out,
+        )
+        return out

@@ -5,7 +5,9 @@ Model.md §4. The radar equation's unknown constants cancel against the referenc
 scores D itself (eqs. 11, 13); the ``benchmark`` profile turns the same SNR into the bounded
 Swerling-I detection probability. Terrain masking is precomputed once per radar as a
 *visibility floor*: the lowest altitude above each grid node from which the radar has line of
-sight over the 4/3-earth terrain.
+sight over the 4/3-earth terrain. Here: the constants (reference SNR), the visibility floors built
+per scenario, and the network fusion for callers outside the model; the per-state detection
+physics is compiled in ``kernels.py`` (``radar_threats``).
 """
 
 from __future__ import annotations
@@ -14,17 +16,10 @@ import math
 
 import numpy as np
 
+from uav_penetration_env import kernels
+from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.terrain import GridSpec, bilinear
 from uav_penetration_env.types import FloatArray
-
-
-def detection_ratio(
-    rcs_m2: FloatArray, ref_rcs_m2: FloatArray, ref_range_m: FloatArray, range_m: FloatArray
-) -> FloatArray:
-    """D = P_r / S = (sigma / sigma_ref) (R_ref / R)^4 (model.md §4.2): 1 for sigma_ref at R_ref."""
-    ratio = ref_range_m / range_m
-    ratio = ratio * ratio
-    return (rcs_m2 / ref_rcs_m2) * (ratio * ratio)
 
 
 def reference_snr(false_alarm_prob: float, reference_detection_prob: float) -> float:
@@ -35,38 +30,23 @@ def reference_snr(false_alarm_prob: float, reference_detection_prob: float) -> f
     return math.log(false_alarm_prob) / math.log(reference_detection_prob) - 1.0
 
 
-def swerling1_detection_probability(ratio: FloatArray, false_alarm_prob: float, snr_ref: float) -> FloatArray:
-    """Single-look Swerling-I, square-law P_d = P_fa^(1 / (1 + SNR)) with SNR = SNR_ref D (model.md §4.6).
-
-    Computed as exp(ln P_fa / (1 + SNR)) so the huge D near a radar stays finite.
-    """
-    return np.exp(math.log(false_alarm_prob) / (1.0 + snr_ref * ratio))
-
-
-def horizon_range(radar_alt_m: FloatArray, target_alt_m: FloatArray, earth_radius_m: float) -> FloatArray:
-    """Radar horizon R_lim = sqrt(2 R_eff) (sqrt(z_m) + sqrt(max(z, 0))) [m] (eq. 12).
-
-    With R_eff = 8487.2 km, sqrt(2 R_eff * 1 m) = 4.12 km, the paper's constant (model.md §4.3).
-    """
-    scale = math.sqrt(2.0 * earth_radius_m)
-    return scale * (np.sqrt(np.maximum(radar_alt_m, 0.0)) + np.sqrt(np.maximum(target_alt_m, 0.0)))
-
-
-def visibility_probability(altitude_m: FloatArray, floor_m: FloatArray, softness_m: float) -> FloatArray:
-    """P_vis = 1 / (1 + exp(-(z - V) / s)) (model.md §4.4); ``softness_m = 0`` is the hard step z >= V."""
-    if softness_m <= 0.0:
-        return (altitude_m >= floor_m).astype(np.float64)
-    # tanh form of the logistic: no overflow for any margin.
-    return 0.5 + 0.5 * np.tanh((altitude_m - floor_m) / (2.0 * softness_m))
-
-
 def fuse(per_radar: FloatArray, rule: str) -> FloatArray:
-    """Network threat over the last axis: ``max`` (eq. 14) or ``or`` = 1 - prod(1 - P_d)."""
-    if per_radar.shape[-1] == 0:
-        return np.zeros(per_radar.shape[:-1])
-    if rule == "or":
-        return 1.0 - np.prod(1.0 - per_radar, axis=-1)
-    return np.max(per_radar, axis=-1)
+    """Network threat over the last axis: ``max`` (eq. 14) or ``or`` = 1 - prod(1 - P_d) (model.md §4.5).
+
+    The compiled ``kernels.fuse`` (the model's own), applied to each row; 0 with no radars.
+
+    Raises:
+        ValueError: for a rule other than ``max`` or ``or``.
+    """
+    if rule not in kernels.FUSION:
+        raise ValueError(
+            f"rule: got {rule!r}, expected one of {sorted(kernels.FUSION)}{did_you_mean(rule, kernels.FUSION)}"
+        )
+    values = np.ascontiguousarray(per_radar, dtype=np.float64)
+    rows = values.reshape(math.prod(values.shape[:-1]), values.shape[-1])
+    out = np.empty(rows.shape[0])
+    kernels.fuse_rows(rows, kernels.FUSION[rule], out)
+    return out.reshape(values.shape[:-1])
 
 
 def visibility_floor(

@@ -197,30 +197,3 @@ def mountain_heights(
     if len(heights_m) == 0:
         return np.zeros(np.broadcast(np.asarray(x_km), np.asarray(y_km)).shape)
     return np.max(heights_m * mountain_shape(x_km, y_km, centres_km, decay_per_km2), axis=-1)
-
-
-def terrain_threat(
-    x_km: FloatArray,
-    y_km: FloatArray,
-    centres_km: FloatArray,
-    decay_per_km2: float,
-    present: FloatArray | None = None,
-) -> FloatArray:
-    """Th_e(k) = max_i f_i(x_k, y_k) in [0, 1] (eq. 6, index typo fixed; model.md §3).
-
-    Args:
-        x_km: (...) UAV x [km].
-        y_km: (...) UAV y [km].
-        centres_km: (..., I, 2) peak centres [km].
-        decay_per_km2: lambda [km^-2].
-        present: optional (..., I) 1/0 mask for padded peak lists.
-
-    Returns:
-        (...) threat in [0, 1]; 0 with no peaks.
-    """
-    if centres_km.shape[-2] == 0:
-        return np.zeros(np.broadcast(np.asarray(x_km), np.asarray(y_km)).shape)
-    shape = mountain_shape(x_km, y_km, centres_km, decay_per_km2)
-    if present is not None:
-        shape = shape * present
-    return np.max(shape, axis=-1)

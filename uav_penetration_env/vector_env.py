@@ -2,12 +2,19 @@
 
 Supports Gymnasium's ``NEXT_STEP`` (default), ``SAME_STEP`` and ``DISABLED`` autoreset modes and
 returns infos in ``SyncVectorEnv``'s layout (every key batched, with a ``_key`` mask), so it can
-replace ``gym.make_vec(..., vectorization_mode="sync")`` exactly: sub-env i equals a single env
-reset with seed ``s + i`` (or ``seeds[i]``), step for step.
+replace ``gym.make_vec(..., vectorization_mode="sync")``: sub-env i equals a single env reset with
+seed ``s + i`` (or ``seeds[i]``), step for step, ``max_episode_steps`` (which ``make_vec`` passes
+from the spec) truncates as Gymnasium's ``TimeLimit`` does in sync mode, ``np_random_seed`` is the
+tuple of the sub-envs' seeds, and wrong inputs raise the exception types sync mode raises.
 
-For the Random id every sub-env draws its scenarios from one shared pool; the model then holds
-the scenarios in use as one pool with radars padded to 8 slots, and each row carries its pool
-index.
+The Random id (model.md §7a, "Vector env"): by default (``pool="shared"``) every sub-env draws
+its *seedless* resets from one pool of ``pool_size`` scenarios, seeded by the first reset's seed
+for sub-env 0. Sync mode instead gives sub-env i its own pool, seeded by ``s + i``, so after the
+first seedless autoreset of sub-envs 1..n the two differ. ``pool="per_env"`` reproduces sync mode
+exactly. DECISION (model.md §7a): the shared pool is the default because the model holds every
+scenario in use in one padded pool: per-env pools make that up to ``num_envs x pool_size``
+scenarios to build and hold (each a terrain grid and up to 8 masking floors) instead of
+``pool_size``, for the same training distribution in expectation.
 """
 
 from __future__ import annotations
@@ -28,7 +35,6 @@ from uav_penetration_env.env import (
     action_space,
     batched_info,
     observation_space,
-    reset_result,
     resolve_scenario,
     validate_action,
 )
@@ -47,6 +53,19 @@ def _autoreset_mode(value: AutoresetMode | str) -> AutoresetMode:
     if key not in names:
         raise ValueError(f"autoreset_mode: got {value!r}, expected one of {[m.name for m in AutoresetMode]}")
     return names[key]
+
+
+def _reset_mask(value: Any, num_envs: int) -> np.ndarray:
+    """``options["reset_mask"]`` checked with the exception types of Gymnasium's sync vector env."""
+    if not isinstance(value, np.ndarray):
+        raise TypeError(f"options['reset_mask']: got {type(value).__name__}, expected a numpy bool array")
+    if value.dtype != np.bool_:
+        raise TypeError(f"options['reset_mask']: got dtype {value.dtype}, expected bool")
+    if value.shape != (num_envs,):
+        raise ValueError(f"options['reset_mask']: got shape {value.shape}, expected ({num_envs},)")
+    if not value.any():
+        raise ValueError("options['reset_mask']: got no True value, expected at least one sub-env to reset")
+    return value
 
 
 def _vector_info(
@@ -79,6 +98,9 @@ class UAVPenetrationVectorEnv(VectorEnv):
         profile: ``"benchmark"`` or ``"paper"`` (overrides the id's and the file's profile).
         render_mode: ``"rgb_array"`` (a tuple of frames, one per sub-env) or ``None``.
         autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED``.
+        max_episode_steps: truncate each episode after this many steps, as Gymnasium's
+            ``TimeLimit`` does in sync mode (``None``: only the scenario's K_max); ``make_vec``
+            passes the id's registered value.
         default_scenario: the id's scenario (set at registration).
         id_profile: the id's profile (set at registration).
     """
@@ -90,34 +112,46 @@ class UAVPenetrationVectorEnv(VectorEnv):
         profile: str | None = None,
         render_mode: str | None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        max_episode_steps: int | None = None,
         *,
         default_scenario: str = "paper",
         id_profile: str | None = None,
     ) -> None:
         source = FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile))
-        self._setup(num_envs, source, render_mode, autoreset_mode)
+        self._setup(num_envs, [source], render_mode, autoreset_mode, max_episode_steps)
 
     def _setup(
         self,
         num_envs: int,
-        source: FixedScenarioSource | RandomScenarioSource,
+        sources: Sequence[FixedScenarioSource | RandomScenarioSource],
         render_mode: str | None,
         autoreset_mode: AutoresetMode | str,
+        max_episode_steps: int | None,
     ) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: got {num_envs!r}, expected an integer >= 1")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode: got {render_mode!r}, expected 'rgb_array' or None")
+        if max_episode_steps is not None and (
+            not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1
+        ):
+            raise ValueError(
+                f"max_episode_steps: got {max_episode_steps!r}, expected an integer >= 1 or None"
+            )
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {"render_modes": ["rgb_array"], "autoreset_mode": self.autoreset_mode}
-        self.source = source
+        # One scenario source for every sub-env, or one per sub-env (the Random id's per-env pools).
+        self._sources = list(sources) if len(sources) > 1 else [sources[0]] * int(num_envs)
+        self.source = self._sources[0]
         self._built = BuiltCache()
         self._model: PenetrationModel | None = None
         self._model_keys: list[str] = []
         n = self.num_envs
         self._rngs: list[np.random.Generator | None] = [None] * n
+        self._sub_seeds: list[int | None] = [None] * n
         self._scenarios: list[Scenario | None] = [None] * n
         self._states = np.zeros((n, 6))
         self._steps = np.zeros(n, dtype=np.int64)
@@ -125,8 +159,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self._autoreset = np.zeros(n, dtype=bool)
         self._started = False
         self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
-        if isinstance(source, FixedScenarioSource):
-            self._load([source.scenario])
+        if isinstance(self.source, FixedScenarioSource):
+            self._load([self.source.scenario])
             limits = self._model.limits
         else:
             limits = UAVLimits.from_scenario(Scenario())
@@ -204,7 +238,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
             return
         loaded = [b.scenario for b in self._model.built] if self._model is not None else []
         in_use = [s for s in self._scenarios if s is not None]
-        cap = self.num_envs + getattr(self.source, "pool_size", 1)
+        cap = self.num_envs + getattr(self.source, "pool_size", 1) * len(set(map(id, self._sources)))
         candidates = [*loaded, *needed] if len(loaded) + len(needed) <= cap else [*in_use, *needed]
         pool = list({s.hash: s for s in candidates}.values())
         self._model = PenetrationModel(
@@ -236,15 +270,12 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 raise ValueError(f"seed: got {len(seeds)} seeds, expected {n} (one per sub-env)")
         mask = np.ones(n, dtype=bool)
         if options is not None and "reset_mask" in options:
-            mask = np.asarray(options["reset_mask"])
-            if mask.shape != (n,) or mask.dtype != np.bool_ or not mask.any():
-                raise ValueError(
-                    f"options['reset_mask']: expected a bool array of shape ({n},) with a True value"
-                )
+            mask = _reset_mask(options["reset_mask"], n)
         rows = np.flatnonzero(mask)
         self._reset_rows(rows, [seeds[i] for i in rows])
         self._started = True
-        result = reset_result(self._model, self._states[rows], self._rows_index(rows))
+        self._np_random_seed = tuple(self._sub_seeds)
+        result = self._model.reset_result(self._states[rows], self._rows_index(rows))
         # observe() without a result re-evaluates the radars at each state: the same numbers a step
         # into that state reported, so rows that were not reset keep their observation.
         obs = self._model.observe(
@@ -259,8 +290,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         chosen = []
         for i, s in zip(rows, seeds, strict=True):
             if s is not None or self._rngs[i] is None:
-                self._rngs[i], _ = seeding.np_random(s)
-            chosen.append(self.source.choose(s, self._rngs[i]))
+                self._rngs[i], self._sub_seeds[i] = seeding.np_random(s)
+            chosen.append(self._sources[i].choose(s, self._rngs[i]))
         self._load(chosen)
         position = {k: j for j, k in enumerate(self._model_keys)}
         for i, scenario in zip(rows, chosen, strict=True):
@@ -278,6 +309,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         if not self._started:
             raise RuntimeError("step() called before reset()")
         n = self.num_envs
+        if np.ndim(actions) == 0:  # as sync mode: a scalar cannot be split into sub-env actions
+            raise TypeError(f"actions: got the scalar {actions!r}, expected an array of shape ({n}, 3)")
         controls = validate_action(actions, self._high, shape=(n, 3))
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=bool)
@@ -308,6 +341,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         rewards[stepping] = result.reward
         terminated[stepping] = result.terminated
         truncated[stepping] = result.truncated
+        if self.max_episode_steps is not None:  # TimeLimit's rule: elapsed >= limit truncates
+            truncated[stepping] |= self._steps[stepping] >= self.max_episode_steps
         done = terminated | truncated
         if self.render_mode is not None:
             for i in stepping:
@@ -327,8 +362,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
             )
             self._reset_rows(finished, [None] * len(finished))
             index = None if self._model.pool_size == 1 else self._index
-            fresh = reset_result(
-                self._model, self._states[finished], None if index is None else index[finished]
+            fresh = self._model.reset_result(
+                self._states[finished], None if index is None else index[finished]
             )
             obs = self._model.observe(self._states, self._steps, None, index)
             reset_info = batched_info(self._model, fresh, None)
@@ -347,9 +382,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
             return result
         n = self.num_envs
         index = None if self._model.pool_size == 1 else self._index
-        fresh = reset_result(
-            self._model, self._states[resetting], None if index is None else index[resetting]
-        )
+        fresh = self._model.reset_result(self._states[resetting], None if index is None else index[resetting])
         merged = {}
         for name in StepResult.__dataclass_fields__:
             a, b = getattr(result, name), getattr(fresh, name)
@@ -373,8 +406,11 @@ class UAVPenetrationVectorEnv(VectorEnv):
         return tuple(frames)
 
 
+POOL_MODES = ("shared", "per_env")
+
+
 class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
-    """Vector env of ``UAVPenetrationRandom-v0``: sub-envs share one scenario pool (model.md §7c).
+    """Vector env of ``UAVPenetrationRandom-v0``: one shared scenario pool, or one per sub-env (model.md §7c).
 
     Args:
         num_envs: number of sub-envs.
@@ -384,6 +420,10 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
         profile: ``"benchmark"`` or ``"paper"``.
         render_mode: ``"rgb_array"`` or ``None``.
         autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED``.
+        max_episode_steps: as for :class:`UAVPenetrationVectorEnv`.
+        pool: ``"shared"`` (one pool for all sub-envs, the default) or ``"per_env"`` (sub-env i
+            has its own pool seeded by its first reset's seed, exactly as sync mode); see the
+            module docstring.
         id_profile: the id's profile (set at registration).
     """
 
@@ -396,12 +436,17 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
         profile: str | None = None,
         render_mode: str | None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        max_episode_steps: int | None = None,
+        pool: str = "shared",
         *,
         id_profile: str | None = None,
     ) -> None:
-        self._setup(
-            num_envs,
-            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile),
-            render_mode,
-            autoreset_mode,
-        )
+        if pool not in POOL_MODES:
+            raise ValueError(f"pool: got {pool!r}, expected one of {', '.join(POOL_MODES)}")
+        copies = 1 if pool == "shared" else int(num_envs) if isinstance(num_envs, (int, np.integer)) else 1
+        sources = [
+            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile)
+            for _ in range(copies)
+        ]
+        self.pool = pool
+        self._setup(num_envs, sources, render_mode, autoreset_mode, max_episode_steps)

@@ -1,4 +1,8 @@
-"""Fuel, progress, normalisation, weighted cost and penalties (model.md §6-7a)."""
+"""Fuel, progress, normalisation, weighted cost and penalties (model.md §6-7a).
+
+The batched formulas tested here are the numpy oracle (tests/numpy_model.py); test_kernels.py checks
+the compiled model against it.
+"""
 
 from __future__ import annotations
 
@@ -8,21 +12,19 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
-from uav_penetration_env.cost import (
-    GRAVITY,
-    FuelParams,
-    Normalisation,
+from numpy_model import (
     failure_penalty,
     fuel_burned,
     normalise,
+    step_kinematics,
     terminal_cost_to_go,
     third_term,
-    third_term_bounds,
     thrust,
     weighted_cost,
 )
-from uav_penetration_env.kinematics import UAVLimits, step_kinematics
+
+from uav_penetration_env.cost import GRAVITY, FuelParams, Normalisation, third_term_bounds
+from uav_penetration_env.kinematics import UAVLimits
 from uav_penetration_env.scenario import paper_scenario
 
 # Defaults of model.md §6.1, by hand: m = 20 kg, g = 9.80665, E = 10, idle 0.1, η = 1.9e-6, Δt = 300 s.

@@ -48,10 +48,11 @@ def test_stable_baselines3_check_env(env_id):
         sb3_checker.check_env(gym.make(env_id), warn=True)
 
 
-def test_ids_are_registered_without_a_time_limit_wrapper():
+def test_ids_register_their_k_max_as_the_time_limit():
+    # Issue 18: the spec says where the env truncates itself (tests/env/test_gym_conventions.py).
     for env_id in ENV_IDS:
-        assert gym.spec(env_id).max_episode_steps is None
-        assert "TimeLimit" not in repr(
+        assert gym.spec(env_id).max_episode_steps == 150
+        assert "TimeLimit" in repr(
             gym.make(env_id, **({} if "Random" in env_id else {"scenario": tiny_scenario()}))
         )
 

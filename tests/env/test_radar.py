@@ -1,4 +1,8 @@
-"""Radar detection (model.md §4): ratio D, Swerling-I P_d, horizon, visibility floors, fusion."""
+"""Radar detection (model.md §4): ratio D, Swerling-I P_d, horizon, visibility floors, fusion.
+
+The batched formulas tested here are the numpy oracle (tests/numpy_model.py); test_kernels.py checks
+the compiled model against it.
+"""
 
 from __future__ import annotations
 
@@ -9,16 +13,18 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from numpy_model import (
+    detection_ratio,
+    horizon_range,
+    swerling1_detection_probability,
+    visibility_probability,
+)
 
 from uav_penetration_env.radar import (
-    detection_ratio,
     fuse,
-    horizon_range,
     reference_snr,
-    swerling1_detection_probability,
     visibility_floor,
     visibility_floor_exact,
-    visibility_probability,
 )
 from uav_penetration_env.terrain import GridSpec, bilinear, gaussian_field, scale_to_height
 

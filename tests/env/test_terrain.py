@@ -1,4 +1,8 @@
-"""Terrain (model.md §2-3): bilinear queries, natural terrain generators, mountains, terrain threat."""
+"""Terrain (model.md §2-3): bilinear queries, natural terrain generators, mountains, terrain threat.
+
+The batched formulas tested here are the numpy oracle (tests/numpy_model.py); test_kernels.py checks
+the compiled model against it.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from numpy_model import terrain_threat
 from scipy import ndimage
 from scipy.interpolate import RegularGridInterpolator
 
@@ -31,7 +36,6 @@ from uav_penetration_env.terrain import (
     mountain_shape,
     random_walk_field,
     scale_to_height,
-    terrain_threat,
 )
 
 # A small non-square grid of arbitrary values (axis 0 = x, axis 1 = y).

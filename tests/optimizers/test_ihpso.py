@@ -45,11 +45,13 @@ def test_cluster_grouping_finds_two_clumps():
 
 
 def test_entropy_grouping_mixes_two_clumps():
-    labels = dendrogram_groups(TWO_CLUMPS, 2, inverse=True)
-    groups = partition(labels)
-    assert len(groups) == 2 and all(len(g) == 3 for g in groups)
-    for group in groups:
-        assert group & {0, 1, 2} and group & {3, 4, 5}
+    for cut in ("maxclust", "equal"):
+        groups = partition(dendrogram_groups(TWO_CLUMPS, 2, inverse=True, cut=cut))
+        assert len(groups) == 2
+        for group in groups:
+            assert group & {0, 1, 2} and group & {3, 4, 5}
+    equal = partition(dendrogram_groups(TWO_CLUMPS, 2, inverse=True, cut="equal", method="average"))
+    assert all(len(g) == 3 for g in equal)  # the 2022v0 equal-size cut
 
 
 def test_three_clumps():
@@ -63,14 +65,17 @@ def test_three_clumps():
 
 
 @pytest.mark.parametrize("inverse", [False, True])
-def test_group_sizes_of_seven(inverse):
+def test_group_sizes_of_seven_under_the_equal_cut(inverse):
     U = np.random.default_rng(0).random((7, 3))
-    assert sorted(np.bincount(dendrogram_groups(U, 3, inverse=inverse)).tolist(), reverse=True) == [3, 2, 2]
+    labels = dendrogram_groups(U, 3, inverse=inverse, cut="equal", method="average")
+    assert sorted(np.bincount(labels).tolist(), reverse=True) == [3, 2, 2]
 
 
 def test_coincident_particles_stay_finite():
-    labels = dendrogram_groups(np.zeros((6, 2)), 3, inverse=True)
+    labels = dendrogram_groups(np.zeros((6, 2)), 3, inverse=True, cut="equal", method="average")
     assert sorted(np.bincount(labels).tolist()) == [2, 2, 2]
+    labels = dendrogram_groups(np.zeros((6, 2)), 3, inverse=True)  # every merge height ties
+    assert labels.min() == 0 and labels.max() <= 2 and np.array_equal(np.unique(labels), np.arange(labels.max() + 1))
 
 
 def test_within_group_distance_sums():
@@ -79,13 +84,22 @@ def test_within_group_distance_sums():
     assert sums == pytest.approx([4.0, math.hypot(3, 5)])
 
 
-def test_termination_test():
-    assert termination_test(TWO_CLUMPS, 2) is False
-    labels_e = dendrogram_groups(TWO_CLUMPS, 2, inverse=True)
-    labels_c = dendrogram_groups(TWO_CLUMPS, 2, inverse=False)
+V0 = {"method": "average", "cut": "equal"}  # the 2022v0 grouping
+
+
+def test_termination_test_2022v0():
+    assert termination_test(TWO_CLUMPS, 2, spread="sum", **V0) is False
+    labels_e = dendrogram_groups(TWO_CLUMPS, 2, inverse=True, **V0)
+    labels_c = dendrogram_groups(TWO_CLUMPS, 2, inverse=False, **V0)
     assert within_group_distance_sums(TWO_CLUMPS, labels_e).min() == pytest.approx(2.83, abs=0.01)
     assert within_group_distance_sums(TWO_CLUMPS, labels_c).max() == pytest.approx(0.052, abs=0.001)
-    assert termination_test(np.full((6, 2), 0.3), 3) is True
+    assert termination_test(np.full((6, 2), 0.3), 3, spread="sum", **V0) is True
+
+
+def test_termination_test():
+    assert termination_test(TWO_CLUMPS, 2) is False
+    assert termination_test(THREE_CLUMPS, 3) is False
+    assert termination_test(np.full((6, 2), 0.3), 3) is True  # coincident: every spread is 0
 
 
 @pytest.mark.parametrize(
@@ -125,8 +139,11 @@ def test_switch_window_after_a_return_to_broad_mode():
 
 
 def test_slope_is_zero():
-    assert slope_is_zero(1e-10, 100) is True
-    assert slope_is_zero(1e-6, 100) is False
+    assert slope_is_zero(1e-10, 100, rtol=1e-9) is True  # 2022v0: k <= 1e-12 + 1e-7
+    assert slope_is_zero(1e-6, 100, rtol=1e-9) is False
+    assert slope_is_zero(1e-2, 100) is True  # default rtol 1e-4 (D15): k <= 1e-12 + 1e-2
+    assert slope_is_zero(1.1e-2, 100) is False
+    assert slope_is_zero(0.0, 0.0) is True  # the absolute floor: a level of 0 that stopped moving
     assert slope_is_zero(0.0, None) is False
     assert slope_is_zero(math.inf, 1.0) is False
 
@@ -155,9 +172,9 @@ def spy_on_grouping(monkeypatch):
     calls = []
     real = ihpso_module.dendrogram_groups
 
-    def spy(U, n_groups, *, inverse, method="average", eps=1e-12):
+    def spy(U, n_groups, *, inverse, **kwargs):
         calls.append("entropy" if inverse else "cluster")
-        return real(U, n_groups, inverse=inverse, method=method, eps=eps)
+        return real(U, n_groups, inverse=inverse, **kwargs)
 
     monkeypatch.setattr(ihpso_module, "dendrogram_groups", spy)
     return calls

@@ -30,7 +30,8 @@ from optimizers.pso import PSO
 SECTION_10 = {
     "ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "pso-ldw", "cem", "de", "cmaes",
     "cmaes-default", "ihpso-scheme1", "ihpso-scheme2", "ihpso-scheme3", "ihpso-random", "ihpso-noterm",
-    "ihpso-literal", "hpso-literal", "ps2o-noext", "mcpso-com",
+    "ihpso-literal", "hpso-literal", "ps2o-noext", "mcpso-com", "ihpso-noswitch", "ihpso-noreverse",
+    "ihpso-2022v0",
 }
 
 
@@ -56,6 +57,10 @@ def test_every_section_10_configuration_is_registered():
         ("ihpso-random", IHPSO(scheme=("random", "random"))),
         ("ihpso-noterm", IHPSO(terminate=False)),
         ("ihpso-literal", IHPSO(constriction=1.0, stage2_sign=-1)),
+        ("ihpso-noswitch", IHPSO(switch=False)),
+        ("ihpso-noreverse", IHPSO(reverse_switch=False)),
+        ("ihpso-2022v0", IHPSO(linkage="average", grouping_cut="equal", spread="sum", level="mean",
+                               slope_rtol=1e-9)),
         ("hpso-literal", HPSO(constriction=1.0, stage2_sign=-1)),
         ("ps2o-noext", PS2O(extinction_patience=None)),
         ("mcpso", MCPSO(version="col")),

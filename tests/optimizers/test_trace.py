@@ -31,7 +31,7 @@ def test_trace_is_read_only_and_empty_by_default():
         res.trace = {}  # type: ignore[misc]
     ihpso = get_optimizer("ihpso").minimize(sphere, BOUNDS, rng=0, max_evals=500)
     again = pickle.loads(pickle.dumps(ihpso))  # results travel between worker processes
-    assert dict(again.trace) == dict(ihpso.trace) and len(ihpso.trace) == 6
+    assert dict(again.trace) == dict(ihpso.trace) and len(ihpso.trace) == 8
     for name in ("pso", "cem", "mcpso", "ccpso-ism"):  # no phases
         assert dict(get_optimizer(name).minimize(sphere, BOUNDS, rng=0, max_evals=500).trace) == {}
 
@@ -88,8 +88,11 @@ def test_ihpso_trace_of_a_scripted_run(monkeypatch):
         "reverse_switch_iterations": (5,),
         "termination_tests": ((5, False), (8, True)),
         "locked_at": None,
+        "termination_spreads": res.trace["termination_spreads"],
+        "levels": res.trace["levels"],
         "stopped_by": "termination",
     }
+    assert len(res.trace["levels"]) == res.nit + 1  # J(0) .. J(nit)
 
 
 def test_ihpso_noterm_trace_locks(monkeypatch):

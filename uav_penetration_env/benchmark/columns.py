@@ -499,3 +499,22 @@ def glossary_markdown() -> str:
         csv = ", ".join(f"`{name}`" for name in column.csv)
         lines.append(f"| {escape(header)} | {csv} | {escape(definition)} |")
     return "\n".join(lines)
+
+
+GLOSSARY_PAGE_HEADER = """# Result columns
+
+Every column of the results store and the leaderboards, as declared once in
+`uav_penetration_env/benchmark/columns.py` ([architecture.md](architecture.md), "add a result
+column"). This page is generated from that table and `tests/test_docs.py` fails when it is out of
+date; regenerate it with
+
+```bash
+python -c "from uav_penetration_env.benchmark.columns import glossary_page; print(glossary_page(), end='')" > docs/columns.md
+```
+
+"""
+
+
+def glossary_page() -> str:
+    """``docs/columns.md``: a short header and :func:`glossary_markdown`, newline-terminated."""
+    return GLOSSARY_PAGE_HEADER + glossary_markdown() + "\n"

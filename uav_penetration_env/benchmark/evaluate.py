@@ -35,6 +35,7 @@ from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
 from uav_penetration_env.build import build_scenario
 from uav_penetration_env.env import UAVPenetrationEnv
+from uav_penetration_env.kernels import limit_worker_threads
 from uav_penetration_env.scenario import Scenario, load_scenario
 
 BACKENDS = ("loky", "dask", "sequential")
@@ -87,6 +88,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         The episode row (the ``episodes`` columns) and one dict per track point, the start state's
         step-0 row first (no step rows for an ``error`` row).
     """
+    limit_worker_threads()  # issue 10: one compiled thread per worker process unless NUMBA_NUM_THREADS is set
     started = time.perf_counter()
     scenario = task.scenario
     row: dict[str, Any] = {

@@ -1,0 +1,836 @@
+"""The penetration model's physics, compiled: scalar relations composed in batch loop kernels.
+
+STYLE.md §2b. Every physical relation of model.md §1-7a is written once here as a small scalar
+function (``@njit(inline="always")``); the batch kernels below loop over rows (``prange``), and
+inside a row over horizon steps, segment samples, peaks and radars. :class:`PenetrationModel`'s
+``step``, ``costs``, ``rollout_cost``, ``state_threats`` and ``observe`` all call these kernels,
+so the physics exists once at run time. The scenario travels as one :class:`ModelArrays` (a few
+typed arrays: the pool geometry, the RCS table, a float vector of constants ``params`` indexed
+by the ``P_*`` names and an integer vector of options ``options`` indexed by the ``O_*`` names);
+options (profile, masking, fusion, third term) are run-time values, so one compiled copy serves
+every scenario.
+
+Float arithmetic follows the numpy formulation (tests/numpy_model.py) operation by operation.
+DECISION (issue 10, model.md §8): results agree with it to ~1e-15 relative, not bit for bit, because numpy
+evaluates ``exp``, ``arctan2``, ``tanh`` and ``**`` with its own SIMD routines (AVX-512 / SVML on
+x86) where compiled code calls the C library; both are within an ulp of the exact value. No
+``fastmath``: every row is computed alone in a fixed order, so results do not depend on the number
+of threads.
+
+Compile cache: ``cache=True``. When the package folder is not writable (a system install) and
+``NUMBA_CACHE_DIR`` is unset, the compiled code is cached under the project's cache folder
+(``$UAV_PENETRATION_CACHE/numba`` or the user cache folder, :func:`cache.cache_dir`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numba import njit, prange, vectorize
+
+from uav_penetration_env import cache
+
+# --- compile-cache location ----------------------------------------------------------------------
+
+
+def _package_cache_writable(folder: Path) -> bool:
+    """Whether numba can write its cache next to the sources (``__pycache__`` in the package)."""
+    target = folder / "__pycache__"
+    try:
+        target.mkdir(exist_ok=True)
+        handle, name = tempfile.mkstemp(dir=target, prefix=".numba-probe-")
+        os.close(handle)
+        os.unlink(name)
+    except OSError:
+        return False
+    return True
+
+
+def configure_compile_cache() -> str | None:
+    """Point numba's cache at the project's cache folder when the package folder is read-only.
+
+    Must run before the kernels are decorated (it runs on import of this module). A user's
+    ``NUMBA_CACHE_DIR`` always wins.
+
+    Returns:
+        The folder chosen, or ``None`` when numba's default (next to the sources) is used.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR") or numba.config.CACHE_DIR:
+        return numba.config.CACHE_DIR or None
+    if _package_cache_writable(Path(__file__).resolve().parent):
+        return None
+    folder = str(cache.cache_dir() / "numba")
+    numba.config.CACHE_DIR = folder
+    return folder
+
+
+COMPILE_CACHE_DIR = configure_compile_cache()
+
+
+# DECISION (issue 10, model.md §8): batches smaller than this run on the calling thread alone (the serial twin
+# of a kernel: the same row function in a plain loop). Waking the thread pool costs more than a
+# few rows of physics (a single env's step), and on a busy machine a parallel launch can wait
+# milliseconds for a core; results are the same either way.
+SERIAL_BELOW_ROWS = 32
+
+
+def run_kernel(parallel_kernel, serial_kernel, rows: int, *args) -> None:
+    """Call the parallel batch kernel, or its serial twin when ``rows < SERIAL_BELOW_ROWS``."""
+    if rows < SERIAL_BELOW_ROWS:
+        serial_kernel(*args)
+    else:
+        parallel_kernel(*args)
+
+
+def limit_worker_threads() -> int:
+    """One compiled thread per worker process unless the user set ``NUMBA_NUM_THREADS``.
+
+    Episodes run in parallel worker processes (joblib/loky, dask); a kernel spreading its batch
+    over every core in each of them would oversubscribe the machine. The main process keeps
+    numba's default (all cores).
+
+    Returns:
+        The thread count now in force.
+    """
+    import multiprocessing
+
+    in_worker = multiprocessing.parent_process() is not None or (
+        multiprocessing.current_process().name != "MainProcess"
+    )
+    if in_worker and "NUMBA_NUM_THREADS" not in os.environ:
+        numba.set_num_threads(1)
+    return numba.get_num_threads()
+
+
+# --- the scenario as typed arrays ---------------------------------------------------------------
+
+# Indices into ModelArrays.params (float64).
+(
+    P_DT,
+    P_SPEED_MIN,
+    P_SPEED_MAX,
+    P_DV_MAX,
+    P_DHEADING_MAX,
+    P_DPITCH_MAX,
+    P_PITCH_MAX,
+    P_GRID_X0,
+    P_GRID_Y0,
+    P_GRID_DX,
+    P_CLEARANCE,
+    P_X_MIN,
+    P_X_MAX,
+    P_Y_MIN,
+    P_Y_MAX,
+    P_CEILING,
+    P_MOUNTAIN_DECAY,
+    P_THREAT_ALTITUDE_SCALE,
+    P_MIN_RANGE,
+    P_HORIZON_SCALE,
+    P_SOFTNESS,
+    P_LOG_FALSE_ALARM,
+    P_SNR_REF,
+    P_TSFC,
+    P_WEIGHT,
+    P_LEVEL_THRUST,
+    P_IDLE_THRUST,
+    P_MAX_THRUST,
+    P_POTENTIAL_PER_M,
+    P_TERRAIN_LO,
+    P_TERRAIN_HI,
+    P_RADAR_LO,
+    P_RADAR_HI,
+    P_THIRD_LO,
+    P_THIRD_HI,
+    P_W_TERRAIN,
+    P_W_RADAR,
+    P_W_THIRD,
+    P_CRASH_PER_STEP,
+    P_MAX_STEP_LENGTH,
+    P_MAP_SIDE,
+    N_PARAMS,
+) = range(42)
+
+# Indices into ModelArrays.options (int64), and their values.
+O_DETECTION, O_MASKING, O_FUSION, O_THIRD, O_ALTITUDE_FADE, O_MAX_STEPS, N_OPTIONS = range(7)
+DETECTION = {"ratio": 0, "swerling1": 1}
+MASKING = {"off": 0, "hard": 1, "soft": 2}
+FUSION = {"max": 0, "or": 1}
+THIRD_TERM = {"fuel": 0, "length": 1}
+
+# Columns of the transition kernel's scalar output (B, N_SCALARS).
+(
+    S_J,
+    S_PENALTY,
+    S_TERRAIN,
+    S_RADAR,
+    S_THIRD,
+    S_TERRAIN_N,
+    S_RADAR_N,
+    S_THIRD_N,
+    S_FUEL,
+    S_GOAL_BEFORE,
+    S_GOAL_AFTER,
+    S_DETECTION,
+    S_ALTITUDE_AGL,
+    N_SCALARS,
+) = range(14)
+# Columns of the transition kernel's flag output (B, N_FLAGS).
+F_REACHED, F_COLLIDED, F_OUT_OF_AREA, F_TERMINATED, F_TRUNCATED, N_FLAGS = range(6)
+
+OBSERVATION_SIZE = 67
+OBSERVATION_LIMIT = 10.0
+OBSERVED_RADARS = 4
+RADAR_FEATURES = 7
+FAR_RANGE_RATIO = 5.0  # observed R / R_ref is capped here; a missing radar reads as this far
+TERRAIN_AHEAD_M = np.array([0.0, 1500.0, 3000.0, 4500.0, 6000.0])
+TERRAIN_ACROSS_M = np.array([-3000.0, -1500.0, 0.0, 1500.0, 3000.0])
+
+RCS_ROWS, RCS_COLUMNS = 181, 361  # elevation -90..90 deg, azimuth -180..180 deg (model.md §5.2)
+_DEGREES_PER_RADIAN = 180.0 / math.pi  # numpy's rad2deg multiplies by this constant
+
+
+class ModelArrays(NamedTuple):
+    """Everything the kernels read about a scenario pool (P scenarios, M radar slots, I peaks).
+
+    Attributes:
+        terrain: (P, nx, ny) terrain heights [m].
+        floors: (L, nx, ny) radar visibility floors [m] (model.md §4.4), one layer per radar.
+        radar_xyz: (P, M, 3) radar positions [m].
+        radar_present: (P, M) 1/0 presence of each radar slot.
+        ref_range: (P, M) reference range R_ref [m].
+        ref_rcs: (P, M) reference RCS sigma_ref [m^2].
+        floor_layer: (P, M) layer of ``floors`` of each radar (int64).
+        mountain_centres: (P, I, 2) peak centres [km].
+        mountain_present: (P, I) 1/0 presence of each peak slot.
+        goal: (P, 3) goal x, y, radius [m].
+        rcs_table: (181, 361) RCS table [dBsm] (model.md §5.2).
+        sample_t: (S,) segment sample fractions j/S, j = 1..S (model.md §8).
+        params: (N_PARAMS,) float constants, indexed by the ``P_*`` names.
+        options: (N_OPTIONS,) integer options, indexed by the ``O_*`` names.
+    """
+
+    terrain: np.ndarray
+    floors: np.ndarray
+    radar_xyz: np.ndarray
+    radar_present: np.ndarray
+    ref_range: np.ndarray
+    ref_rcs: np.ndarray
+    floor_layer: np.ndarray
+    mountain_centres: np.ndarray
+    mountain_present: np.ndarray
+    goal: np.ndarray
+    rcs_table: np.ndarray
+    sample_t: np.ndarray
+    params: np.ndarray
+    options: np.ndarray
+
+
+# --- scalar physics --------------------------------------------------------------------------------
+
+
+@njit(inline="always", cache=True)
+def clip(value, low, high):
+    """np.clip for one float: min(max(value, low), high)."""
+    return min(max(value, low), high)
+
+
+@njit(inline="always", cache=True)
+def wrap_angle(angle):
+    """Wrap an angle to (-pi, pi] exactly as ``kinematics.wrap_angle`` (numpy's float remainder)."""
+    # Python's float % is numpy's np.mod: fmod moved to the divisor's sign, +0.0 when exact.
+    rem = (angle + np.pi) % (2.0 * np.pi)
+    wrapped = rem - np.pi
+    if wrapped <= -np.pi:
+        wrapped += 2.0 * np.pi
+    return wrapped
+
+
+@njit(inline="always", cache=True)
+def kinematics(x, y, z, speed, heading, pitch, dv, dheading, dpitch, params):
+    """Action-then-move point-mass step (model.md §1, paper eq. 1 corrected, A2); controls clipped."""
+    dv = clip(dv, -params[P_DV_MAX], params[P_DV_MAX])
+    dheading = clip(dheading, -params[P_DHEADING_MAX], params[P_DHEADING_MAX])
+    dpitch = clip(dpitch, -params[P_DPITCH_MAX], params[P_DPITCH_MAX])
+    new_speed = clip(speed + dv, params[P_SPEED_MIN], params[P_SPEED_MAX])
+    new_heading = wrap_angle(heading + dheading)
+    new_pitch = clip(pitch + dpitch, -params[P_PITCH_MAX], params[P_PITCH_MAX])
+    step = new_speed * params[P_DT]
+    horizontal = step * math.cos(new_pitch)
+    return (
+        x + horizontal * math.cos(new_heading),
+        y + horizontal * math.sin(new_heading),
+        z + step * math.sin(new_pitch),
+        new_speed,
+        new_heading,
+        new_pitch,
+    )
+
+
+@njit(inline="always", cache=True)
+def grid_value(values, layer, x, y, params):
+    """Bilinear value of grid ``values[layer]`` at (x, y) [m], edge values held outside (model.md §2.1)."""
+    nx = values.shape[1]
+    ny = values.shape[2]
+    fi = clip((x - params[P_GRID_X0]) / params[P_GRID_DX], 0.0, nx - 1.0)
+    fj = clip((y - params[P_GRID_Y0]) / params[P_GRID_DX], 0.0, ny - 1.0)
+    i0 = min(int(fi), nx - 2)
+    j0 = min(int(fj), ny - 2)
+    ti = fi - i0
+    tj = fj - j0
+    v00 = values[layer, i0, j0]
+    v01 = values[layer, i0, j0 + 1]
+    v10 = values[layer, i0 + 1, j0]
+    v11 = values[layer, i0 + 1, j0 + 1]
+    return (v00 + (v01 - v00) * tj) * (1.0 - ti) + (v10 + (v11 - v10) * tj) * ti
+
+
+@njit(inline="always", cache=True)
+def terrain_threat(arrays, p, x, y, altitude_agl):
+    """Th_e = max_i exp(-lambda |p - c_i|^2) (km), faded by exp(-max(z_agl, 0) / s) if set (eq. 6, §3)."""
+    params = arrays.params
+    x_km = x / 1000.0
+    y_km = y / 1000.0
+    decay = params[P_MOUNTAIN_DECAY]
+    threat = 0.0
+    for i in range(arrays.mountain_centres.shape[1]):
+        dx = x_km - arrays.mountain_centres[p, i, 0]
+        dy = y_km - arrays.mountain_centres[p, i, 1]
+        shape = math.exp(-decay * (dx * dx + dy * dy)) * arrays.mountain_present[p, i]
+        if i == 0 or shape > threat:
+            threat = shape
+    if arrays.options[O_ALTITUDE_FADE]:
+        threat = threat * math.exp(-max(altitude_agl, 0.0) / params[P_THREAT_ALTITUDE_SCALE])
+    return threat
+
+
+@njit(inline="always", cache=True)
+def aspect_angles(ux, uy, uz, cos_h, sin_h, cos_p, sin_p):
+    """Body-frame azimuth in (-pi, pi] and elevation of a unit direction (model.md §5.1)."""
+    horizontal = ux * cos_h + uy * sin_h
+    a = horizontal * cos_p + uz * sin_p
+    b = uy * cos_h - ux * sin_h
+    c = uz * cos_p - horizontal * sin_p
+    az = math.atan2(b, a)
+    if az == -np.pi:
+        az = np.pi
+    el = math.atan2(c, math.hypot(a, b))
+    return az, el
+
+
+@njit(inline="always", cache=True)
+def rcs_value(table, az, el):
+    """RCS [m^2] at body-frame aspect (az, el), bilinear in dBsm, azimuth wrapped (model.md §5.2)."""
+    col = az * _DEGREES_PER_RADIAN + 180.0
+    col -= 360.0 * math.floor(col / 360.0)
+    row = clip(el * _DEGREES_PER_RADIAN + 90.0, 0.0, 180.0)
+    col0 = min(int(col), RCS_COLUMNS - 2)
+    row0 = min(int(row), RCS_ROWS - 2)
+    frac_col = col - col0
+    frac_row = row - row0
+    v00 = table[row0, col0]
+    v01 = table[row0, col0 + 1]
+    v10 = table[row0 + 1, col0]
+    v11 = table[row0 + 1, col0 + 1]
+    low = v00 + frac_col * (v01 - v00)
+    high = v10 + frac_col * (v11 - v10)
+    dbsm = low * (1.0 - frac_row) + high * frac_row
+    return 10.0 ** (dbsm / 10.0)
+
+
+@njit(inline="always", cache=True)
+def detection_ratio(sigma, ref_rcs, ref_range, distance):
+    """D = (sigma / sigma_ref) (R_ref / R)^4 (model.md §4.2)."""
+    ratio = ref_range / distance
+    ratio = ratio * ratio
+    return (sigma / ref_rcs) * (ratio * ratio)
+
+
+@njit(inline="always", cache=True)
+def horizon_range(radar_z, z, params):
+    """Radar horizon R_lim = sqrt(2 R_eff) (sqrt(z_m) + sqrt(max(z, 0))) [m] (eq. 12)."""
+    return params[P_HORIZON_SCALE] * (math.sqrt(max(radar_z, 0.0)) + math.sqrt(max(z, 0.0)))
+
+
+@njit(inline="always", cache=True)
+def visibility(z, floor, softness):
+    """P_vis = logistic((z - V) / s) in its tanh form; the hard step z >= V for s = 0 (model.md §4.4)."""
+    if softness <= 0.0:
+        return 1.0 if z >= floor else 0.0
+    return 0.5 + 0.5 * math.tanh((z - floor) / (2.0 * softness))
+
+
+@njit(inline="always", cache=True)
+def swerling1(ratio, params):
+    """Swerling-I P_d = exp(ln P_fa / (1 + SNR_ref D)) (model.md §4.6)."""
+    return math.exp(params[P_LOG_FALSE_ALARM] / (1.0 + params[P_SNR_REF] * ratio))
+
+
+@njit(inline="always", cache=True)
+def radar_threats(arrays, p, x, y, z, heading, pitch, per_radar, visible):
+    """Per-radar threat (D or P_d) and visibility into the (M,) rows given; returns P_d of the network.
+
+    Model.md §4-5: range (floored at the minimum range), body-frame aspect, RCS, ratio D, the
+    horizon and terrain masking; the ``paper`` profile keeps D where it counts (eqs. 11/13), the
+    ``benchmark`` profile turns it into the Swerling-I probability.
+    """
+    params = arrays.params
+    options = arrays.options
+    masking = options[O_MASKING]
+    ratio_detection = options[O_DETECTION] == 0
+    softness = params[P_SOFTNESS] if masking == 2 else 0.0
+    cos_h = math.cos(heading)
+    sin_h = math.sin(heading)
+    cos_p = math.cos(pitch)
+    sin_p = math.sin(pitch)
+    detection = 0.0
+    for m in range(arrays.radar_xyz.shape[1]):
+        ox = arrays.radar_xyz[p, m, 0] - x
+        oy = arrays.radar_xyz[p, m, 1] - y
+        oz = arrays.radar_xyz[p, m, 2] - z
+        distance = max(math.sqrt(ox * ox + oy * oy + oz * oz), params[P_MIN_RANGE])
+        az, el = aspect_angles(ox / distance, oy / distance, oz / distance, cos_h, sin_h, cos_p, sin_p)
+        sigma = rcs_value(arrays.rcs_table, az, el)
+        ratio = detection_ratio(sigma, arrays.ref_rcs[p, m], arrays.ref_range[p, m], distance)
+        in_horizon = distance <= horizon_range(arrays.radar_xyz[p, m, 2], z, params)
+        if masking == 0:
+            seen = 1.0 if in_horizon else 0.0
+        else:
+            floor = grid_value(arrays.floors, arrays.floor_layer[p, m], x, y, params)
+            seen = visibility(z, floor, softness)
+        seen = seen * arrays.radar_present[p, m]
+        visible[m] = seen
+        if ratio_detection:
+            # Eqs. 11/13 (A19): D counts iff D >= 1 inside the horizon and, with masking on, in sight.
+            if ratio >= 1.0 and in_horizon and seen >= 0.5:
+                per_radar[m] = ratio
+                detection = 1.0
+            else:
+                per_radar[m] = 0.0
+        else:
+            threat = seen * swerling1(ratio, params)
+            per_radar[m] = threat
+            if m == 0 or threat > detection:
+                detection = threat
+    return detection
+
+
+@njit(inline="always", cache=True)
+def fuse(per_radar, rule):
+    """Network threat: ``max`` (eq. 14, rule 0) or ``or`` = 1 - prod(1 - P_d) (rule 1); 0 with no radar."""
+    count = per_radar.shape[0]
+    if count == 0:
+        return 0.0
+    if rule == 1:
+        product = 1.0 - per_radar[0]
+        for m in range(1, count):
+            product = product * (1.0 - per_radar[m])
+        return 1.0 - product
+    fused = per_radar[0]
+    for m in range(1, count):
+        if per_radar[m] > fused:
+            fused = per_radar[m]
+    return fused
+
+
+@njit(inline="always", cache=True)
+def fuel_burned(pitch, params):
+    """C_fuel = eta dt clip(T_level + W sin theta, T_idle, T_max) [kg] (model.md §6.1)."""
+    thrust = clip(
+        params[P_LEVEL_THRUST] + params[P_WEIGHT] * math.sin(pitch),
+        params[P_IDLE_THRUST],
+        params[P_MAX_THRUST],
+    )
+    return params[P_TSFC] * params[P_DT] * thrust
+
+
+@njit(inline="always", cache=True)
+def third_term(kind, fuel, step_length, before, after, params):
+    """C(k): fuel plus the progress potential, or path length plus progress (model.md §6.2)."""
+    change = after - before
+    if kind == 1:
+        return step_length + change
+    return fuel + params[P_POTENTIAL_PER_M] * change
+
+
+@njit(inline="always", cache=True)
+def failure_penalty(failed, k_next, max_steps, per_step):
+    """per_step (K_max - k + 1) for a failed step, else 0 (model.md §7a)."""
+    if not failed:
+        return 0.0
+    return per_step * max(max_steps - k_next + 1, 0)
+
+
+@njit(inline="always", cache=True)
+def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags):
+    """Score one transition ``start -> end`` (6-vectors) taken into step ``k_next`` (model.md §7a).
+
+    Events along the segment in flight order, the state threats at ``end``, the third term, the
+    normalised weighted cost J and the failure penalty; writes ``scalars`` (N_SCALARS,), ``flags``
+    (N_FLAGS,), ``per_radar`` and ``visible`` (M,). Returns J + penalty.
+    """
+    params = arrays.params
+    options = arrays.options
+    sample_t = arrays.sample_t
+    samples = sample_t.shape[0]
+    dx = end[0] - start[0]
+    dy = end[1] - start[1]
+    dz = end[2] - start[2]
+    clearance = params[P_CLEARANCE]
+    first_hit_t = np.inf
+    hit = False
+    ground = 0.0
+    for j in range(samples):
+        t = sample_t[j]
+        ground = grid_value(arrays.terrain, p, start[0] + t * dx, start[1] + t * dy, params)
+        if not hit and start[2] + t * dz < ground + clearance:
+            hit = True
+            first_hit_t = t
+    gx = arrays.goal[p, 0]
+    gy = arrays.goal[p, 1]
+    radius = arrays.goal[p, 2]
+    to_goal_x = gx - start[0]
+    to_goal_y = gy - start[1]
+    travel_sq = dx * dx + dy * dy
+    closest_t = clip((to_goal_x * dx + to_goal_y * dy) / max(travel_sq, 1e-12), 0.0, 1.0)
+    miss_x = to_goal_x - closest_t * dx
+    miss_y = to_goal_y - closest_t * dy
+    reached = (miss_x * miss_x + miss_y * miss_y <= radius * radius) and closest_t < first_hit_t
+    collided = hit and not reached
+    x = end[0]
+    y = end[1]
+    z = end[2]
+    outside = (
+        x < params[P_X_MIN]
+        or x > params[P_X_MAX]
+        or y < params[P_Y_MIN]
+        or y > params[P_Y_MAX]
+        or z > params[P_CEILING]
+    )
+    out_of_area = outside and not reached and not collided
+    terminated = reached or collided or out_of_area
+    max_steps = options[O_MAX_STEPS]
+    truncated = k_next >= max_steps and not terminated
+
+    altitude_agl = z - ground
+    threat_e = terrain_threat(arrays, p, x, y, altitude_agl)
+    detection = radar_threats(arrays, p, x, y, z, end[4], end[5], per_radar, visible)
+    threat_r = fuse(per_radar, options[O_FUSION])
+
+    fuel = fuel_burned(end[5], params)
+    before = math.hypot(to_goal_x, to_goal_y)
+    after = math.hypot(gx - x, gy - y)
+    third = third_term(options[O_THIRD], fuel, end[3] * params[P_DT], before, after, params)
+
+    terrain_n = (threat_e - params[P_TERRAIN_LO]) / (params[P_TERRAIN_HI] - params[P_TERRAIN_LO])
+    radar_n = (threat_r - params[P_RADAR_LO]) / (params[P_RADAR_HI] - params[P_RADAR_LO])
+    third_n = (third - params[P_THIRD_LO]) / (params[P_THIRD_HI] - params[P_THIRD_LO])
+    cost = params[P_W_TERRAIN] * terrain_n + params[P_W_RADAR] * radar_n + params[P_W_THIRD] * third_n
+    penalty = failure_penalty(collided or out_of_area, k_next, max_steps, params[P_CRASH_PER_STEP])
+
+    scalars[S_J] = cost
+    scalars[S_PENALTY] = penalty
+    scalars[S_TERRAIN] = threat_e
+    scalars[S_RADAR] = threat_r
+    scalars[S_THIRD] = third
+    scalars[S_TERRAIN_N] = terrain_n
+    scalars[S_RADAR_N] = radar_n
+    scalars[S_THIRD_N] = third_n
+    scalars[S_FUEL] = fuel
+    scalars[S_GOAL_BEFORE] = before
+    scalars[S_GOAL_AFTER] = after
+    scalars[S_DETECTION] = detection
+    scalars[S_ALTITUDE_AGL] = altitude_agl
+    flags[F_REACHED] = reached
+    flags[F_COLLIDED] = collided
+    flags[F_OUT_OF_AREA] = out_of_area
+    flags[F_TERMINATED] = terminated
+    flags[F_TRUNCATED] = truncated
+    return cost + penalty
+
+
+# --- batch kernels ---------------------------------------------------------------------------------
+
+
+@njit(inline="always", cache=True)
+def transition_row(
+    arrays,
+    b,
+    states,
+    moves,
+    moves_are_controls,
+    k_next,
+    index,
+    next_states,
+    per_radar,
+    visible,
+    scalars,
+    flags,
+):
+    """Row ``b`` of :func:`transition_batch`: kinematics (or the given next state), then :func:`transition`."""
+    s = states[b]
+    if moves_are_controls:
+        x, y, z, v, h, pt = kinematics(
+            s[0], s[1], s[2], s[3], s[4], s[5], moves[b, 0], moves[b, 1], moves[b, 2], arrays.params
+        )
+        next_states[b, 0] = x
+        next_states[b, 1] = y
+        next_states[b, 2] = z
+        next_states[b, 3] = v
+        next_states[b, 4] = h
+        next_states[b, 5] = pt
+    else:
+        for i in range(6):
+            next_states[b, i] = moves[b, i]
+    transition(arrays, index[b], s, next_states[b], k_next[b], per_radar[b], visible[b], scalars[b], flags[b])
+
+
+@njit(parallel=True, cache=True)
+def transition_batch(
+    arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
+):
+    """Transitions of a batch (``PenetrationModel.step`` / ``costs``), rows spread over the threads.
+
+    Args:
+        arrays: the :class:`ModelArrays`.
+        states: (B, 6) states before the step.
+        moves: (B, 3) controls when ``moves_are_controls``, else (B, 6) the next states.
+        moves_are_controls: fly the controls (``step``) or score the given next states (``costs``).
+        k_next: (B,) step index after the transition (int64).
+        index: (B,) pool index of each row (int64).
+        next_states: (B, 6) out: the next states.
+        per_radar: (B, M) out: per-radar threat.
+        visible: (B, M) out: visibility.
+        scalars: (B, N_SCALARS) out.
+        flags: (B, N_FLAGS) out (bool).
+    """
+    for b in prange(states.shape[0]):
+        transition_row(
+            arrays,
+            b,
+            states,
+            moves,
+            moves_are_controls,
+            k_next,
+            index,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
+        )
+
+
+@njit(cache=True)
+def transition_rows(
+    arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
+):
+    """:func:`transition_batch` on the calling thread (small batches: a single env's step)."""
+    for b in range(states.shape[0]):
+        transition_row(
+            arrays,
+            b,
+            states,
+            moves,
+            moves_are_controls,
+            k_next,
+            index,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
+        )
+
+
+@njit(parallel=True, cache=True)
+def rollout_batch(arrays, state, controls, step, discount, terminal_cost, p, total):
+    """Discounted window costs of (B, H, 3) control sequences from one state (eq. 37, model.md §7-8).
+
+    Each row sums gamma^j (J + penalty) until it terminates or the episode reaches K_max, then adds
+    the discounted cost-to-go ``terminal_cost d_goal / (v_max dt)`` if it is still flying when a
+    window that ends before K_max is over. Writes ``total`` (B,).
+    """
+    params = arrays.params
+    max_steps = arrays.options[O_MAX_STEPS]
+    horizon = controls.shape[1]
+    steps = max(0, min(horizon, max_steps - step))
+    radars = arrays.radar_xyz.shape[1]
+    for b in prange(controls.shape[0]):
+        current = np.empty(6)
+        nxt = np.empty(6)
+        per_radar = np.empty(radars)
+        visible = np.empty(radars)
+        scalars = np.empty(N_SCALARS)
+        flags = np.empty(N_FLAGS, dtype=np.bool_)
+        for i in range(6):
+            current[i] = state[i]
+        cost = 0.0
+        weight = 1.0
+        flying = True
+        for j in range(steps):
+            x, y, z, v, h, pt = kinematics(
+                current[0],
+                current[1],
+                current[2],
+                current[3],
+                current[4],
+                current[5],
+                controls[b, j, 0],
+                controls[b, j, 1],
+                controls[b, j, 2],
+                params,
+            )
+            nxt[0] = x
+            nxt[1] = y
+            nxt[2] = z
+            nxt[3] = v
+            nxt[4] = h
+            nxt[5] = pt
+            step_cost = transition(arrays, p, current, nxt, step + j + 1, per_radar, visible, scalars, flags)
+            cost += weight * step_cost
+            for i in range(6):
+                current[i] = nxt[i]
+            weight *= discount
+            if flags[F_TERMINATED]:
+                flying = False
+                break
+        if flying and terminal_cost > 0.0 and step + horizon < max_steps:
+            distance = math.hypot(arrays.goal[p, 0] - current[0], arrays.goal[p, 1] - current[1])
+            cost += weight * (terminal_cost * distance / params[P_MAX_STEP_LENGTH])
+        total[b] = cost
+
+
+@njit(cache=True)
+def threats_batch(arrays, states, index, terrain, per_radar, visible, detection, altitude_agl):
+    """State-only threats of a batch: Th_e (B,), per-radar threat and visibility (B, M), P_d (B,), z_agl (B,)."""
+    for b in range(states.shape[0]):
+        s = states[b]
+        p = index[b]
+        agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
+        altitude_agl[b] = agl
+        terrain[b] = terrain_threat(arrays, p, s[0], s[1], agl)
+        detection[b] = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
+
+
+@njit(cache=True)
+def heights_batch(arrays, x, y, index, out):
+    """Terrain height [m] at points (x, y) [m] of pool scenario ``index`` (all (N,))."""
+    for n in range(x.shape[0]):
+        out[n] = grid_value(arrays.terrain, index[n], x[n], y[n], arrays.params)
+
+
+@njit(inline="always", cache=True)
+def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """Row ``b`` of :func:`observe_batch`."""
+    params = arrays.params
+    ratio_detection = arrays.options[O_DETECTION] == 0
+    radars = arrays.radar_xyz.shape[1]
+    x_span = params[P_X_MAX] - params[P_X_MIN]
+    y_span = params[P_Y_MAX] - params[P_Y_MIN]
+    side = params[P_MAP_SIDE]
+    obs = np.zeros(OBSERVATION_SIZE)
+    p = index[b]
+    x = states[b, 0]
+    y = states[b, 1]
+    z = states[b, 2]
+    heading = states[b, 4]
+    cos_h = math.cos(heading)
+    sin_h = math.sin(heading)
+    ground = grid_value(arrays.terrain, p, x, y, params)
+    obs[0] = (x - params[P_X_MIN]) / x_span
+    obs[1] = (y - params[P_Y_MIN]) / y_span
+    obs[2] = (z - ground) / 1000.0
+    obs[3] = z / params[P_CEILING]
+    obs[4] = (states[b, 3] - params[P_SPEED_MIN]) / (params[P_SPEED_MAX] - params[P_SPEED_MIN])
+    obs[5] = cos_h
+    obs[6] = sin_h
+    obs[7] = states[b, 5] / params[P_PITCH_MAX]
+    gx = arrays.goal[p, 0] - x
+    gy = arrays.goal[p, 1] - y
+    obs[8] = gx / side
+    obs[9] = gy / side
+    obs[10] = math.hypot(gx, gy) / side
+    relative = math.atan2(gy, gx) - heading
+    obs[11] = math.cos(relative)
+    obs[12] = math.sin(relative)
+    # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
+    for a in range(ahead.shape[0]):
+        for c in range(across.shape[0]):
+            px = x + ahead[a] * cos_h - across[c] * sin_h
+            py = y + ahead[a] * sin_h + across[c] * cos_h
+            height = grid_value(arrays.terrain, p, px, py, params)
+            obs[13 + a * across.shape[0] + c] = (height - z) / 1000.0
+    # The nearest radars (stable order by range; absent slots last), 7 features each.
+    taken = np.zeros(radars, dtype=np.bool_)
+    distance = np.empty(radars)
+    for m in range(radars):
+        ox = arrays.radar_xyz[p, m, 0] - x
+        oy = arrays.radar_xyz[p, m, 1] - y
+        oz = arrays.radar_xyz[p, m, 2] - z
+        distance[m] = math.sqrt(ox * ox + oy * oy + oz * oz) if arrays.radar_present[p, m] > 0 else np.inf
+    for slot in range(OBSERVED_RADARS):
+        base = 38 + slot * RADAR_FEATURES
+        obs[base + 1] = FAR_RANGE_RATIO
+        best = -1
+        for m in range(radars):
+            if not taken[m] and (best < 0 or distance[m] < distance[best]):
+                best = m
+        if best < 0:
+            continue
+        taken[best] = True
+        if not arrays.radar_present[p, best] > 0:
+            continue
+        ox = arrays.radar_xyz[p, best, 0] - x
+        oy = arrays.radar_xyz[p, best, 1] - y
+        bearing = math.atan2(oy, ox) - heading
+        threat = per_radar[b, best]
+        if ratio_detection:
+            threat = min(threat, 1.0)
+        obs[base] = arrays.radar_present[p, best]
+        obs[base + 1] = min(distance[best] / arrays.ref_range[p, best], FAR_RANGE_RATIO)
+        obs[base + 2] = math.cos(bearing)
+        obs[base + 3] = math.sin(bearing)
+        obs[base + 4] = (arrays.radar_xyz[p, best, 2] - z) / 1000.0
+        obs[base + 5] = visible[b, best]
+        obs[base + 6] = threat
+    obs[66] = step_fraction[b]
+    for i in range(OBSERVATION_SIZE):
+        out[b, i] = clip(obs[i], -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+
+
+@njit(parallel=True, cache=True)
+def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """The 67-slot observation of model.md §7a, clipped to +-10, into ``out`` (B, 67) float32.
+
+    ``per_radar`` / ``visible`` (B, M) are the threat and visibility of each radar at the state;
+    ``step_fraction`` (B,) is k / K_max; ``ahead`` / ``across`` (5,) the terrain sample offsets [m].
+    Rows are spread over the threads.
+    """
+    for b in prange(states.shape[0]):
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
+
+
+@njit(cache=True)
+def observe_rows(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+    """:func:`observe_batch` on the calling thread (small batches)."""
+    for b in range(states.shape[0]):
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
+
+
+@njit(cache=True)
+def fuse_rows(per_radar, rule, out):
+    """Network threat of each row of ``per_radar`` (B, M) into ``out`` (B,) (:func:`fuse`)."""
+    for b in range(per_radar.shape[0]):
+        out[b] = fuse(per_radar[b], rule)
+
+
+@vectorize(["float64(float64)"], cache=True)
+def wrap_angles(angle):
+    """:func:`wrap_angle` as a ufunc (any shape)."""
+    return wrap_angle(angle)
