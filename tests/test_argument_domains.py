@@ -243,3 +243,115 @@ def test_the_cli_refuses_bad_arguments_in_one_line(argv):
 @given(argv=CLI_CASES)
 def test_the_cli_refuses_bad_arguments_in_one_line_many(argv):
     check_cli_case(argv)
+
+
+# --- PenetrationModel ------------------------------------------------------------------------------------
+
+MODEL_SCENARIO = tiny_scenario(time={"max_steps": 12})
+
+
+@pytest.fixture(scope="module")
+def model():
+    from uav_penetration_env import PenetrationModel
+
+    return PenetrationModel(MODEL_SCENARIO)
+
+
+K_MAX = MODEL_SCENARIO.time.max_steps
+
+
+def bad_batch(width: int) -> st.SearchStrategy[object]:
+    """(B, width) arrays that are not: NaN/inf entries, other shapes, no numbers at all."""
+    with_non_finite = st.tuples(st.integers(1, 4), st.integers(0, 3 * width), NON_FINITE).map(
+        lambda c: np.where(np.arange(c[0] * width).reshape(c[0], width) == c[1] % (c[0] * width), c[2], 1.0)
+    )
+    return st.one_of(
+        with_non_finite,
+        st.sampled_from([np.zeros(width), np.zeros((2, width + 1)), np.zeros((1, 1, width)), np.zeros(())]),
+        st.sampled_from(["states", None, [["a"] * width], object()]),
+    )
+
+
+BAD_STEP = st.one_of(
+    NEGATIVE_INTS, st.integers(min_value=K_MAX), FRACTIONAL, st.just(1.0), BOOLS, NOT_A_NUMBER,
+    st.just(np.array([0, K_MAX + 5])), st.just(np.array([0.0])),
+)  # fmt: skip
+BAD_POOL_INDEX = st.one_of(
+    st.integers(min_value=1), NEGATIVE_INTS, st.just(0.0), st.just(np.array([0.5])), st.just("0")
+)
+
+
+def model_cases(model_step_name: str = "step") -> st.SearchStrategy[tuple[str, str, object]]:
+    return st.one_of(
+        st.tuples(st.just("step"), st.just("states"), bad_batch(6)),
+        st.tuples(st.just("step"), st.just("controls"), bad_batch(3)),
+        st.tuples(st.just("step"), st.just("step_index"), BAD_STEP),
+        st.tuples(st.just("step"), st.just("scenario_index"), BAD_POOL_INDEX),
+        st.tuples(st.just("costs"), st.just("next_states"), bad_batch(6)),
+        st.tuples(st.just("costs"), st.just("step_index"), BAD_STEP),
+        st.tuples(st.just("rollout_cost"), st.just("state"), st.one_of(
+            st.tuples(st.integers(0, 5), NON_FINITE).map(lambda c: np.where(np.arange(6) == c[0], c[1], 0.0)),
+            st.sampled_from([np.zeros(5), np.zeros((1, 6)), "state", None]))),
+        st.tuples(st.just("rollout_cost"), st.just("controls"), st.one_of(
+            NON_FINITE.map(lambda v: np.full((3, 2, 3), v)), st.just(np.zeros((3, 0, 3))),
+            st.just(np.zeros((3, 3))), st.just("controls"))),
+        st.tuples(st.just("rollout_cost"), st.just("step"), st.one_of(
+            NEGATIVE_INTS, st.integers(min_value=K_MAX + 1), FRACTIONAL, BOOLS, st.just(2.0))),
+        st.tuples(st.just("rollout_cost"), st.just("discount"), st.one_of(
+            st.floats().filter(lambda v: not 0.0 < v <= 1.0), BOOLS, NOT_A_NUMBER)),
+        st.tuples(st.just("rollout_cost"), st.just("terminal_cost"), st.one_of(
+            st.floats(max_value=0.0, exclude_max=True), NON_FINITE, BOOLS, NOT_A_NUMBER)),
+        st.tuples(st.just("rollout_cost"), st.just("scenario_index"), BAD_POOL_INDEX),
+        st.tuples(st.just("height"), st.just("x_m"), st.one_of(
+            NON_FINITE, NON_FINITE.map(lambda v: np.array([0.0, v])), st.just("x"), st.just(np.zeros(3)))),
+        st.tuples(st.just("height"), st.just("scenario_index"), BAD_POOL_INDEX),
+        st.tuples(st.just("observe"), st.just("states"), bad_batch(6)),
+        st.tuples(st.just("observe"), st.just("step_index"), st.one_of(
+            NEGATIVE_INTS, st.integers(min_value=K_MAX + 1), FRACTIONAL, BOOLS)),
+        st.tuples(st.just("observe"), st.just("result"), st.sampled_from([3, "result", object()])),
+    )  # fmt: skip
+
+
+def call_model(model, method: str, argument: str, value: object) -> None:
+    state = model.initial_state()
+    kwargs: dict[str, object]
+    if method in ("step", "costs"):
+        second = "controls" if method == "step" else "next_states"
+        kwargs = {"states": state[None], second: state[None] if method == "costs" else np.zeros((1, 3)),
+                  "step_index": 0, "scenario_index": None}  # fmt: skip
+    elif method == "rollout_cost":
+        kwargs = {"state": state, "controls": np.zeros((4, 3, 3)), "step": 0, "discount": 0.9,
+                  "terminal_cost": 0.0, "scenario_index": 0}  # fmt: skip
+    elif method == "height":
+        kwargs = {"x_m": np.array([0.0, 1000.0]), "y_m": np.array([0.0, 500.0]), "scenario_index": None}
+    else:
+        kwargs = {"states": state[None], "step_index": 0, "result": None, "scenario_index": None}
+    if argument == "x_m" and np.shape(value) == (3,):
+        kwargs["y_m"] = np.zeros(2)  # shapes that do not broadcast
+    kwargs[argument] = value
+    with pytest.raises((ValueError, TypeError)) as raised:
+        getattr(model, method)(**kwargs)
+    expected_name = "x_m, y_m" if argument == "x_m" and np.shape(value) == (3,) else argument
+    message_names(raised.value, expected_name)
+
+
+@given(case=model_cases())
+def test_model_entry_points_refuse_out_of_domain_arguments(model, case):
+    call_model(model, *case)
+
+
+@pytest.mark.slow
+@settings(max_examples=3_000, deadline=None, derandomize=True)
+@given(case=model_cases())
+def test_model_entry_points_refuse_out_of_domain_arguments_many(model, case):
+    call_model(model, *case)
+
+
+def test_the_domains_edges_are_accepted(model):
+    state = model.initial_state()
+    last = model.step(state[None], np.zeros((1, 3)), K_MAX - 1)
+    assert last.step_index.tolist() == [K_MAX] and bool(last.truncated[0] or last.terminated[0])
+    assert model.observe(last.state, K_MAX, last).shape == (1, 67)
+    assert model.rollout_cost(state, np.zeros((2, 3, 3)), step=K_MAX).tolist() == [0.0, 0.0]
+    assert model.step(state[None], np.zeros((1, 3)), np.int64(0)).step_index.tolist() == [1]
+    assert model.height(0.0, 0.0).shape == ()
