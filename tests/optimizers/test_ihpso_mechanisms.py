@@ -345,8 +345,21 @@ def test_ihpso_2022v0_reproduces_the_golden_ihpso(key):
     ],
 )
 def test_ihpso_2022v0_reproduces_the_golden_ihpso_planner(name, key):
-    """The paper-scenario MPC episodes of the old ``ihpso`` planner, exactly."""
-    assert golden_cases.planner_case(name, int(key.split("/")[1])) == SNAPSHOT["planners"][key]
+    """The paper-scenario MPC episodes of the old ``ihpso`` planner.
+
+    The snapshot was taken with the numpy model; the compiled model (issue 10) reproduces it
+    exactly apart from the last bits of the cost sums (numpy's SIMD transcendental functions and
+    the C maths library differ in the last digit), so the totals are compared to 1e-15 relative
+    and everything else (outcome, steps, evaluations, final position) exactly.
+    """
+    case = golden_cases.planner_case(name, int(key.split("/")[1]))
+    expected = SNAPSHOT["planners"][key]
+    totals = ("total_J", "total_cost")
+    assert {k: v for k, v in case.items() if k not in totals} == {
+        k: v for k, v in expected.items() if k not in totals
+    }
+    for total in totals:
+        assert float.fromhex(case[total]) == pytest.approx(float.fromhex(expected[total]), rel=1e-15, abs=0)
 
 
 def test_study_script_runs_end_to_end(capsys):
