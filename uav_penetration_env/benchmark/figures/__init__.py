@@ -177,7 +177,7 @@ def write_figures(
         )
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         episodes = store.episodes()
         scenarios = store.scenarios()
         if suite is not None and not episodes.empty:
