@@ -4,12 +4,19 @@ A model saved as ``DIR/NAME.zip`` comes with ``DIR/NAME.json`` (how it was train
 ``DIR/NAME.vecnormalize.pkl`` (observation statistics, when used), ``DIR/NAME.evaluations.csv``
 (the learning curve) and ``DIR/NAME.checkpoints/`` (intermediate models, each with its own
 sidecars). No torch here: the evaluator's parent process reads sidecars without it.
+
+The sidecar records the SHA-256 of every file an agent needs: ``model_sha256`` (the ``.zip``),
+``vecnormalize_sha256`` (the observation statistics; ``None`` when not normalised) and
+``hyperparameters_sha256`` (its own ``hyperparameters`` block, canonical JSON), checked by
+:func:`verify_artifacts` when a model is loaded. The ``.zip`` and ``.vecnormalize.pkl`` are
+pickles: loading one runs code it contains, so they must come from trusted sources.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,6 +64,129 @@ class ModelFiles:
 def sha256_file(path: Path) -> str:
     """Hex SHA-256 of a file's bytes."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def hyperparameters_sha256(hyperparameters: Any) -> str:
+    """Hex SHA-256 of hyper-parameters as canonical JSON (sorted keys, no spaces).
+
+    The value is first passed through JSON as the sidecar writes it (``default=str``), so the
+    hash taken at save time equals the one taken from the loaded sidecar.
+    """
+    plain = json.loads(json.dumps(hyperparameters, default=str))
+    text = json.dumps(plain, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+class UnverifiedArtifactWarning(UserWarning):
+    """A model was loaded from a sidecar written before it recorded every file's hash."""
+
+
+def artifact_hashes(files: ModelFiles, hyperparameters: Any, normalised: bool) -> dict[str, str | None]:
+    """The sidecar's hash keys for the files as they are now on disk (:func:`verify_artifacts`)."""
+    return {
+        "model_sha256": sha256_file(files.model),
+        "vecnormalize_sha256": sha256_file(files.vecnormalize) if normalised else None,
+        "hyperparameters_sha256": hyperparameters_sha256(hyperparameters),
+    }
+
+
+def verify_artifacts(files: ModelFiles, sidecar: dict[str, Any]) -> tuple[str, str | None]:
+    """Check the model, its observation statistics and hyper-parameters against the sidecar's hashes.
+
+    DECISION (api.md §5, unsealed sidecars): a sidecar written before the statistics and hyper-parameter hashes were
+    recorded (``format`` 1 without ``vecnormalize_sha256``/``hyperparameters_sha256``, as the
+    published models under ``leaderboards/models/`` are) is accepted with an
+    :class:`UnverifiedArtifactWarning` naming what cannot be checked and how to seal it
+    (:func:`seal_sidecar`), and what it does record (``model_sha256``) is still checked. Refusing
+    it would break every published model, and sealing the published sidecars in place would change
+    their bytes and so the policy hash under which their results are stored (``sidecar_sha256`` is
+    part of an SB3 policy's store key). A sidecar that records a hash is held to it: no warning
+    there, a mismatch is an error.
+
+    Args:
+        files: the model's files.
+        sidecar: its parsed sidecar (:func:`read_sidecar`).
+
+    Returns:
+        The SHA-256 of the model ``.zip`` and of the ``.vecnormalize.pkl`` (``None``: not normalised).
+
+    Raises:
+        FileNotFoundError: the sidecar says the model uses observation statistics and there are none.
+        ValueError: a file whose hash differs from the one recorded, naming the file.
+    """
+    model = sha256_file(files.model)
+    recorded = sidecar.get("model_sha256")
+    unverified = []
+    if recorded is None:
+        unverified.append(files.model.name)
+    elif recorded != model:
+        raise ValueError(
+            f"{files.model} is not the model its sidecar {files.sidecar} describes (hash differs: "
+            f"SHA-256 {model[:16]}..., recorded {recorded[:16]}...); was one of them overwritten by another run?"
+        )
+    statistics = None
+    if sidecar["vecnormalize"]:
+        if not files.vecnormalize.is_file():
+            raise FileNotFoundError(
+                f"{files.vecnormalize}: missing observation statistics (the sidecar {files.sidecar} says the model uses them)"
+            )
+        statistics = sha256_file(files.vecnormalize)
+        recorded = sidecar.get("vecnormalize_sha256")
+        if recorded is None:
+            unverified.append(files.vecnormalize.name)
+        elif recorded != statistics:
+            raise ValueError(
+                f"{files.vecnormalize}: not the observation statistics its sidecar {files.sidecar} records "
+                f"(SHA-256 {statistics[:16]}..., recorded {recorded[:16]}...); was it replaced by another "
+                "run's file? The agent would see differently scaled observations"
+            )
+    recorded = sidecar.get("hyperparameters_sha256")
+    if recorded is None:
+        unverified.append("hyperparameters")
+    elif recorded != hyperparameters_sha256(sidecar.get("hyperparameters")):
+        raise ValueError(
+            f"{files.sidecar}: its hyperparameters are not those it was sealed with "
+            "(hyperparameters_sha256 differs); the sidecar was edited after training"
+        )
+    if unverified:
+        warnings.warn(
+            f"{files.sidecar} records no SHA-256 of {', '.join(unverified)} (a sidecar written before "
+            "hashes were recorded), so they are loaded unverified; if these files are the trusted ones, "
+            f"`python -c \"from baselines.artifacts import seal_sidecar; seal_sidecar('{files.model}')\"` "
+            "records their hashes (this changes the policy's results-store key)",
+            UnverifiedArtifactWarning,
+            stacklevel=3,
+        )
+    return model, statistics
+
+
+def seal_sidecar(path: str | Path) -> dict[str, Any]:
+    """Record in a model's sidecar the hashes of its files as they are now (an older sidecar).
+
+    Use only on files from a trusted source: sealing declares the present files the right ones.
+    The sidecar's bytes change, and with them the policy hash its results are stored under.
+
+    Args:
+        path: the model ``.zip`` (the suffix may be omitted).
+
+    Returns:
+        The sealed sidecar.
+
+    Raises:
+        FileNotFoundError: no model file, sidecar or (when used) observation statistics.
+        ValueError: a corrupt sidecar.
+    """
+    from uav_penetration_env.atomic import write_text_atomic
+
+    files = ModelFiles.of(path)
+    if not files.model.is_file():
+        raise FileNotFoundError(f"{files.model}: no such SB3 model file")
+    sidecar = read_sidecar(files.sidecar)
+    if sidecar["vecnormalize"] and not files.vecnormalize.is_file():
+        raise FileNotFoundError(f"{files.vecnormalize}: missing observation statistics")
+    sidecar.update(artifact_hashes(files, sidecar.get("hyperparameters"), bool(sidecar["vecnormalize"])))
+    write_text_atomic(files.sidecar, json.dumps(sidecar, indent=2, sort_keys=False, default=str) + "\n")
+    return sidecar
 
 
 def read_sidecar(path: Path) -> dict[str, Any]:

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from uav_penetration_env.atomic import atomic_path
+
 
 def load_curves(models: str | Path) -> pd.DataFrame:
     """All evaluation rows of the models in a folder, with their algorithm, regime and seed.
@@ -131,7 +133,8 @@ def write_learning_curves(
     written = []
     for fmt in formats:
         path = out / f"learning-curves.{fmt}"
-        figure.savefig(path, metadata={"CreationDate": None} if fmt == "pdf" else None)
+        with atomic_path(path) as temporary:
+            figure.savefig(temporary, format=fmt, metadata={"CreationDate": None} if fmt == "pdf" else None)
         written.append(path)
     return written
 

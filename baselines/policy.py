@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from gymnasium.wrappers.utils import rescale_box
 
-from baselines.artifacts import ModelFiles, read_sidecar, sha256_file
+from baselines.artifacts import ModelFiles, read_sidecar, sha256_file, verify_artifacts
 from uav_penetration_env.env import action_space
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -206,31 +206,25 @@ def load_policy(path: str | Path) -> SB3Policy:
     Raises:
         FileNotFoundError: no model file, no sidecar, or no observation statistics though the
             sidecar says the model uses them (each naming the path).
-        ValueError: a corrupt sidecar, a model file that is not the one the sidecar describes, or
-            a sidecar for another observation shape.
+        ValueError: a corrupt sidecar; a model file, observation statistics or hyper-parameters
+            whose SHA-256 differs from the one the sidecar records (naming the file); or a sidecar
+            for another observation shape.
+
+    Warns:
+        UnverifiedArtifactWarning: a sidecar written before it recorded every file's hash
+            (why: :func:`baselines.artifacts.verify_artifacts`, api.md §5).
+
+    The ``.zip`` and ``.vecnormalize.pkl`` are pickles: load models from trusted sources only.
     """
     files = ModelFiles.of(path)
     if not files.model.is_file():
         raise FileNotFoundError(f"{files.model}: no such SB3 model file")
     sidecar = read_sidecar(files.sidecar)
-    model_sha256 = sha256_file(files.model)
-    recorded = sidecar.get("model_sha256")
-    if recorded is not None and recorded != model_sha256:
-        raise ValueError(
-            f"{files.model} is not the model its sidecar {files.sidecar} describes (hash differs); "
-            "was one of them overwritten by another run?"
-        )
+    model_sha256, vecnormalize_sha256 = verify_artifacts(files, sidecar)
     shape = tuple(sidecar["observation_space"].get("shape", ()))
     if shape != (OBSERVATION_SIZE,):
         raise ValueError(
             f"{files.sidecar}: the model was trained on observations of shape {shape}, "
             f"this env's are ({OBSERVATION_SIZE},)"
         )
-    vecnormalize_sha256 = None
-    if sidecar["vecnormalize"]:
-        if not files.vecnormalize.is_file():
-            raise FileNotFoundError(
-                f"{files.vecnormalize}: missing observation statistics (the sidecar {files.sidecar} says the model uses them)"
-            )
-        vecnormalize_sha256 = sha256_file(files.vecnormalize)
     return SB3Policy(files, sidecar, model_sha256, vecnormalize_sha256, sha256_file(files.sidecar))

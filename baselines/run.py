@@ -12,7 +12,6 @@ from __future__ import annotations
 import csv
 import datetime as dt
 import json
-import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -21,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from baselines.artifacts import SIDECAR_FORMAT, ModelFiles, sha256_file
+from baselines.artifacts import SIDECAR_FORMAT, ModelFiles, artifact_hashes
 from baselines.hyperparameters import algorithm_class, algorithm_kwargs, normalize_kwargs
 from baselines.plan import TrainingPlan
+from uav_penetration_env.atomic import atomic_open, atomic_path, write_text_atomic
 
 # DECISION: learning curves are measured on seeds 20000, 20001, ... for every training seed, so
 # curves of different seeds are comparable; they stay clear of the held-out set (10000-10049,
@@ -153,9 +153,15 @@ def describe_env(plan: TrainingPlan, venv: Any, seeds: Sequence[int]) -> dict[st
 
 def _write_json_atomic(path: Path, data: Mapping[str, Any]) -> None:
     # The sidecar is written last and atomically: its presence means the model beside it is whole.
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=False, default=str) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(data, indent=2, sort_keys=False, default=str) + "\n")
+
+
+def _write_evaluations(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    """The learning curve so far, rewritten whole (atomically) after each evaluation."""
+    with atomic_open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, EVALUATION_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
 
 
 class _Run:
@@ -196,8 +202,7 @@ class _Run:
         self.eval_seconds += time.perf_counter() - tick
         row["wall_seconds"] = time.perf_counter() - self.started
         self.evaluations.append(row)
-        with self.plan.files.evaluations.open("a", newline="") as handle:
-            csv.DictWriter(handle, EVALUATION_COLUMNS).writerow(row)
+        _write_evaluations(self.plan.files.evaluations, self.evaluations)
         return row
 
     def save(self, files: ModelFiles, wall_seconds: float, interrupted: bool = False) -> dict[str, Any]:
@@ -206,10 +211,13 @@ class _Run:
 
         plan = self.plan
         files.model.parent.mkdir(parents=True, exist_ok=True)
-        self.model.save(files.model)
+        # Each file whole or not at all; the sidecar, last, records their hashes.
+        with atomic_open(files.model, "wb") as stream:
+            self.model.save(stream)
         normalizer = self.normalizer()
         if normalizer is not None:
-            normalizer.save(files.vecnormalize)
+            with atomic_path(files.vecnormalize) as temporary:
+                normalizer.save(temporary)
         if self.env_description is None:
             self.env_description = describe_env(plan, self.venv, self.seeds)
         sidecar = {
@@ -220,7 +228,7 @@ class _Run:
             "hyperparameters": plan.hyperparams,
             "hyperparameters_source": plan.hyperparams_source,
             "vecnormalize": files.vecnormalize.name if normalizer is not None else None,
-            "model_sha256": sha256_file(files.model),
+            **artifact_hashes(files, plan.hyperparams, normalizer is not None),
             "total_timesteps": plan.total_timesteps,
             "timesteps_done": int(self.model.num_timesteps),
             "seed": plan.seed,
@@ -332,10 +340,8 @@ def run_training(plan: TrainingPlan) -> TrainResult:
         # The constructor seeded sub-env i with seed + i; the SeedSequence children replace that.
         run.env.seed(run.seeds)
         if plan.eval_freq:
-            with plan.files.evaluations.open("w", newline="") as handle:
-                csv.DictWriter(handle, EVALUATION_COLUMNS).writeheader()
-        callbacks = _callbacks(run)
-        callback = CallbackList(callbacks)
+            _write_evaluations(plan.files.evaluations, [])
+        callback = CallbackList(_callbacks(run))
         run.started = time.perf_counter()
         try:
             run.model.learn(plan.total_timesteps, callback=callback, progress_bar=False)

@@ -36,6 +36,7 @@ import numpy as np
 
 from optimizers import available_optimizers, get_optimizer
 from optimizers.swarm import BOUNDARY_RULES, SwarmOptimizer
+from uav_penetration_env.atomic import atomic_open
 
 SHIFT = 1.5
 
@@ -166,7 +167,7 @@ def run_tasks(function: Callable[..., dict], tasks: list[tuple], n_jobs: int) ->
 
 def write_csv(path: str, rows: list[dict]) -> None:
     """Write every run as a CSV row."""
-    with open(path, "w", newline="") as handle:
+    with atomic_open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)

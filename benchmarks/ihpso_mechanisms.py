@@ -6,7 +6,7 @@ Window states come from a greedy episode of the paper scenario through the env
 :func:`~uav_penetration_env.benchmark.policies.mpc_objective`, the one ``MPCPolicy`` plans on. The warm
 start is the greedy episode's own next H controls from that state (as the harness's shifted previous
 plan would be). ``uav-bench windows`` does the same from a results store and keeps every run's history
-(api.md §4.7); this script adds the tolerance and ablation tables.
+(api.md §4.8); this script adds the tolerance and ablation tables.
 
 On each (state, seed) pair the script runs ``ihpso``, ``hpso`` and ``ihpso-2022v0`` with the full budget,
 HPSO again with IHPSO's evaluation count (fixed budget), and IHPSO with a few other "slope = 0"

@@ -225,12 +225,14 @@ def normalize_bounds(bounds: BoundsLike) -> tuple[FloatArray, FloatArray]:
             )
     if lo.size == 0:
         raise ValueError("bounds: got zero dimensions, expected at least one (lower, upper) pair")
-    bad = ~(np.isfinite(lo) & np.isfinite(hi) & (lo < hi))
+    with np.errstate(over="ignore", invalid="ignore"):  # the width check below reports it
+        width = hi - lo
+    bad = ~(np.isfinite(lo) & np.isfinite(hi) & (lo < hi) & np.isfinite(width))
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise ValueError(
             f"bounds[{i}]: got lower={float(lo[i])!r}, upper={float(hi[i])!r}, "
-            "expected finite values with lower < upper"
+            "expected finite values with lower < upper and a finite width upper - lower"
         )
     return lo, hi
 
@@ -254,13 +256,31 @@ def check_x0(x0: ArrayLike | None, lo: FloatArray, hi: FloatArray) -> FloatArray
     try:
         arr = np.array(x0, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"x0: could not read {x0!r} as numbers ({exc})") from None
+        raise ValueError(
+            f"x0: could not read {x0!r} as numbers ({exc}); expected {lo.size} finite numbers, one per bound"
+        ) from None
     if arr.shape != lo.shape:
         raise ValueError(f"x0: got shape {arr.shape}, expected {lo.shape} (one value per bound)")
     if not np.all(np.isfinite(arr)):
         i = int(np.flatnonzero(~np.isfinite(arr))[0])
         raise ValueError(f"x0[{i}]: got {float(arr[i])!r}, expected a finite value")
     return np.minimum(np.maximum(arr, lo), hi)
+
+
+def make_rng(rng: object) -> np.random.Generator:
+    """The run's Generator from ``rng`` (:func:`numpy.random.default_rng`), refusing what it should not take.
+
+    Raises:
+        ValueError: ``rng`` is a bool, a negative integer, a float, a string or anything else
+            numpy cannot seed from, naming the argument, the value and what is accepted.
+    """
+    expected = "expected None, an integer >= 0, a sequence of them, a numpy SeedSequence or Generator"
+    if isinstance(rng, (bool, np.bool_)):  # numpy would seed from True == 1: surely a mistake
+        raise ValueError(f"rng: got {rng!r}, {expected}")
+    try:
+        return np.random.default_rng(rng)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"rng: got {rng!r}, {expected} ({error})") from None
 
 
 def check_max_evals(max_evals: object) -> int:
@@ -525,10 +545,11 @@ class OptimizerBase:
         """Minimise ``fun`` inside ``bounds`` (see :class:`Optimizer`; the details are in :meth:`solve`).
 
         Raises:
-            ValueError: For bad bounds, ``max_evals`` or ``x0`` (and the optimiser's own checks).
+            ValueError: For bad bounds, ``max_evals``, ``x0`` or ``rng`` (and the optimiser's own
+                checks), naming the argument, the value and the domain.
             TypeError: If ``fun`` is not callable.
         """
-        generator = np.random.default_rng(rng)
+        generator = make_rng(rng)
         return self.solve(prepare(fun, bounds, max_evals, x0), generator)
 
     def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:

@@ -43,3 +43,11 @@ def test_bench_harness_quick_run(capsys):
     assert "planning per MPC step" in out and "8-episode sweep" in out
     assert all(0.0 < results[f"{name}_share"] <= 1.0 for name in ("ihpso", "pso", "cem", "cmaes"))
     assert results["speedup"] > 0
+
+
+def test_bench_checks_quick_run_reports_every_entry_point(capsys):
+    results = load("bench_checks").main(["--quick"])
+    out = capsys.readouterr().out
+    for name in ("step, 1 row", "observe, 1 row", "rollout_cost", "height"):
+        assert name in out
+    assert len(results) == 5 and all(value > 0 for value in results.values())

@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import warnings
 import zipfile
 from collections import OrderedDict
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from uav_penetration_env._version import __version__
+from uav_penetration_env.atomic import atomic_open
 
 ENV_VAR = "UAV_PENETRATION_CACHE"
 _MEMORY_ENTRIES = 128
@@ -104,15 +104,8 @@ def _store(key: str, arrays: dict[str, np.ndarray]) -> None:
     global _warned
     folder = cache_dir()
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(dir=folder, prefix=f".{key}.", suffix=".tmp")
-        try:
-            with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, **arrays)
-            os.replace(temporary, _path(key))
-        except BaseException:
-            Path(temporary).unlink(missing_ok=True)
-            raise
+        with atomic_open(_path(key), "wb") as stream:
+            np.savez(stream, **arrays)
     except OSError as error:
         if not _warned:
             warnings.warn(

@@ -8,9 +8,14 @@ resolves a file name and digests its bytes; ``Scenario.hash`` and the build cach
 from __future__ import annotations
 
 import hashlib
+import time
 from pathlib import Path
 
-_digests: dict[tuple[str, int, int], str] = {}
+_digests: dict[tuple[str, int, int, int, int], tuple[str, int]] = {}
+# A memoised digest is trusted only for a file that was already this old when it was hashed: file
+# timestamps advance in clock ticks (milliseconds on Linux), so a same-size rewrite within the tick
+# of the hash would keep the memo key; a file older than this cannot be rewritten unseen.
+_SETTLED_NS = 2_000_000_000
 
 
 def resolve_data_file(name: str) -> Path | None:
@@ -29,20 +34,27 @@ def resolve_data_file(name: str) -> Path | None:
 def file_digest(name: str) -> str:
     """SHA-256 (hex) of the bytes of file ``name`` (resolved as :func:`resolve_data_file` does).
 
-    Memoised per (path, size, modification time), so a file rewritten in place gets a new digest
-    in the same process. A file that does not exist digests to ``"missing"``: the scenario still
-    has an identity, and building it raises the loader's clear error.
+    Memoised per (path, inode, size, modification and change times), so a file rewritten in place
+    gets a new digest in the same process. DECISION (model.md §7a): as git does for "racily clean"
+    files, the memo is used only if the file was at least 2 s old when it was hashed; a file
+    modified more recently than that is hashed again on every call, since a same-size rewrite in
+    the same timestamp tick would otherwise keep its old digest. A file that does not exist
+    digests to ``"missing"``: the scenario still has an identity, and building it raises the
+    loader's clear error.
     """
     path = resolve_data_file(name)
     if path is None or not path.is_file():
         return "missing"
     path = path.resolve()
     status = path.stat()
-    key = (str(path), status.st_size, status.st_mtime_ns)
-    if key not in _digests:
-        digest = hashlib.sha256()
-        with path.open("rb") as stream:
-            for block in iter(lambda: stream.read(1 << 20), b""):
-                digest.update(block)
-        _digests[key] = digest.hexdigest()
-    return _digests[key]
+    key = (str(path), status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns)
+    memo = _digests.get(key)
+    if memo is not None and memo[1] - max(status.st_mtime_ns, status.st_ctime_ns) >= _SETTLED_NS:
+        return memo[0]
+    hashed_at = time.time_ns()
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    _digests[key] = (digest.hexdigest(), hashed_at)
+    return digest.hexdigest()

@@ -21,12 +21,13 @@ fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from uav_penetration_env import kernels
+from uav_penetration_env import checks, kernels
 from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.cost import FuelParams, Normalisation
 from uav_penetration_env.kernels import (
@@ -275,26 +276,48 @@ class PenetrationModel:
             if self.pool_size != 1:
                 raise ValueError("scenario_index: required for a model with a pool of scenarios")
             return np.zeros(batch, dtype=np.int64)
-        rows = np.ascontiguousarray(np.broadcast_to(np.asarray(index, dtype=np.int64), (batch,)))
-        if batch and (rows.min() < 0 or rows.max() >= self.pool_size):
-            raise ValueError(
-                f"scenario_index: got values in [{rows.min()}, {rows.max()}], expected [0, {self.pool_size})"
-            )
-        return rows
+        return checks.integer_array(
+            index,
+            "scenario_index",
+            batch,
+            0,
+            self.pool_size - 1,
+            f"[0, {self.pool_size}) (integer pool indices)",
+        )
 
     @staticmethod
     def _batch(array: FloatArray, name: str, width: int) -> np.ndarray:
-        """``array`` as a contiguous float64 (B, width) batch."""
-        out = np.ascontiguousarray(array, dtype=np.float64)
-        if out.ndim != 2 or out.shape[1] != width:
-            raise ValueError(f"{name}: got shape {out.shape}, expected (B, {width})")
-        return out
+        """``array`` as a contiguous float64 (B, width) batch of finite numbers (api.md §2.4)."""
+        return checks.finite_array(array, name, (None, width), f"a (B, {width}) array of finite numbers")
+
+    def _step_indices(self, step_index: IntArray | int, batch: int, last: int) -> np.ndarray:
+        """The step index k of each row as int64 (B,), each in [0, last] (``last`` is K_max or K_max - 1)."""
+        return checks.integer_array(
+            step_index, "step_index", batch, 0, last, f"integers in [0, {last}] (K_max = {self.max_steps})"
+        )
 
     # --- queries --------------------------------------------------------------------------------
 
     def height(self, x_m: FloatArray, y_m: FloatArray, scenario_index: IntArray | None = None) -> FloatArray:
-        """Terrain height [m] at points [m] (bilinear, edge values outside the grid; model.md §2.1)."""
-        x, y = np.broadcast_arrays(np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64))
+        """Terrain height [m] at points [m] (bilinear, edge values outside the grid; model.md §2.1).
+
+        Raises:
+            TypeError: coordinates that are not numbers, or a non-integer ``scenario_index``.
+            ValueError: a NaN or infinite coordinate, shapes that do not broadcast, or a
+                ``scenario_index`` outside the pool.
+        """
+        expected = "finite coordinates [m] (arrays of one shape, or broadcastable)"
+        x = checks.as_float_array(x_m, "x_m", expected)
+        y = checks.as_float_array(y_m, "y_m", expected)
+        try:
+            x, y = np.broadcast_arrays(x, y)
+        except ValueError:
+            raise ValueError(f"x_m, y_m: got shapes {x.shape} and {y.shape}, expected {expected}") from None
+        for name, array in (("x_m", x), ("y_m", y)):
+            if not checks.all_finite(np.ascontiguousarray(array)):
+                raise ValueError(
+                    f"{name}: got a non-finite entry {name}{checks._first_bad(array)}, expected {expected}"
+                )
         shape = x.shape
         x, y = np.ascontiguousarray(x).reshape(-1), np.ascontiguousarray(y).reshape(-1)
         index = self._rows(
@@ -363,8 +386,9 @@ class PenetrationModel:
         Returns:
             The result, every field with a leading batch axis B.
         """
-        states = np.asarray(states, dtype=np.float64)
+        states = self._batch(states, "states", 6)
         batch = len(states)
+        step_index = self._step_indices(step_index, batch, self.max_steps)
         zeros = np.zeros(batch)
         false = np.zeros(batch, dtype=bool)
         terrain, per_radar, visibility, detection = self.state_threats(states, scenario_index)
@@ -407,7 +431,7 @@ class PenetrationModel:
         Returns:
             (B,) values in [0, 1].
         """
-        _, per_radar, _, _ = self.state_threats(np.asarray(states, dtype=np.float64), scenario_index)
+        _, per_radar, _, _ = self.state_threats(states, scenario_index)
         threat = fuse(per_radar, self.scenario.radar_model.fusion)
         if self.detection == "ratio":
             return (threat >= 1.0).astype(np.float64)
@@ -434,11 +458,15 @@ class PenetrationModel:
             The :class:`StepResult`; ``step_index`` in it is k + 1.
 
         Raises:
-            ValueError: on arrays of the wrong shape or a missing/out-of-range ``scenario_index``.
+            TypeError: arrays that are not numbers; a non-integer ``step_index`` or ``scenario_index``.
+            ValueError: arrays of the wrong shape or with a NaN or infinite entry; a ``step_index``
+                outside [0, K_max - 1] (a transition from step K_max does not exist: the episode
+                has ended); a missing or out-of-range ``scenario_index``.
         """
         states = self._batch(states, "states", 6)
         controls = self._batch(controls, "controls", 3)
-        return self._transitions(states, controls, True, step_index, scenario_index)
+        k = self._step_indices(step_index, states.shape[0], self.max_steps - 1)
+        return self._transitions(states, controls, True, k, scenario_index)
 
     def costs(
         self,
@@ -447,10 +475,15 @@ class PenetrationModel:
         step_index: IntArray | int,
         scenario_index: IntArray | None = None,
     ) -> StepResult:
-        """Score a given transition ``states -> next_states`` taken at step k (no kinematics)."""
+        """Score a given transition ``states -> next_states`` taken at step k (no kinematics).
+
+        Raises:
+            TypeError, ValueError: as :meth:`step` (``next_states`` in place of ``controls``).
+        """
         states = self._batch(states, "states", 6)
         next_states = self._batch(next_states, "next_states", 6)
-        return self._transitions(states, next_states, False, step_index, scenario_index)
+        k = self._step_indices(step_index, states.shape[0], self.max_steps - 1)
+        return self._transitions(states, next_states, False, k, scenario_index)
 
     def _transitions(
         self,
@@ -465,7 +498,13 @@ class PenetrationModel:
             raise ValueError(
                 f"controls/next_states: got {moves.shape[0]} rows, expected {batch} (one per state)"
             )
-        if isinstance(step_index, (int, np.integer)):
+        if (
+            isinstance(step_index, np.ndarray)
+            and step_index.dtype == np.int64
+            and step_index.shape == (batch,)
+        ):
+            k_next = step_index + 1  # checked by the public method (contiguous int64)
+        elif isinstance(step_index, (int, np.integer)):
             k_next = np.full(batch, int(step_index) + 1, dtype=np.int64)
         else:
             k_next = np.ascontiguousarray(
@@ -583,28 +622,43 @@ class PenetrationModel:
             (B,) window costs.
 
         Raises:
-            ValueError: on arrays of the wrong shape or a ``scenario_index`` outside the pool.
+            TypeError: arrays that are not numbers; a non-integer ``step`` or ``scenario_index``; a
+                ``discount`` or ``terminal_cost`` that is not a number.
+            ValueError: ``controls`` not (B, H, 3) with H >= 1, or ``state`` not (6,); a NaN or
+                infinite entry; ``step`` outside [0, K_max]; ``discount`` outside (0, 1];
+                ``terminal_cost`` negative or not finite; ``scenario_index`` outside the pool.
         """
-        controls = np.ascontiguousarray(controls, dtype=np.float64)
-        if controls.ndim != 3 or controls.shape[2] != 3:
-            raise ValueError(f"controls: got shape {controls.shape}, expected (B, H, 3)")
-        state = np.ascontiguousarray(state, dtype=np.float64)
-        if state.shape != (6,):
-            raise ValueError(f"state: got shape {state.shape}, expected (6,)")
-        if not 0 <= int(scenario_index) < self.pool_size:
-            raise ValueError(
-                f"scenario_index: got {scenario_index}, expected an integer in [0, {self.pool_size})"
-            )
+        controls = checks.finite_array(
+            controls, "controls", (None, None, 3), "a (B, H, 3) array of finite controls"
+        )
+        if controls.shape[1] == 0:
+            raise ValueError("controls: got shape (B, 0, 3), expected a horizon H >= 1")
+        state = checks.finite_array(state, "state", (6,), "a (6,) state of finite numbers")
+        step = checks.integer_scalar(
+            step, "step", 0, self.max_steps, f"an integer in [0, {self.max_steps}] (K_max)"
+        )
+        discount = checks.real_scalar(discount, "discount", 0.0, 1.0, "a number in (0, 1]", open_low=True)
+        terminal_cost = checks.real_scalar(
+            terminal_cost, "terminal_cost", 0.0, sys.float_info.max, "a finite number >= 0"
+        )
+        scenario_index = checks.integer_scalar(
+            scenario_index, "scenario_index", 0, self.pool_size - 1, f"an integer in [0, {self.pool_size})"
+        )
+        return self._rollout_cost(state, controls, step, discount, terminal_cost, scenario_index)
+
+    def _rollout_cost(
+        self,
+        state: np.ndarray,
+        controls: np.ndarray,
+        step: int,
+        discount: float,
+        terminal_cost: float,
+        scenario_index: int,
+    ) -> FloatArray:
+        """:meth:`rollout_cost` on checked arguments (contiguous float64 arrays, Python scalars)."""
         total = np.empty(controls.shape[0])
         kernels.rollout_batch(
-            self.arrays,
-            state,
-            controls,
-            int(step),
-            float(discount),
-            float(terminal_cost),
-            int(scenario_index),
-            total,
+            self.arrays, state, controls, step, discount, terminal_cost, scenario_index, total
         )
         return total
 
@@ -628,18 +682,30 @@ class PenetrationModel:
 
         Returns:
             (B, 67) float32 observations.
+
+        Raises:
+            TypeError: ``states`` not numbers, a non-integer ``step_index`` or ``scenario_index``,
+                or a ``result`` that is no :class:`StepResult`.
+            ValueError: ``states`` not (B, 6) finite numbers; ``step_index`` outside [0, K_max];
+                a ``result`` of another batch size or radar count; a bad ``scenario_index``.
         """
         states = self._batch(states, "states", 6)
         batch = states.shape[0]
+        k = self._step_indices(step_index, batch, self.max_steps)
         index = self._rows(scenario_index, batch)
         if result is None:
             _, per_radar, visible, _, _ = self._state_threats(states, scenario_index)
         else:
+            if not isinstance(result, StepResult):
+                raise TypeError(f"result: got {type(result).__name__}, expected a StepResult or None")
             per_radar = np.ascontiguousarray(result.radar_threat_per_radar, dtype=np.float64)
             visible = np.ascontiguousarray(result.visibility, dtype=np.float64)
-        fraction = np.ascontiguousarray(
-            np.broadcast_to(np.asarray(step_index) / self.max_steps, (batch,)), dtype=np.float64
-        )
+            if per_radar.shape != (batch, self.radar_slots) or visible.shape != per_radar.shape:
+                raise ValueError(
+                    f"result: got per-radar arrays of shape {per_radar.shape}, expected "
+                    f"({batch}, {self.radar_slots}) (the transition that produced these states)"
+                )
+        fraction = k / float(self.max_steps)
         out = np.empty((batch, OBSERVATION_SIZE), dtype=np.float32)
         kernels.run_kernel(
             kernels.observe_batch,

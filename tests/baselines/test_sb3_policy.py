@@ -194,3 +194,69 @@ def test_cli_run_names_an_agent_by_its_file_stem(tiny_ppo, tmp_path):
         rows = results.episodes()
     assert set(rows["policy"]) == {f"sb3:{tiny_ppo.files.model.stem}", "greedy"}
     assert rows.loc[rows["policy"] != "greedy", "train_timesteps"].notna().all()
+
+
+# --- every file an agent needs is verified by its SHA-256 (issue 12) ---------------------------------
+
+
+def test_the_sidecar_records_the_hash_of_every_file_the_agent_needs(tiny_ppo):
+    from baselines.artifacts import hyperparameters_sha256, sha256_file
+
+    sidecar, files = tiny_ppo.sidecar, tiny_ppo.files
+    assert sidecar["model_sha256"] == sha256_file(files.model)
+    assert sidecar["vecnormalize_sha256"] == sha256_file(files.vecnormalize)
+    assert sidecar["hyperparameters_sha256"] == hyperparameters_sha256(sidecar["hyperparameters"])
+
+
+def test_swapped_observation_statistics_are_refused_naming_the_file(tiny_ppo, tmp_path):
+    copied = copy_model(tiny_ppo.files, tmp_path)
+    other = tiny_ppo.files.checkpoints / "ppo-tiny-s0-128steps.vecnormalize.pkl"
+    assert other.read_bytes() != copied.vecnormalize.read_bytes()  # another run's statistics
+    shutil.copyfile(other, copied.vecnormalize)
+    with pytest.raises(
+        ValueError, match=r"copy\.vecnormalize\.pkl: not the observation statistics its sidecar"
+    ):
+        load_policy(copied.model)
+
+
+def test_edited_hyperparameters_are_refused(tiny_ppo, tmp_path):
+    copied = copy_model(tiny_ppo.files, tmp_path)
+    hyperparameters = dict(tiny_ppo.sidecar["hyperparameters"], learning_rate=0.5)
+    edit_sidecar(copied, hyperparameters=hyperparameters)
+    with pytest.raises(ValueError, match=r"copy\.json: its hyperparameters are not those it was sealed with"):
+        load_policy(copied.model)
+
+
+def test_an_unsealed_sidecar_loads_with_a_warning_and_can_be_sealed(tiny_ppo, tmp_path, recwarn):
+    import warnings
+
+    from baselines.artifacts import UnverifiedArtifactWarning, seal_sidecar
+
+    copied = copy_model(tiny_ppo.files, tmp_path)
+    legacy = json.loads(copied.sidecar.read_text())
+    del legacy["vecnormalize_sha256"], legacy["hyperparameters_sha256"]
+    copied.sidecar.write_text(json.dumps(legacy))
+    with pytest.warns(UnverifiedArtifactWarning, match=r"copy\.vecnormalize\.pkl, hyperparameters"):
+        unsealed = load_policy(copied.model)
+    assert unsealed.vecnormalize_sha256 == tiny_ppo.sidecar["vecnormalize_sha256"]
+    sealed = seal_sidecar(copied.model)
+    assert sealed["vecnormalize_sha256"] == tiny_ppo.sidecar["vecnormalize_sha256"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnverifiedArtifactWarning)
+        load_policy(copied.model)  # sealed: verified, no warning
+    shutil.copyfile(tiny_ppo.files.checkpoints / "ppo-tiny-s0-128steps.vecnormalize.pkl", copied.vecnormalize)
+    with pytest.raises(ValueError, match="not the observation statistics"):
+        load_policy(copied.model)
+
+
+def test_published_models_still_load_with_a_warning():
+    from pathlib import Path
+
+    from baselines.artifacts import UnverifiedArtifactWarning
+
+    model = Path(__file__).resolve().parents[2] / "leaderboards/models/ppo-paper-s0.zip"
+    if not model.is_file():
+        pytest.skip("no published models in this checkout")
+    with pytest.warns(UnverifiedArtifactWarning, match="ppo-paper-s0.vecnormalize.pkl"):
+        policy = load_policy(model)
+    assert policy.sidecar["model_sha256"] == policy.model_sha256

@@ -100,6 +100,8 @@ def test_hand_picked_windows_cover_every_event(pair):
         controls = control_sequences(compiled, batch=60)
         states = np.repeat(state[None], len(controls), axis=0)
         for j in range(controls.shape[1]):
+            if step + j >= compiled.max_steps:  # the episode ended at K_max: no transition from there
+                break
             result = compiled.step(states, controls[:, j], step + j)
             events |= {
                 name

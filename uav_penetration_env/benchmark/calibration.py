@@ -95,6 +95,10 @@ CALIBRATION_CRASH_PENALTY = 1.0e6  # per remaining step: a single-objective MPC 
 SINGLE_OBJECTIVE_WEIGHTS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
+class CalibrationFailed(RuntimeError):
+    """Some episodes of the payoff table ended in an error, so no constants can be derived."""
+
+
 def payoff_table(
     scenario: Scenario,
     optimizer: str,
@@ -158,7 +162,10 @@ def payoff_table(
                 ids = episodes.loc[episodes["scenario_hash"] == single.hash, "episode_id"]
                 errors = episodes.loc[episodes["scenario_hash"] == single.hash, "error"]
                 if (errors != "").any():
-                    raise RuntimeError(f"calibration run failed: {errors[errors != ''].iloc[0]}")
+                    raise CalibrationFailed(
+                        f"{int((errors != '').sum())} of {len(errors)} calibration episodes failed; "
+                        f"first error: {errors[errors != ''].iloc[0].splitlines()[0]}"
+                    )
                 steps = store.steps(ids)
             per_objective.append({term: steps[term].to_numpy() for term in RAW_TERMS})
     bounds = []

@@ -4,7 +4,8 @@ This module is the program: it builds the parser from the command registry
 (:mod:`uav_penetration_env.benchmark.commands`, one module per command, plus the plug-in
 commands of the entry-point group ``uav_penetration.commands``), dispatches, and turns every
 :class:`~uav_penetration_env.benchmark.commands.common.CLIError` (bad input) and every missing
-extra into one line ``uav-bench: error: ...`` with exit status 2.
+extra into one line ``uav-bench: error: ...`` with exit status 2. The exit statuses are
+listed in :data:`EXIT_STATUS` (the epilog of ``uav-bench --help``).
 """
 
 from __future__ import annotations
@@ -12,18 +13,44 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from uav_penetration_env.benchmark.commands import available_commands
-from uav_penetration_env.benchmark.commands.common import CLIError
+from uav_penetration_env.benchmark.commands.common import CLIError, store_error
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
+
+EXIT_STATUS = """exit status:
+  0    all the work was done
+  1    some work failed (e.g. `run` episodes that ended in an error: stored as error rows,
+       counted in the summary line, retried by rerunning the same command)
+  2    bad arguments or inputs (one line `uav-bench: error: ...`; nothing written)
+  130  interrupted (Ctrl-C); finished work is kept"""
+
+
+class UsageError(CLIError):
+    """A command line argparse cannot parse (unknown flag, missing value, a value of the wrong type)."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``uav-bench: error: PROG: MESSAGE``), not a usage dump.
+
+    ``--help`` still prints the full usage; a parse error raises :class:`UsageError`, which
+    :func:`main` prints as one line with exit status 2, like every other bad input.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        """Raise :class:`UsageError` naming the (sub-)command and pointing at its ``--help``."""
+        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="uav-bench",
         description="UAV penetration benchmark: run planners; build leaderboards, figures and an HTML report; "
         "export and replay tracks.",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     commands, extensions = available_commands()
@@ -45,9 +72,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CLIError as error:  # a clashing plug-in: say so even for --help
         print(f"uav-bench: error: {error}", file=sys.stderr)
         return 2
-    args, unknown = parser.parse_known_args(argv)
-    if unknown and not getattr(args, "accepts_any_arguments", False):
-        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    try:
+        args, unknown = parser.parse_known_args(argv)
+        if unknown and not getattr(args, "accepts_any_arguments", False):
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    except UsageError as error:
+        print(f"uav-bench: error: {error}", file=sys.stderr)
+        return 2
     args.argv = argv
     try:
         for extension in args.extensions:
@@ -58,6 +89,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.handler.run(args) or 0)
     except (CLIError, PluginUnavailable) as error:
         print(f"uav-bench: error: {error}", file=sys.stderr)
+        return 2
+    except Exception as error:
+        # A store that goes bad while a command reads it (a damaged page met mid-way) is an input
+        # problem like one refused up front; the store module (pandas) is imported only if needed.
+        if type(error).__name__ != "StoreError":
+            raise
+        from uav_penetration_env.benchmark.store import StoreError
+
+        if not isinstance(error, StoreError):
+            raise
+        print(f"uav-bench: error: {store_error(error)}", file=sys.stderr)
         return 2
 
 

@@ -200,7 +200,7 @@ class Board:
         optional: shown only when some policy has a value.
         csv: the leaderboard CSV columns a statistic writes (default: its ``out`` alone).
         recorded_only: left out of the Markdown, its legend and the CSV when no policy has a value.
-            DECISION (api.md §4.7): for columns declared after stores existed (the trace summaries),
+            DECISION (api.md §4.8): for columns declared after stores existed (the trace summaries),
             so the leaderboard of an older store stays the one it was.
     """
 
@@ -429,7 +429,7 @@ WINDOW_RUN: tuple[Column, ...] = (
     _window("state", "TEXT", "JSON list: the exact state (x, y, z [m], v, φ, θ) the window starts from"),
     _window("optimizer", "TEXT NOT NULL", "the optimiser's registry name"),
     _window("optimizer_hash", "TEXT NOT NULL", "16 hex digits of the MPC configuration (optimiser, budget, H, γ, c_T)"),
-    _window("seed", "INTEGER NOT NULL", "the run's seed, shared by every optimiser on the window (api.md §4.7)"),
+    _window("seed", "INTEGER NOT NULL", "the run's seed, shared by every optimiser on the window (api.md §4.8)"),
     _window("max_evals", "INTEGER", "the run's evaluation budget"),
     _window("horizon", "INTEGER", "MPC horizon H"),
     _window("nfev", "INTEGER", "evaluations the run spent"),

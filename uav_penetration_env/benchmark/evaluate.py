@@ -179,6 +179,59 @@ def _iterate(
         raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
 
 
+def check_arguments(
+    policies: Any,
+    scenarios: Any,
+    seeds: Any,
+    n_jobs: Any,
+    backend: Any,
+    store: Any,
+    stop_after: Any,
+) -> list[int]:
+    """:func:`evaluate`'s arguments against their domains, before any work; returns the seeds.
+
+    Raises:
+        ValueError: naming the argument, the value and the domain.
+        TypeError: a policy without ``reset``/``act``; a single scenario or seed where a sequence is due.
+    """
+    if not isinstance(policies, Mapping) or not policies:
+        raise ValueError(f"policies: got {policies!r}, expected a non-empty mapping of name -> policy")
+    for name, policy in policies.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"policies: got the name {name!r}, expected a non-empty string")
+        if not (callable(getattr(policy, "reset", None)) and callable(getattr(policy, "act", None))):
+            raise TypeError(
+                f"policies[{name!r}]: got {type(policy).__name__}, expected a Policy "
+                "(with reset(model, seed) and act(observation, info))"
+            )
+    if isinstance(scenarios, (str, Path, Mapping, Scenario)) or not isinstance(scenarios, Sequence):
+        raise TypeError(f"scenarios: got {scenarios!r}, expected a sequence of scenarios (e.g. [scenario])")
+    if not scenarios:
+        raise ValueError("scenarios: got none, expected at least one scenario")
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, Iterable):
+        raise TypeError(f"seeds: got {seeds!r}, expected a sequence of integers >= 0 (e.g. range(5))")
+    seed_list = []
+    for position, seed in enumerate(seeds):
+        if not isinstance(seed, (int, np.integer)) or isinstance(seed, (bool, np.bool_)) or seed < 0:
+            raise ValueError(f"seeds[{position}]: got {seed!r}, expected an integer >= 0")
+        seed_list.append(int(seed))
+    if not seed_list:
+        raise ValueError("seeds: got none, expected at least one seed")
+    if n_jobs is not None and (not isinstance(n_jobs, (int, np.integer)) or isinstance(n_jobs, bool)):
+        raise ValueError(
+            f"n_jobs: got {n_jobs!r}, expected None or an integer (0: all cores, -N: all but N-1)"
+        )
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
+    if store is not None and not isinstance(store, (str, Path, ResultsStore)):
+        raise TypeError(f"store: got {type(store).__name__}, expected a path, a ResultsStore or None")
+    if stop_after is not None and (
+        not isinstance(stop_after, (int, np.integer)) or isinstance(stop_after, bool) or stop_after < 1
+    ):
+        raise ValueError(f"stop_after: got {stop_after!r}, expected None or an integer >= 1")
+    return seed_list
+
+
 def _resolve_jobs(n_jobs: int | None) -> int:
     import os
 
@@ -225,11 +278,15 @@ def evaluate(
         One row per requested episode (stored ones included when a store is given).
 
     Raises:
+        ValueError: an argument outside its domain (no policy or scenario, a seed that is not an
+            integer >= 0, an unknown backend, ...), naming the argument, the value and the domain;
+            a scenario that does not load (``ScenarioError``).
+        TypeError: a policy without ``reset``/``act``, or a single scenario where a sequence is due.
         KeyboardInterrupt: propagated after the store is left consistent.
     """
+    seed_list = check_arguments(policies, scenarios, seeds, n_jobs, backend, store, stop_after)
     import_plugins(imports)
     scenario_list = [load_scenario(s) for s in scenarios]
-    seed_list = [int(s) for s in seeds]
     hashes = {name: policy_hash(policy) for name, policy in policies.items()}
     if len(set(hashes.values())) < len(hashes):
         raise ValueError(

@@ -325,7 +325,7 @@ def mpc_objective(
 def trace_summary(trace: Any, nfev: int, max_evals: int) -> dict[str, Any]:
     """A compact, optimiser-independent summary of one run's ``OptimizeResult.trace`` (docs/swarm.md §6).
 
-    DECISION (api.md §4.7): ``stopped_early`` is read from the budget, ``nfev < max_evals``, not from a
+    DECISION (api.md §4.8): ``stopped_early`` is read from the budget, ``nfev < max_evals``, not from a
     trace key, so it means the same for every optimiser (IHPSO's adaptive termination, a scipy
     method's convergence, an optimiser that gives up). The counts are ``None`` where the optimiser
     does not trace that mechanism (its trace lacks the key), so a leaderboard shows "no such

@@ -14,7 +14,6 @@ import datetime as dt
 import html
 import json
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from uav_penetration_env.atomic import write_text_atomic
 from uav_penetration_env.benchmark.store import ResultsStore
 
 SectionRenderer = Callable[["ReportContext"], "str | None"]
@@ -80,7 +80,7 @@ class ReportContext:
     def store(self) -> ResultsStore:
         """The results store, opened on first use."""
         if self._store is None:
-            self._store = ResultsStore(self.store_path)
+            self._store = ResultsStore(self.store_path, create=False)
         return self._store
 
     @cached_property
@@ -155,15 +155,7 @@ document.querySelectorAll("table.sortable").forEach(function (table) {
 
 def _atomic_write(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file and a rename: never a truncated page."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_text_atomic(path, text)
 
 
 def _plotly_script() -> str:

@@ -4,7 +4,7 @@ Tables: ``schema_version``; ``runs`` (provenance of each ``evaluate`` call); ``p
 ``scenarios`` (configurations by hash, so a store is self-describing); ``episodes`` (one row per
 episode, unique by ``(policy_hash, scenario_hash, seed)``); ``steps`` (one row per track point,
 step 0 being the start state); ``window_runs`` (optimiser runs on MPC window states of stored
-episodes, ``uav-bench windows``, api.md §4.7). The columns of ``episodes``, ``steps`` and
+episodes, ``uav-bench windows``, api.md §4.8). The columns of ``episodes``, ``steps`` and
 ``window_runs`` are declared in :mod:`uav_penetration_env.benchmark.columns`.
 
 Opening a store upgrades it in place, once: tables and columns declared since it was written are
@@ -18,11 +18,12 @@ and a rerun skips what is done and retries ``error`` rows.
 
 from __future__ import annotations
 
+import functools
 import json
 import sqlite3
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -40,7 +41,106 @@ WINDOW_RUN_KEY = ("scenario_hash", "source_policy_hash", "episode_seed", "step",
 
 
 class StoreError(RuntimeError):
-    """The results store cannot be opened, created or written."""
+    """The results store cannot be opened, created, read or written.
+
+    Attributes:
+        path: the store's path.
+        reason: what is wrong, without the path (``uav-bench`` prints ``--store PATH: REASON``).
+    """
+
+    def __init__(self, path: str | Path, reason: str) -> None:
+        super().__init__(f"results store {path}: {reason}")
+        self.path = Path(path)
+        self.reason = reason
+
+
+SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
+    """Check, by reading only, that ``path`` is absent, empty, or a results store this version can use.
+
+    Run before any write, so that a file that is not one of ours (a text file, another
+    application's database, a store of a newer schema, a truncated copy) is never modified: SQLite
+    itself would happily switch another application's database to WAL mode and add our tables.
+
+    DECISION (api.md §4.8, truncation check): a file shorter than the size its SQLite header declares (page size x
+    page count, header bytes 16-17 and 28-31, valid when bytes 24-27 equal bytes 92-95) is
+    refused as damaged, rather than opened and failing on the first missing page, which for a
+    store truncated mid-copy may be deep inside a leaderboard build. The check reads 100 bytes;
+    a full ``PRAGMA integrity_check`` would read the whole store on every command.
+
+    Args:
+        path: the store's path.
+        must_exist: refuse a missing or empty file too (readers: leaderboard, plot, export).
+
+    Raises:
+        StoreError: a folder, an unreadable path, not an SQLite file, damaged, an SQLite file
+            without our tables, or a schema version this version does not know.
+    """
+    path = Path(path)
+    try:
+        if path.is_dir():
+            raise StoreError(
+                path, "is a folder; expected a results store file (e.g. results/uav-bench.sqlite)"
+            )
+        if not path.exists():
+            if must_exist:
+                raise StoreError(path, "not found; run `uav-bench run` first or pass --store PATH")
+            return
+        with path.open("rb") as handle:
+            header = handle.read(100)
+        size = path.stat().st_size
+    except OSError as error:
+        raise StoreError(path, f"cannot read it ({error.strerror or error})") from None
+    if size == 0:
+        if must_exist:
+            raise StoreError(path, "an empty file, not a results store")
+        return
+    if not header.startswith(SQLITE_MAGIC):
+        raise StoreError(path, "not a results store (not an SQLite database file)")
+    if len(header) < 100:
+        raise StoreError(path, f"damaged: {size} bytes, shorter than an SQLite header (100 bytes)")
+    page_size = int.from_bytes(header[16:18], "big")
+    page_size = 65536 if page_size == 1 else page_size
+    pages = int.from_bytes(header[28:32], "big")
+    header_valid = header[24:28] == header[92:96]
+    if header_valid and pages and size < page_size * pages:
+        raise StoreError(
+            path,
+            f"damaged: the file has {size} bytes but its SQLite header declares {pages} pages of "
+            f"{page_size} bytes ({pages * page_size} bytes); was it truncated or copied while written?",
+        )
+    try:
+        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+    except sqlite3.Error as error:
+        raise StoreError(path, f"cannot read it ({error})") from None
+    try:
+        tables = {row[0] for row in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        if not tables and not must_exist:
+            return
+        if "schema_version" not in tables:  # the table every results store has, from its creation
+            shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "") or "none"
+            raise StoreError(path, f"an SQLite database but not a results store (its tables: {shown})")
+        row = connection.execute("SELECT version FROM schema_version").fetchone()
+    except sqlite3.DatabaseError as error:
+        raise StoreError(path, f"damaged or not a results store ({error})") from None
+    finally:
+        connection.close()
+    version = None if row is None else row[0]
+    if version == SCHEMA_VERSION or version in MIGRATIONS:
+        return
+    if isinstance(version, int) and version > SCHEMA_VERSION:
+        raise StoreError(
+            path,
+            f"schema version {version} is newer than this uav-penetration reads ({SCHEMA_VERSION}); "
+            "upgrade uav-penetration to use it",
+        )
+    raise StoreError(
+        path,
+        f"schema version {version!r}, expected {SCHEMA_VERSION} or an older one this version migrates "
+        f"({', '.join(map(str, sorted(MIGRATIONS)))})",
+    )
 
 
 def _json(value: Any) -> str:
@@ -49,29 +149,54 @@ def _json(value: Any) -> str:
     )
 
 
+_Reader = TypeVar("_Reader", bound=Callable[..., Any])
+
+
+def _reading(method: _Reader) -> _Reader:
+    """A reader of the store whose SQLite errors (a damaged page) become :class:`StoreError`."""
+
+    @functools.wraps(method)
+    def read(self: ResultsStore, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError) as error:
+            raise StoreError(self.path, f"damaged, cannot read it ({error})") from error
+
+    return read  # type: ignore[return-value]
+
+
 class ResultsStore:
     """An SQLite results file. Opening creates it (and its folder) if needed.
 
     Args:
         path: the SQLite file.
+        create: create the store if there is none (``False``: readers, which need an existing one).
 
     Raises:
-        StoreError: the path is not writable, or the file has another schema version.
+        StoreError: the path is a folder, unreadable or not writable; the file is damaged, not a
+            results store, or of a schema version this version does not know
+            (:func:`inspect_store_file`). Reads that meet a damaged page raise it too.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, create: bool = True) -> None:
         self.path = Path(path)
+        # Reads only: a file that is not ours is refused unchanged.
+        inspect_store_file(self.path, must_exist=not create)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._connection = sqlite3.connect(self.path, timeout=60.0)
+        except (OSError, sqlite3.Error) as error:
+            raise StoreError(
+                self.path, f"cannot open or create it ({error}); expected a writable file path"
+            ) from error
+        try:
             self._connection.execute("PRAGMA journal_mode=WAL")
             self._connection.execute("PRAGMA synchronous=NORMAL")
             self._connection.execute("PRAGMA foreign_keys=ON")
             self._create()
-        except (OSError, sqlite3.Error) as error:
-            raise StoreError(
-                f"results store {self.path}: cannot open or create it ({error}); expected a writable file path"
-            ) from error
+        except sqlite3.DatabaseError as error:
+            self._connection.close()
+            raise StoreError(self.path, f"damaged or not writable ({error})") from error
 
     def _create(self) -> None:
         connection = self._connection
@@ -85,8 +210,9 @@ class ResultsStore:
                 version = int(row[0])
             else:
                 raise StoreError(
-                    f"results store {self.path}: schema version {row[0]}, expected {SCHEMA_VERSION} "
-                    f"or an older one this version migrates ({', '.join(map(str, sorted(MIGRATIONS)))})"
+                    self.path,
+                    f"schema version {row[0]}, expected {SCHEMA_VERSION} "
+                    f"or an older one this version migrates ({', '.join(map(str, sorted(MIGRATIONS)))})",
                 )
             connection.execute(
                 "CREATE TABLE IF NOT EXISTS runs (run_id INTEGER PRIMARY KEY AUTOINCREMENT, started TEXT, "
@@ -193,6 +319,7 @@ class ResultsStore:
 
     # --- reading ---------------------------------------------------------------------------------------
 
+    @_reading
     def window_runs(self) -> pd.DataFrame:
         """All window-run rows (``history``/``history_nfev``/``state`` as JSON text), in write order."""
         return pd.read_sql_query(
@@ -200,11 +327,13 @@ class ResultsStore:
             self._connection,
         )
 
+    @_reading
     def done_window_keys(self) -> set[tuple[Any, ...]]:
         """Keys (:data:`WINDOW_RUN_KEY`) of the stored window runs (skipped on rerun)."""
         rows = self._connection.execute(f"SELECT {', '.join(WINDOW_RUN_KEY)} FROM window_runs").fetchall()
         return {(a, b, int(c), int(d), e, int(f)) for a, b, c, d, e, f in rows}
 
+    @_reading
     def done_keys(self) -> set[tuple[str, str, int]]:
         """Keys of episodes that finished without error (these are skipped on rerun)."""
         rows = self._connection.execute(
@@ -212,6 +341,7 @@ class ResultsStore:
         ).fetchall()
         return {(p, s, int(seed)) for p, s, seed in rows}
 
+    @_reading
     def episodes(self, include_errors: bool = True) -> pd.DataFrame:
         """All episode rows as a DataFrame (in write order)."""
         # Declared columns in declared order: a migrated store (columns added at its end) reads
@@ -223,6 +353,7 @@ class ResultsStore:
         )
         return pd.read_sql_query(query, self._connection)
 
+    @_reading
     def steps(self, episode_ids: Iterable[int] | None = None, *, include_start: bool = False) -> pd.DataFrame:
         """Step rows (optionally of some episodes), ordered by episode and step.
 
@@ -249,10 +380,12 @@ class ResultsStore:
             params=ids,
         )
 
+    @_reading
     def runs(self) -> pd.DataFrame:
         """Run provenance rows (``provenance`` and ``settings`` are JSON text)."""
         return pd.read_sql_query("SELECT * FROM runs ORDER BY run_id", self._connection)
 
+    @_reading
     def scenarios(self) -> dict[str, tuple[str, str]]:
         """Stored scenarios: ``hash -> (name, yaml text)``."""
         return {
@@ -260,6 +393,7 @@ class ResultsStore:
             for h, n, y in self._connection.execute("SELECT scenario_hash, scenario, yaml FROM scenarios")
         }
 
+    @_reading
     def policies(self) -> dict[str, tuple[str, dict[str, Any]]]:
         """Stored policy configurations: ``hash -> (name, config)``."""
         return {

@@ -1,4 +1,4 @@
-"""MPC window states of stored episodes, and optimiser runs on them (api.md §4.7, issue 11).
+"""MPC window states of stored episodes, and optimiser runs on them (api.md §4.8, issue 11).
 
 A *window* is one MPC planning problem: the exact state an episode was in at step k, the objective
 :class:`~uav_penetration_env.benchmark.policies.MPCPolicy` minimises there
@@ -51,7 +51,7 @@ class Window:
         state: (6,) the exact state.
         objective: the MPC objective there (its ``bounds`` are the plan's box).
         x0: (3H,) the warm start: the source episode's next H actions (zeros past its end), clipped
-            to the box (DECISION api.md §4.7).
+            to the box (DECISION api.md §4.8).
         scenario: the scenario's name; ``scenario_hash``: the hash the episode was seeded with.
         source_policy, source_policy_hash, episode_seed: the stored episode the state comes from.
     """
@@ -236,7 +236,7 @@ def collect_windows(
 
 
 def run_seed(window: Window, seed: int) -> np.random.SeedSequence:
-    """The generator seed of run ``seed`` on ``window``, shared by every optimiser (DECISION api.md §4.7)."""
+    """The generator seed of run ``seed`` on ``window``, shared by every optimiser (DECISION api.md §4.8)."""
     return np.random.SeedSequence(
         [int(seed), int(window.scenario_hash or "0", 16), int(window.episode_seed), int(window.step)]
     )

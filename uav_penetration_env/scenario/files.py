@@ -11,6 +11,7 @@ from typing import Any
 
 import yaml
 
+from uav_penetration_env.atomic import write_text_atomic
 from uav_penetration_env.scenario.errors import ScenarioError
 
 __all__ = ["read_yaml", "write_yaml"]
@@ -40,7 +41,7 @@ def write_yaml(data: Any, path: Path) -> Path:
     """
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
+        write_text_atomic(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
     except OSError as error:
         raise ScenarioError("path", str(path), f"a writable file path ({error.strerror})") from error
     return path

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import sys
 from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
@@ -11,6 +12,7 @@ from uav_penetration_env.benchmark.commands.common import (
     Command,
     check_writable_folder,
     command_line,
+    int_at_least,
     resolve_scenarios,
     split_list,
 )
@@ -27,19 +29,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-evals",
         dest="max_evals",
-        type=int,
+        type=int_at_least(1),
         default=defaults["max_evals"],
         help=f"objective evaluations per planning step (default: {defaults['max_evals']})",
     )
     parser.add_argument(
         "--runs",
-        type=int,
+        type=int_at_least(1),
         default=defaults["runs"],
         help=f"episodes per objective (default: {defaults['runs']})",
     )
     parser.add_argument(
         "--horizon",
-        type=int,
+        type=int_at_least(1),
         default=defaults["horizon"],
         help=f"MPC horizon H (default: {defaults['horizon']})",
     )
@@ -60,7 +62,7 @@ def _payoff_defaults() -> dict[str, int]:
 def run(args: argparse.Namespace) -> int:
     """Run the payoff table's episodes and write the calibrated scenario."""
     from optimizers import available_optimizers
-    from uav_penetration_env.benchmark.calibration import payoff_table, with_payoff
+    from uav_penetration_env.benchmark.calibration import CalibrationFailed, payoff_table, with_payoff
     from uav_penetration_env.benchmark.evaluate import import_plugins
 
     imports = split_list(args.imports)
@@ -77,10 +79,14 @@ def run(args: argparse.Namespace) -> int:
     (scenario,) = resolve_scenarios([args.scenario], flag="--scenario")
     out = Path(args.out)
     check_writable_folder(out.parent, "--out")
-    payoff = payoff_table(
-        scenario, args.optimizer, max_evals=args.max_evals, runs=args.runs, horizon=args.horizon,
-        n_jobs=args.jobs, imports=tuple(imports), command=command_line(args),
-    )  # fmt: skip
+    try:
+        payoff = payoff_table(
+            scenario, args.optimizer, max_evals=args.max_evals, runs=args.runs, horizon=args.horizon,
+            n_jobs=args.jobs, imports=tuple(imports), command=command_line(args),
+        )  # fmt: skip
+    except CalibrationFailed as error:  # the work failed, not the input: exit status 1, nothing written
+        print(f"uav-bench calibrate: FAILED, no scenario written: {error}", file=sys.stderr)
+        return 1
     with_payoff(scenario, payoff).to_yaml(out)
     constants = payoff.constants
     print(

@@ -17,12 +17,15 @@ import shlex
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from uav_penetration_env.benchmark.plugins import Needs
 from uav_penetration_env.catalogue import UnknownScenarioError
 from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
 from uav_penetration_env.scenario import ScenarioError
+
+if TYPE_CHECKING:  # the store module imports pandas: loaded by the commands that need it
+    from uav_penetration_env.benchmark.store import StoreError
 
 DEFAULT_STORE = Path("results/uav-bench.sqlite")
 DEFAULT_OUT = Path("results")
@@ -71,6 +74,22 @@ class CommandExtension:
 
 
 # --- the small languages of api.md ------------------------------------------------------------------
+
+
+def int_at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse ``type=``: an integer >= ``minimum`` (errors become ``argument --FLAG: got ...``)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected an integer >= {minimum}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
 
 
 def parse_seeds(text: str | int) -> list[int]:
@@ -167,25 +186,41 @@ def add_store_argument(parser: argparse.ArgumentParser, *, default: Path | None 
     )
 
 
+def store_error(error: StoreError, flag: str = "--store") -> CLIError:
+    """The one-line CLI form of a store problem: ``--store PATH: what is wrong``."""
+    return CLIError(f"{flag} {error.path}: {error.reason}")
+
+
 def existing_store(path: str | Path) -> Path:
     """The path of a results store that must already exist (leaderboard, plot, export).
 
+    The file is inspected by reading only (:func:`~uav_penetration_env.benchmark.store.inspect_store_file`),
+    so a bad one is refused before anything is written anywhere, and is left byte for byte as it was.
+
     Raises:
-        CLIError: no file there.
+        CLIError: ``--store PATH: ...`` for no file there, a folder, an unreadable path, a damaged
+            file, a file that is not a results store, or a store of a newer schema.
     """
+    from uav_penetration_env.benchmark.store import StoreError, inspect_store_file
+
     store = Path(path)
-    if not store.is_file():
-        raise CLIError(
-            f"--store: no results store at {store}; run `uav-bench run` first or pass --store PATH"
-        )
+    try:
+        inspect_store_file(store, must_exist=True)
+    except StoreError as error:
+        raise store_error(error) from None
     return store
 
 
-def check_writable_folder(path: Path, flag: str) -> None:
+def check_writable_folder(path: Path, flag: str, value: str | Path | None = None) -> None:
     """Create ``path`` if needed and check a file can be written there.
 
+    Args:
+        path: the folder.
+        flag: the flag to name in the error.
+        value: what the user typed for ``flag``, if not ``path`` itself (``--store``: the file).
+
     Raises:
-        CLIError: naming ``flag`` and the reason.
+        CLIError: ``FLAG VALUE: cannot write to FOLDER (reason); expected a writable folder``.
     """
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -194,7 +229,8 @@ def check_writable_folder(path: Path, flag: str) -> None:
         probe.unlink()
     except OSError as error:
         raise CLIError(
-            f"{flag}: cannot write to {path} ({error.strerror}); expected a writable folder"
+            f"{flag} {path if value is None else value}: cannot write to {path} "
+            f"({error.strerror or error}); expected a writable folder"
         ) from None
 
 

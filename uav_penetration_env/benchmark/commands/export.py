@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from uav_penetration_env.atomic import atomic_path
 from uav_penetration_env.benchmark.commands.common import (
     Command,
     add_store_argument,
@@ -37,16 +38,17 @@ def run(args: argparse.Namespace) -> int:
     store_path = existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_suffix("")
     check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         if args.tracks:
             return _export_tracks(store, out, args.format)
         tables = {"episodes": store.episodes(), "steps": store.steps()}
     for name, frame in tables.items():
         path = out.parent / f"{out.name}-{name}.{args.format}"
-        if args.format == "csv":
-            frame.to_csv(path, index=False)
-        else:
-            frame.to_parquet(path, index=False)
+        with atomic_path(path) as temporary:  # an interrupted export never looks complete
+            if args.format == "csv":
+                frame.to_csv(temporary, index=False)
+            else:
+                frame.to_parquet(temporary, index=False)
         print(path)
     return 0
 
@@ -59,12 +61,14 @@ def _export_tracks(store, out: Path, extension: str) -> int:
 
     rows = track_rows(store)
     table = out.parent / f"{out.name}-tracks.{extension}"
-    if extension == "csv":
-        rows.to_csv(table, index=False)
-    else:
-        rows.to_parquet(table, index=False)
+    with atomic_path(table) as temporary:  # an interrupted export never looks complete
+        if extension == "csv":
+            rows.to_csv(temporary, index=False)
+        else:
+            rows.to_parquet(temporary, index=False)
     geojson = out.parent / f"{out.name}-tracks.geojson"
-    geojson.write_text(json.dumps(tracks_geojson(rows)))
+    with atomic_path(geojson) as temporary:
+        temporary.write_text(json.dumps(tracks_geojson(rows)))
     print(table)
     print(geojson)
     return 0

@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.fixedtarget import write_fixed_target
     from uav_penetration_env.benchmark.summary import print_summary
 
-    # Window runs (uav-bench windows): the fixed-target and fixed-budget tables per scenario (api.md §4.7).
+    # Window runs (uav-bench windows): the fixed-target and fixed-budget tables per scenario (api.md §4.8).
     fixed = (
         []
         if args.suite

@@ -38,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Draw the store's figures and print their paths."""
+    store = existing_store(args.store)  # first: a bad store creates no output folder
     check_writable_folder(Path(args.out), "--out")
-    store = existing_store(args.store)
     from uav_penetration_env.benchmark.figures import write_figures
 
     for path in write_figures(store, Path(args.out), suite=args.suite, altitude=args.altitude):

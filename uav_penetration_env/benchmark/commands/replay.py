@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     check_writable_folder(out.parent, "--out")
     try:
-        with ResultsStore(store_path) as store:
+        with ResultsStore(store_path, create=False) as store:
             stored = find_episode(store, args.policy, args.seed, args.scenario)
         path = animate_episode(stored, out, fps=args.fps)
     except ReplayError as error:

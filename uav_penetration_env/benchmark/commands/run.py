@@ -13,6 +13,7 @@ leaves every finished episode stored (exit status 130); rerunning the same comma
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,7 @@ from uav_penetration_env.benchmark.commands.common import (
     parse_weights,
     resolve_scenarios,
     split_list,
+    store_error,
 )
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
 from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
@@ -159,6 +161,46 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
     return settings
 
 
+def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """The numeric settings (from flags or ``--config``) checked against their domains and converted.
+
+    Raises:
+        CLIError: ``--FLAG: got VALUE, expected DOMAIN`` for the first bad one (a config file's
+            values reach here unconverted: ``max_evals: lots`` is refused, not a traceback).
+    """
+    rules: dict[str, tuple[Any, Any, str]] = {
+        "max_evals": (int, lambda v: v >= 1, "an integer >= 1"),
+        "horizon": (int, lambda v: v >= 1, "an integer >= 1"),
+        "discount": (float, lambda v: 0.0 < v <= 1.0, "a number in (0, 1]"),
+        "terminal_cost": (float, lambda v: math.isfinite(v) and v >= 0.0, "a finite number >= 0"),
+        "difficulty": (float, lambda v: 0.0 <= v <= 1.0, "a number in [0, 1]"),
+        "jobs": (int, lambda v: True, "an integer (0: all cores, -N: all but N-1)"),
+    }
+    checked = dict(settings)
+    for key, (kind, allowed, expected) in rules.items():
+        value = settings[key]
+        if value is None:
+            continue
+        flag = "--" + key.replace("_", "-")
+        try:
+            if isinstance(value, bool) or (
+                kind is int and isinstance(value, float) and not value.is_integer()
+            ):
+                raise ValueError
+            converted = kind(value)
+            ok = bool(allowed(converted))
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise CLIError(f"{flag}: got {value!r}, expected {expected}")
+        checked[key] = converted
+    for key in ("backend", "store", "out", "seeds", "profile", "scheduler"):
+        value = settings[key]
+        if value is not None and not isinstance(value, (str, int, float)):
+            raise CLIError(f"--{key}: got {value!r}, expected a single value")
+    return checked
+
+
 def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     """The policies of ``--policies`` by table name; plug-in kinds are checked for their extras here.
 
@@ -191,9 +233,9 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
-    from uav_penetration_env.benchmark.store import ResultsStore, StoreError
+    from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
 
-    settings = run_settings(args)
+    settings = check_settings(run_settings(args))
     try:
         import_plugins(settings["import"])
     except ImportError as error:
@@ -208,15 +250,21 @@ def run(args: argparse.Namespace) -> int:
         parse_weights(settings["weights"]),
         float(settings["difficulty"]),
     )
+    if not scenarios:
+        raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
     store_path = Path(settings["store"])
     out = Path(settings["out"])
-    check_writable_folder(store_path.parent, "--store")
+    try:
+        inspect_store_file(store_path)  # before anything is written: a bad store is left as it is
+    except StoreError as error:
+        raise store_error(error) from None
+    check_writable_folder(store_path.parent, "--store", store_path)
     if settings["report"]:
         check_writable_folder(out, "--out")
     try:
         store = ResultsStore(store_path)
     except StoreError as error:
-        raise CLIError(f"--store: {error}") from None
+        raise store_error(error) from None
     jobs = settings["jobs"]
     episodes = len(policies) * len(scenarios) * len(seeds)
     print(
@@ -246,7 +294,8 @@ def run(args: argparse.Namespace) -> int:
         return 130
     store.close()
     errors = int((frame["error"] != "").sum())
-    print(f"results: {store_path} ({len(frame)} episodes, {errors} errors)")
+    failed = f"; {errors} of {len(frame)} episodes FAILED, exit status 1" if errors else ""
+    print(f"results: {store_path} ({len(frame)} episodes, {errors} errors{failed})")
     if errors:
         first = frame.loc[frame["error"] != "", ["policy", "seed", "error"]].iloc[0]
         print(
@@ -255,7 +304,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if settings["report"]:
         report(store_path, out, command)
-    return 0
+    return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
 
 
 def report(store: Path, out: Path, command: str) -> None:

@@ -1,4 +1,4 @@
-"""``uav-bench windows``: rerun optimisers on MPC window states of stored episodes (api.md §4.7, issue 11).
+"""``uav-bench windows``: rerun optimisers on MPC window states of stored episodes (api.md §4.8, issue 11).
 
 ``uav-bench windows --store S --from-policy greedy --scenario paper --steps 4,10,16 --optimizers
 ihpso hpso --seeds 20 --max-evals 10000`` replays the stored episode of ``greedy`` on ``paper``,
@@ -18,6 +18,7 @@ from uav_penetration_env.benchmark.commands.common import (
     add_store_argument,
     command_line,
     existing_store,
+    int_at_least,
     parse_seeds,
     split_list,
 )
@@ -51,13 +52,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", default="20", help="run seeds per window, N or START:STOP (default: 20)")
     parser.add_argument(
         "--max-evals",
-        type=int,
+        type=int_at_least(1),
         default=MPC_DEFAULTS.max_evals,
         help=f"evaluations per run (default: {MPC_DEFAULTS.max_evals})",
     )
     parser.add_argument(
         "--horizon",
-        type=int,
+        type=int_at_least(1),
         default=MPC_DEFAULTS.horizon,
         help=f"MPC horizon H (default: {MPC_DEFAULTS.horizon})",
     )
@@ -104,9 +105,6 @@ def run(args: argparse.Namespace) -> int:
             raise CLIError(
                 f"--optimizers: unknown optimiser {name!r} — {did_you_mean(name, known)}known: {', '.join(known)}"
             )
-    for flag, value in (("--max-evals", args.max_evals), ("--horizon", args.horizon)):
-        if value < 1:
-            raise CLIError(f"{flag}: got {value}, expected an integer >= 1")
     if not 0.0 < args.discount <= 1.0:
         raise CLIError(f"--discount: got {args.discount}, expected a number in (0, 1]")
     if not args.terminal_cost >= 0.0:

@@ -15,7 +15,7 @@ For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scena
 * ``<stem>-timeline``: altitude above ground and detection probability per step, same seed as the tracks.
 * ``<stem>-runtime-ecdf``: when the store has window runs (``uav-bench windows``), the share of
   (run, target) pairs each optimiser solved within x evaluations on identical MPC windows
-  (api.md §4.7).
+  (api.md §4.8).
 
 Policies are grouped by family (:data:`FAMILIES`: the paper's planners, reference optimisers,
 IHPSO ablations, floors, RL agents): line style by family, colour by member, never the same
@@ -101,7 +101,7 @@ FIGURES: dict[str, FigureSpec] = {
     "convergence": FigureSpec(plot_convergence),
     "timeline": FigureSpec(plot_timeline, per_scenario=True),
 }
-# Figures of the window runs (``uav-bench windows``, api.md §4.7), drawn after the others for a scenario
+# Figures of the window runs (``uav-bench windows``, api.md §4.8), drawn after the others for a scenario
 # whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
 WINDOW_FIGURES: dict[str, Callable[..., Any]] = {
     "runtime-ecdf": plot_runtime_ecdf,
@@ -189,7 +189,7 @@ def write_figures(
         )
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         episodes = store.episodes()
         scenarios = store.scenarios()
         window_runs = store.window_runs()

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats as scipy_stats
 
+from uav_penetration_env.atomic import atomic_path
 from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
 
 PNG_DPI = 150
@@ -37,11 +38,12 @@ def save_figure(figure, out_dir: Path, name: str, formats: Sequence[str]) -> lis
     paths = []
     for extension in formats:
         path = out_dir / f"{name}.{extension}"
-        if extension == "pdf":
-            # No creation date in the PDF, so the same store gives the same bytes.
-            figure.savefig(path, metadata={"CreationDate": None})
-        else:
-            figure.savefig(path, dpi=PNG_DPI)
+        with atomic_path(path) as temporary:  # whole or not at all (uav_penetration_env.atomic)
+            if extension == "pdf":
+                # No creation date in the PDF, so the same store gives the same bytes.
+                figure.savefig(temporary, format=extension, metadata={"CreationDate": None})
+            else:
+                figure.savefig(temporary, format=extension, dpi=PNG_DPI)
         paths.append(path)
     return paths
 

@@ -1,4 +1,4 @@
-"""Runtime ECDF of the optimisers on identical MPC windows (``window_runs``; api.md §4.7, COCO)."""
+"""Runtime ECDF of the optimisers on identical MPC windows (``window_runs``; api.md §4.8, COCO)."""
 
 from __future__ import annotations
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import datetime as dt
 from pathlib import Path
 
+from uav_penetration_env.atomic import atomic_path, write_text_atomic
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
     compact_ranges,
@@ -128,7 +129,7 @@ def write_leaderboards(
         raise FileNotFoundError(
             f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
         )
-    with ResultsStore(store_path) as store:
+    with ResultsStore(store_path, create=False) as store:
         episodes, runs = store.episodes(), store.runs()
     if command is None:
         command = (
@@ -145,8 +146,9 @@ def write_leaderboards(
     for group in groups:
         table = leaderboard_table(group.episodes, reference=reference, seed=seed, n_resamples=n_resamples)
         markdown = out_dir / f"{group.stem}.md"
-        markdown.write_text(leaderboard_markdown(group, table, runs, command, date), encoding="utf-8")
+        write_text_atomic(markdown, leaderboard_markdown(group, table, runs, command, date))
         csv = out_dir / f"{group.stem}.csv"
-        table.to_csv(csv, index=False, lineterminator="\n")
+        with atomic_path(csv) as temporary:  # whole or not at all (uav_penetration_env.atomic)
+            table.to_csv(temporary, index=False, lineterminator="\n")
         written += [markdown, csv]
     return written
