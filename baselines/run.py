@@ -341,7 +341,8 @@ def run_training(plan: TrainingPlan) -> TrainResult:
         run.env.seed(run.seeds)
         if plan.eval_freq:
             _write_evaluations(plan.files.evaluations, [])
-        callback = CallbackList(_callbacks(run))
+        callbacks = _callbacks(run)
+        callback = CallbackList(callbacks)
         run.started = time.perf_counter()
         try:
             run.model.learn(plan.total_timesteps, callback=callback, progress_bar=False)
