@@ -6,7 +6,7 @@ of its two shorthands, so a failure or an interruption mid-write leaves the prev
 file, never a truncated one that looks complete. ``os.replace`` within one folder is atomic on
 POSIX and Windows; readers see the old bytes or the new ones.
 
-DECISION (api.md §4.8): no ``fsync`` before the rename. The guarantee is against failures of the
+DECISION (api.md §4.7): no ``fsync`` before the rename. The guarantee is against failures of the
 writing program (an exception, Ctrl-C, ``kill -9``), which is what a benchmark run meets; a
 power cut can still lose the newest file on some file systems, and paying a disk flush per
 figure and per table is not worth that case here. The temporary file keeps the target's suffix

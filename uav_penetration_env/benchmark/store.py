@@ -64,7 +64,7 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     application's database, a store of a newer schema, a truncated copy) is never modified: SQLite
     itself would happily switch another application's database to WAL mode and add our tables.
 
-    DECISION (api.md §4.8, truncation check): a file shorter than the size its SQLite header declares (page size x
+    DECISION (api.md §4.7, truncation check): a file shorter than the size its SQLite header declares (page size x
     page count, header bytes 16-17 and 28-31, valid when bytes 24-27 equal bytes 92-95) is
     refused as damaged, rather than opened and failing on the first missing page, which for a
     store truncated mid-copy may be deep inside a leaderboard build. The check reads 100 bytes;
