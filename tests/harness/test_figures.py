@@ -326,10 +326,10 @@ def test_the_coverage_is_drawn_at_the_mpc_planners_median_altitude_and_says_so(m
     # Every synthetic MPC track point is at 150 + 20 k m, k = 1..8: median 240 m; the RL agents
     # fly at 2000 m and must not count.
     (_, top), *_ = drawn_figures(many_store)
-    title = top._suptitle.get_text()
+    title = " ".join(top._suptitle.get_text().split())  # the title wraps onto several lines
     assert "P_d ≥ 0.5 at 240 m above datum (the median altitude of the MPC planners' tracks)" in title
     (_, top), *_ = drawn_figures(many_store, altitude=555.0)
-    assert "at 555 m above datum (chosen with --altitude)" in top._suptitle.get_text()
+    assert "at 555 m above datum (chosen with --altitude)" in " ".join(top._suptitle.get_text().split())
 
 
 def test_few_policies_get_distinct_colours_and_one_panel(synthetic_store):

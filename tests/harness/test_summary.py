@@ -131,4 +131,5 @@ def test_run_writes_the_report_by_default_and_report_rewrites_it(tmp_path, tiny_
     assert sorted(p.suffix for p in page.iterdir() if p.name.startswith("tiny-")) == [".png"] * 7
 
     assert cli.main(["report", "--store", str(tmp_path / "none.sqlite"), "--out", str(page)]) == 2
-    assert "--store: no results store" in capsys.readouterr().err
+    error = capsys.readouterr().err
+    assert error.startswith("uav-bench: error: --store ") and "not found" in error and error.count("\n") == 1
