@@ -7,6 +7,8 @@ vector env equals N single envs step by step.
 
 Version history:
     v0 (0.1.0): first release (model.md as of 2026-11).
+    v0 (0.2.0): the spec registers max_episode_steps = K_max; same physics and reward (the
+        compiled model agrees with 0.1.0's to about 1e-15 relative).
 """
 
 from __future__ import annotations
