@@ -89,6 +89,12 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"save a checkpoint every N environment steps (0: never; default: {DEFAULTS.checkpoint_freq})",
     )
     parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from the last checkpoint of --out when there is one (same configuration; "
+        "--timesteps may be larger); else train from scratch",
+    )
+    parser.add_argument(
         "--torch-threads",
         dest="torch_threads",
         type=int,
@@ -124,7 +130,8 @@ def train_command(args: argparse.Namespace) -> int:
     """Run ``uav-bench train``: validate, train with a progress bar, print where everything went.
 
     Returns:
-        0 on success, 130 when interrupted (the partly trained model is saved).
+        0 on success, 130 when interrupted (the partly trained model is saved; ``--resume``
+        continues from the last checkpoint).
 
     Raises:
         CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
@@ -147,7 +154,7 @@ def train_command(args: argparse.Namespace) -> int:
         algo=args.algo, env_id=args.env_id, scenario=scenario, total_timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, out=out, hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
-        progress_bar=args.progress, verbose=args.verbose, torch_threads=args.torch_threads,
+        progress_bar=args.progress, verbose=args.verbose, torch_threads=args.torch_threads, resume=args.resume,
     )  # fmt: skip
     try:
         plan = prepare_training(config)
@@ -158,11 +165,19 @@ def train_command(args: argparse.Namespace) -> int:
         f"uav-bench train: {plan.algo} on {where} ({plan.env_kwargs.get('profile') or 'id'} profile), "
         f"{plan.total_timesteps} steps, seed {plan.seed}, {plan.n_envs} envs -> {plan.files.model}"
     )
+    state = plan.resume_from
+    if state is not None and state.finished and state.timesteps >= plan.total_timesteps:
+        print(f"already trained ({state.timesteps} steps); nothing to do")
+    elif state is not None:
+        print(f"resuming from the checkpoint at {state.timesteps} steps ({state.model})")
+    elif args.resume:
+        print(f"no checkpoint to resume in {plan.files.checkpoints}; training from scratch")
     try:
         result = run_training(plan)
     except KeyboardInterrupt:
         print(
-            f"\ninterrupted: the partly trained model is saved in {plan.files.model} (sidecar says interrupted)",
+            f"\ninterrupted: the partly trained model is saved in {plan.files.model} (sidecar says interrupted); "
+            "rerun with --resume to continue from the last checkpoint",
             file=sys.stderr,
         )
         return 130

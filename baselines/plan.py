@@ -18,6 +18,7 @@ import numpy as np
 
 from baselines.artifacts import ModelFiles
 from baselines.hyperparameters import resolve_hyperparams
+from baselines.resume import ResumeState, check_resumable, read_resume_state, resume_key
 from uav_penetration_env.suggest import did_you_mean
 
 DEFAULT_MODELS = Path("leaderboards/models")
@@ -60,7 +61,11 @@ class TrainConfig:
         on_evaluation: called with each evaluation row (a dict of :data:`~baselines.run.EVALUATION_COLUMNS`)
             as soon as it is written; an exception it raises (e.g. ``optuna.TrialPruned``) ends
             training and propagates (nothing more is saved).
-        checkpoint_freq: save a checkpoint every this many environment steps (0/None: never).
+        checkpoint_freq: save a checkpoint every this many environment steps, and at the end
+            (0/None: never); each can be resumed from (docs/rl.md §2).
+        resume: continue from the last checkpoint of the run writing ``out`` when there is one
+            (its configuration must match: :func:`baselines.resume.check_resumable`); without
+            one, train from scratch. ``False``: always from scratch (the old checkpoint is forgotten).
         progress_bar: show a progress bar (steps, ETA, last evaluation).
         verbose: SB3's verbosity.
         torch_threads: torch intra-op threads while training (``None``: leave torch's setting).
@@ -83,6 +88,7 @@ class TrainConfig:
     eval_seeds: Sequence[int] | None = None
     on_evaluation: Callable[[dict[str, float]], None] | None = None
     checkpoint_freq: int | None = 50_000
+    resume: bool = False
     progress_bar: bool = False
     verbose: int = 0
     torch_threads: int | None = 1
@@ -130,6 +136,7 @@ class TrainingPlan:
     verbose: int
     torch_threads: int | None
     device: str
+    resume_from: ResumeState | None = None
 
 
 def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path:
@@ -186,7 +193,8 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
     Raises:
         ValueError: an unknown algorithm, env id or hyper-parameter, a scenario for the Random id,
             ``difficulty`` for a fixed id, a non-positive count; ``ScenarioError`` (a ValueError)
-            for a broken or unknown scenario.
+            for a broken or unknown scenario; with ``resume``, a checkpoint of another
+            configuration or with more steps than ``total_timesteps``.
         FileNotFoundError: a hyper-parameter file that does not exist.
     """
     from gymnasium.envs.registration import registry
@@ -247,7 +255,7 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         raise ValueError(f"out: cannot create folder {files.model.parent} ({error.strerror})") from None
     torch_threads = config.torch_threads
     eval_seeds = _eval_seeds(config)
-    return TrainingPlan(
+    plan = TrainingPlan(
         algo=str(config.algo).lower(),
         env_id=env_id,
         env_kwargs=kwargs,
@@ -267,3 +275,9 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
         device=config.device,
     )
+    if not config.resume:
+        return plan
+    state = read_resume_state(files)
+    if state is not None:
+        check_resumable(state, resume_key(plan), plan.total_timesteps)
+    return dataclasses.replace(plan, resume_from=state)

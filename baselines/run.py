@@ -194,17 +194,23 @@ class _Run:
         self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **env_kwargs)
         env: Any = VecMonitor(self.venv)  # episode returns/lengths for SB3's logger
         self.norm_kwargs = normalize_kwargs(plan.hyperparams)
-        if self.norm_kwargs is not None:
+        state = plan.resume_from
+        if self.norm_kwargs is not None and state is not None:
+            # The checkpoint's running statistics, still updated as training continues.
+            env = VecNormalize.load(str(state.files.vecnormalize), env)
+            env.training = True
+        elif self.norm_kwargs is not None:
             env = VecNormalize(env, **self.norm_kwargs)
         self.env = env
+        self.segments = [*state.segments, state.timesteps] if state is not None else [0]
         self.eval_seeds = list(plan.eval_seeds)
         self.eval_env = (
             UAVPenetrationSB3VecEnv(plan.env_id, plan.eval_episodes, **plan.env_kwargs)
             if plan.eval_freq
             else None
         )
-        self.evaluations: list[dict[str, float]] = []
-        self.eval_seconds = 0.0
+        self.evaluations: list[dict[str, float]] = list(state.evaluations) if state is not None else []
+        self.eval_seconds = state.eval_seconds if state is not None else 0.0
         self.started = time.perf_counter()
         self.model: Any = None
         self.env_description: dict[str, Any] | None = None
@@ -260,12 +266,53 @@ class _Run:
             "device": plan.device,
             "final_evaluation": self.evaluations[-1] if self.evaluations else None,
             "interrupted": interrupted,
+            "resumed_at_timesteps": self.segments[1:],
             "versions": library_versions(),
             "commit": git_commit(),
             "created": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
         }
         _write_json_atomic(files.sidecar, sidecar)
         return sidecar
+
+    def checkpoint(self, finished: bool = False) -> None:
+        """Save a checkpoint a run can resume from (docs/rl.md §2): model, statistics, replay buffer, state."""
+        from baselines.resume import resume_key, save_replay_buffer, write_resume_state
+
+        plan, steps = self.plan, int(self.model.num_timesteps)
+        stem = f"{plan.files.model.stem}-{steps}steps"
+        files = ModelFiles.of(plan.files.checkpoints / f"{stem}.zip")
+        wall = time.perf_counter() - self.started
+        self.save(files, wall)
+        replay = None
+        if getattr(self.model, "replay_buffer", None) is not None:
+            replay = plan.files.checkpoints / f"{stem}.replay.npz"
+            save_replay_buffer(self.model, replay)
+        write_resume_state(
+            plan.files, files, replay, timesteps=steps, evaluations=self.evaluations, wall_seconds=wall,
+            eval_seconds=self.eval_seconds, finished=finished, key=resume_key(plan), segments=self.segments,
+        )  # fmt: skip
+
+
+def _finished_result(plan: TrainingPlan) -> TrainResult | None:
+    """The saved result of a run that already trained ``plan.total_timesteps`` steps (``None``: not whole)."""
+    from baselines.artifacts import read_sidecar
+
+    files = plan.files
+    try:
+        sidecar = read_sidecar(files.sidecar)
+    except (FileNotFoundError, ValueError):
+        return None
+    if (
+        sidecar.get("interrupted")
+        or int(sidecar["timesteps_done"]) < plan.total_timesteps
+        or not files.model.is_file()
+    ):
+        return None
+    rows: list[dict[str, float]] = []
+    if files.evaluations.is_file():
+        with files.evaluations.open(newline="") as handle:
+            rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)]
+    return TrainResult(files=files, sidecar=sidecar, evaluations=rows, model=None)
 
 
 def _callbacks(run: _Run) -> list[Any]:
@@ -283,6 +330,7 @@ def _callbacks(run: _Run) -> list[Any]:
             from uav_penetration_env.benchmark.progress import ProgressBar as Bar
 
             self.bar = Bar(plan.total_timesteps, f"train {plan.algo}", unit="steps")
+            self.bar.update(int(self.model.num_timesteps))  # a resumed run starts where it stopped
 
         def _on_step(self) -> bool:
             self.bar.update(min(self.training_env.num_envs, plan.total_timesteps - self.bar.n))
@@ -309,8 +357,13 @@ def _callbacks(run: _Run) -> list[Any]:
         """
 
         def _on_training_start(self) -> None:
-            self.next_eval = plan.eval_freq
-            self.next_checkpoint = plan.checkpoint_freq
+            # After a resume: the next multiples after the last evaluation and the checkpoint's steps.
+            last_eval = int(run.evaluations[-1]["timesteps"]) if run.evaluations else 0
+            steps = int(self.model.num_timesteps)
+            self.next_eval = (last_eval // plan.eval_freq + 1) * plan.eval_freq if plan.eval_freq else 0
+            self.next_checkpoint = (
+                (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq if plan.checkpoint_freq else 0
+            )
 
         def _on_step(self) -> bool:
             return True
@@ -321,10 +374,7 @@ def _callbacks(run: _Run) -> list[Any]:
                 run.evaluate()
                 self.next_eval = (steps // plan.eval_freq + 1) * plan.eval_freq
             if plan.checkpoint_freq and steps >= self.next_checkpoint:
-                stem = f"{plan.files.model.stem}-{steps}steps"
-                run.save(
-                    ModelFiles.of(plan.files.checkpoints / f"{stem}.zip"), time.perf_counter() - run.started
-                )
+                run.checkpoint()
                 self.next_checkpoint = (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq
 
     callbacks: list[Any] = [Periodic()]
@@ -334,37 +384,76 @@ def _callbacks(run: _Run) -> list[Any]:
 
 
 def run_training(plan: TrainingPlan) -> TrainResult:
-    """Train as ``plan`` says and write the model with its sidecars (see :func:`train_agent`)."""
+    """Train as ``plan`` says and write the model with its sidecars (see :func:`train_agent`).
+
+    With ``plan.resume_from`` (``train_agent(resume=True)``) training continues from that
+    checkpoint with SB3's ``reset_num_timesteps=False``, so the step counter, the learning-rate
+    schedule and the learning curve run on to ``total_timesteps``; a run whose checkpoint already
+    finished them returns its saved result without training.
+
+    DECISION (docs/rl.md §2): a resumed run restores the model with its optimisers, the observation
+    statistics, the replay buffer (SAC, TD3), the step counter and the learning curve, but not the
+    sub-envs' mid-episode states or the random generators' states: it resets the sub-envs with
+    seeds drawn from ``SeedSequence([seed, steps])`` (so it does not replay the first episodes)
+    and reseeds torch and numpy from the same. An interrupted-and-resumed run is therefore a valid
+    continuation, not a bit-identical replay of an uninterrupted one; its curve rows up to the
+    checkpoint are the uninterrupted run's exactly.
+    """
     import torch
     from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.utils import set_random_seed
 
+    from baselines.resume import discard_resume_state, load_replay_buffer
+
+    state = plan.resume_from
+    if state is not None and state.finished and state.timesteps >= plan.total_timesteps:
+        done = _finished_result(plan)
+        if done is not None:
+            return done
     previous_threads = torch.get_num_threads()
     if plan.torch_threads is not None:
         torch.set_num_threads(plan.torch_threads)
     run: _Run | None = None
     try:
-        set_random_seed(plan.seed)
-        run = _Run(plan)
         cls = algorithm_class(plan.algo)
-        kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
-        run.model = cls(
-            plan.hyperparams.get("policy", "MlpPolicy"),
-            run.env,
-            seed=plan.seed,
-            verbose=plan.verbose,
-            device=plan.device,
-            **kwargs,
-        )
+        if state is None:
+            discard_resume_state(plan.files)  # a fresh run: an older run's checkpoint must not be resumed
+            set_random_seed(plan.seed)
+            run = _Run(plan)
+            kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
+            run.model = cls(
+                plan.hyperparams.get("policy", "MlpPolicy"),
+                run.env,
+                seed=plan.seed,
+                verbose=plan.verbose,
+                device=plan.device,
+                **kwargs,
+            )
+            reset_seeds = run.seeds
+        else:
+            resumed_seed = int(np.random.SeedSequence([plan.seed, state.timesteps]).generate_state(1)[0])
+            set_random_seed(resumed_seed)
+            run = _Run(plan)
+            run.model = cls.load(state.model, env=run.env, device=plan.device, verbose=plan.verbose)
+            run.model.set_random_seed(resumed_seed)
+            if state.replay_buffer is not None:
+                load_replay_buffer(run.model, state.replay_buffer)
+            reset_seeds = train_env_seeds([plan.seed, state.timesteps], plan.n_envs, pool=run.random_id)
         # The constructor seeded sub-env i with seed + i; the SeedSequence children replace that.
-        run.env.seed(run.seeds)
+        run.env.seed(reset_seeds)
         if plan.eval_freq:
-            _write_evaluations(plan.files.evaluations, [])
+            _write_evaluations(plan.files.evaluations, run.evaluations)
         callbacks = _callbacks(run)
         callback = CallbackList(callbacks)
-        run.started = time.perf_counter()
+        run.started = time.perf_counter() - (state.wall_seconds if state is not None else 0.0)
+        done_steps = state.timesteps if state is not None else 0
         try:
-            run.model.learn(plan.total_timesteps, callback=callback, progress_bar=False)
+            run.model.learn(
+                plan.total_timesteps - done_steps,
+                callback=callback,
+                progress_bar=False,
+                reset_num_timesteps=state is None,
+            )
         except KeyboardInterrupt:
             for each in callbacks:
                 if hasattr(each, "close"):
@@ -375,6 +464,8 @@ def run_training(plan: TrainingPlan) -> TrainResult:
             not run.evaluations or run.evaluations[-1]["timesteps"] != run.model.num_timesteps
         ):
             run.evaluate()
+        if plan.checkpoint_freq:
+            run.checkpoint(finished=True)  # a later run may extend this one (--resume, more steps)
         wall = time.perf_counter() - run.started
         sidecar = run.save(plan.files, wall)
         return TrainResult(

@@ -470,7 +470,7 @@ def _objective(plan: TunePlan) -> Callable[[Any], float]:
                 raise optuna.TrialPruned(f"cost {row['mean_cost']:.3f} at {steps} steps")
 
         model = plan.files.trial_models / f"trial-{trial.number:04d}.zip"
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.process_time()
         try:
             result = train_agent(
                 plan.algo,
@@ -496,6 +496,8 @@ def _objective(plan: TunePlan) -> Callable[[Any], float]:
             raise optuna.TrialPruned(str(error)) from error
         finally:
             trial.set_user_attr("train_seconds", round(time.perf_counter() - started, 3))
+            # CPU seconds of this process: the trial's cost on one free core, whatever else ran.
+            trial.set_user_attr("train_cpu_seconds", round(time.process_time() - cpu, 3))
         last = result.evaluations[-1]
         trial.set_user_attr("model", str(model))
         trial.set_user_attr("timesteps_done", int(result.sidecar["timesteps_done"]))
@@ -681,6 +683,8 @@ def best_yaml_text(study: Any, plan: TunePlan) -> str | None:
         "best_value": float(best.value),
         "best_mean_J": best.user_attrs.get("mean_J"),
         "best_success_rate": best.user_attrs.get("success_rate"),
+        # The programme sizes the long off-policy runs from this (baselines/programme.py).
+        "best_trial_cpu_seconds": best.user_attrs.get("train_cpu_seconds"),
         "fixed": plan.fixed or None,
         "date": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
         "versions": versions,
@@ -714,6 +718,7 @@ def trial_rows(study: Any) -> list[dict[str, Any]]:
             "state": t.state.name,
             "value": t.value,
             "duration_s": round(t.duration.total_seconds(), 1) if t.duration else None,
+            "cpu_s": t.user_attrs.get("train_cpu_seconds"),
             "last_step": steps,
             "mean_J": t.user_attrs.get("mean_J"),
             "success_rate": t.user_attrs.get("success_rate"),

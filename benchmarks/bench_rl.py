@@ -2,7 +2,7 @@
 
 Trains PPO, SAC and TD3 on the paper scenario (one torch thread, 8 envs, no evaluation) with
 the untuned sets and with the slowest and fastest corners of the tuning search spaces, and prints
-environment steps per second and the seconds a tuning trial of ``baselines.tune.DEFAULT_TIMESTEPS``
+environment steps per CPU second (and per wall second) and the minutes a tuning trial of ``baselines.tune.DEFAULT_TIMESTEPS``
 would take at that speed.
 
     python benchmarks/bench_rl.py            # ~5 min on one free core
@@ -61,17 +61,19 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
             if args.quick:
                 steps = 256
                 overrides = {**overrides, **({"learning_starts": 64} if algo != "ppo" else {"n_steps": 32})}
-            started = time.perf_counter()
+            started, cpu = time.perf_counter(), time.process_time()
             train_agent(
                 algo, total_timesteps=steps, n_envs=8, seed=0, out=Path(folder) / f"{algo}.zip",
                 hyperparams=overrides, eval_freq=0, checkpoint_freq=0, torch_threads=1,
             )  # fmt: skip
-            seconds = time.perf_counter() - started
-            speeds[name] = steps / seconds
+            wall, cpu = time.perf_counter() - started, time.process_time() - cpu
+            # CPU seconds of this process (one torch thread): what one free core would take, also
+            # on a machine shared with other jobs, where the wall time is longer.
+            speeds[name] = steps / cpu
             trial = DEFAULT_TIMESTEPS[algo] / speeds[name]
             print(
-                f"{name:52s} {speeds[name]:8.0f} steps/s  -> a {DEFAULT_TIMESTEPS[algo]}-step trial: "
-                f"{trial / 60:5.1f} min",
+                f"{name:50s} {speeds[name]:7.0f} steps per CPU-s ({steps / wall:6.0f} per wall-s) -> "
+                f"a {DEFAULT_TIMESTEPS[algo]}-step trial: {trial / 60:5.1f} CPU-min",
                 flush=True,
             )
     return speeds

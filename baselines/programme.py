@@ -1,0 +1,271 @@
+"""The RL programme of issue 15: tuning studies, then long training runs, resumable (docs/rl.md §3).
+
+```bash
+nice -n 10 python -m baselines.programme --root results/rl            # run (or continue) it all
+python -m baselines.programme --root results/rl --dry-run             # what is done, what would run
+nice -n 10 python -m baselines.programme --root results/rl --only 'train/sac-*'
+```
+
+Steps, in order (each one a ``uav-bench`` command, printed before it runs):
+
+1. tuning studies (``uav-bench tune``): PPO paper and random (30 trials each), SAC paper and random
+   and TD3 paper (15 trials each), into ``ROOT/tune/ALGO-REGIME/``;
+2. training (``uav-bench train --resume`` with the study's YAML): PPO 2 M steps x training seeds
+   0-4 in both regimes; SAC (both regimes) and TD3 (paper) x seeds 0-2, each about 20 CPU-minutes
+   (:func:`off_policy_timesteps`), into ``ROOT/models/``.
+
+Every step is idempotent: a study with its trials, or a model whose sidecar says it trained its
+steps, is skipped; anything else is (re)started with the command that resumes it (a study from its
+SQLite storage, a model from its last checkpoint), so a programme stopped anywhere (Ctrl-C, a lost
+session, a reboot) continues where it stopped when run again. Training waits for its study: the
+hyper-parameters of a run must not change under it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import json
+import shlex
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+DEFAULT_ROOT = Path("results/rl")
+STUDIES = (
+    ("ppo", "paper", 30),
+    ("ppo", "random", 30),
+    ("sac", "paper", 15),
+    ("sac", "random", 15),
+    ("td3", "paper", 15),
+)
+# (algorithm, regime, training seeds, environment steps or None for the CPU-time budget)
+RUNS = (
+    ("ppo", "paper", range(5), 2_000_000),
+    ("ppo", "random", range(5), 2_000_000),
+    ("sac", "paper", range(3), None),
+    ("sac", "random", range(3), None),
+    ("td3", "paper", range(3), None),
+)
+OFF_POLICY_CPU_MINUTES = 20.0
+EVAL_FREQ = {"ppo": 50_000, "sac": 20_000, "td3": 20_000}
+CHECKPOINT_FREQ = {"ppo": 100_000, "sac": 50_000, "td3": 50_000}
+# Learning-curve episodes (seeds 20000+): the paper start is fixed, so one deterministic episode
+# is the policy's exact score there; the Random regime averages 20 scenarios.
+EVAL_EPISODES = {"paper": 1, "random": 20}
+REGIME_FLAGS = {
+    "paper": ["--scenario", "paper"],
+    "random": ["--env-id", "UAVPenetrationRandom-v0", "--difficulty", "0.5"],
+}
+
+
+@dataclass(frozen=True)
+class Step:
+    """One command of the programme.
+
+    Attributes:
+        name: ``tune/ALGO-REGIME`` or ``train/ALGO-REGIME-sSEED``.
+        argv: the ``uav-bench`` arguments (``None``: cannot be built yet; ``why`` says why).
+        done: whether the step's result is already there.
+        why: what the state is (done, waiting for a study, ...).
+    """
+
+    name: str
+    argv: list[str] | None
+    done: bool
+    why: str = ""
+
+
+def study_dir(root: Path, algo: str, regime: str) -> Path:
+    """Where ``uav-bench tune`` writes the study of ``algo`` on ``regime``."""
+    return root / "tune" / f"{algo}-{regime}"
+
+
+def study_yaml(root: Path, algo: str, regime: str) -> Path:
+    """The best-hyper-parameter file of that study."""
+    return study_dir(root, algo, regime) / f"{algo}-{regime}.yaml"
+
+
+def study_progress(path: Path) -> tuple[int, dict[str, Any]] | None:
+    """Finished trials (COMPLETE + PRUNED) and the provenance recorded in a study's YAML (``None``: no file yet)."""
+    if not path.is_file():
+        return None
+    provenance = (yaml.safe_load(path.read_text()) or {}).get("provenance") or {}
+    return int(provenance.get("trials_complete", 0)) + int(provenance.get("trials_pruned", 0)), provenance
+
+
+def off_policy_timesteps(provenance: dict[str, Any], minutes: float = OFF_POLICY_CPU_MINUTES) -> int:
+    """Environment steps that take about ``minutes`` of one core with a study's best hyper-parameters.
+
+    DECISION (docs/rl.md §3): SAC and TD3 runs are budgeted in CPU time (issue 15: about 20 minutes
+    each), converted once into steps from the best trial's own measured CPU seconds for its steps
+    (``best_trial_cpu_seconds`` / ``budget_steps_per_trial`` in the study's provenance), rounded
+    to 10 000 and kept within 100 000-2 000 000. A step budget, not a clock, so a run is
+    reproducible and resumes to the same end; it is fixed once the study is, because the study's
+    file no longer changes.
+
+    Raises:
+        ValueError: a provenance without the trial's CPU time or budget.
+    """
+    cpu = provenance.get("best_trial_cpu_seconds")
+    steps = provenance.get("budget_steps_per_trial")
+    if not cpu or not steps:
+        raise ValueError(
+            "provenance: no best_trial_cpu_seconds / budget_steps_per_trial (a study written before "
+            "they were recorded); pass --off-policy-steps"
+        )
+    per_step = float(cpu) / float(steps)
+    total = round(minutes * 60.0 / per_step / 10_000) * 10_000
+    return int(min(2_000_000, max(100_000, total)))
+
+
+def model_done(model: Path, timesteps: int) -> bool:
+    """Whether ``model``'s sidecar says it trained ``timesteps`` steps to the end (not interrupted)."""
+    sidecar = model.with_suffix(".json")
+    if not model.is_file() or not sidecar.is_file():
+        return False
+    try:
+        data = json.loads(sidecar.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        return False
+    return not data.get("interrupted") and int(data.get("timesteps_done", 0)) >= timesteps
+
+
+def tuning_steps(root: Path) -> list[Step]:
+    """The tuning studies, each done when its YAML records its trials."""
+    steps = []
+    for algo, regime, trials in STUDIES:
+        progress = study_progress(study_yaml(root, algo, regime))
+        finished = progress is not None and progress[0] >= trials
+        argv = ["tune", "--algo", algo, "--regime", regime, "--trials", str(trials),
+                "--out", str(study_dir(root, algo, regime))]  # fmt: skip
+        why = f"{progress[0] if progress else 0}/{trials} trials"
+        steps.append(Step(f"tune/{algo}-{regime}", argv, finished, why))
+    return steps
+
+
+def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step]:
+    """The training runs; a run whose study has not finished has no command yet."""
+    trials_wanted = {(a, r): n for a, r, n in STUDIES}
+    steps = []
+    for algo, regime, seeds, timesteps in RUNS:
+        hyperparams = study_yaml(root, algo, regime)
+        progress = study_progress(hyperparams)
+        ready = progress is not None and progress[0] >= trials_wanted[(algo, regime)]
+        total = timesteps
+        if total is None and ready:
+            total = off_policy_steps or off_policy_timesteps(progress[1])
+        for seed in seeds:
+            name = f"train/{algo}-{regime}-s{seed}"
+            model = root / "models" / f"{algo}-{regime}-s{seed}.zip"
+            if not ready or total is None:
+                steps.append(Step(name, None, False, f"waits for tune/{algo}-{regime}"))
+                continue
+            argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total),
+                    "--seed", str(seed), "--hyperparams", str(hyperparams), "--out", str(model),
+                    "--eval-freq", str(EVAL_FREQ[algo]), "--eval-episodes", str(EVAL_EPISODES[regime]),
+                    "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
+            done = model_done(model, total)
+            steps.append(Step(name, argv, done, f"{total} steps" + (", done" if done else "")))
+    return steps
+
+
+def uav_bench_command() -> list[str]:
+    """How to call ``uav-bench``: the console script beside this Python, else the module."""
+    script = Path(sys.executable).with_name("uav-bench")
+    if script.is_file():
+        return [str(script)]
+    found = shutil.which("uav-bench")
+    return [found] if found else [sys.executable, "-m", "uav_penetration_env.benchmark.cli"]
+
+
+def run_in_subprocess(argv: Sequence[str]) -> int:
+    """Run ``uav-bench ARGV`` in a fresh process (its memory is freed when it ends); its exit status.
+
+    On Ctrl-C the child, in the same process group, gets the same SIGINT and saves its state
+    (exit status 130); this waits for it instead of killing it mid-write.
+    """
+    process = subprocess.Popen([*uav_bench_command(), *argv])
+    try:
+        return process.wait()
+    except KeyboardInterrupt:
+        return process.wait()
+
+
+def run_programme(
+    root: Path = DEFAULT_ROOT,
+    *,
+    only: Sequence[str] = (),
+    dry_run: bool = False,
+    off_policy_steps: int | None = None,
+    runner: Callable[[Sequence[str]], int] = run_in_subprocess,
+) -> int:
+    """Run every step not done yet, in order, printing each command; stop at the first failure.
+
+    Args:
+        root: the programme's folder (studies in ``tune/``, models in ``models/``).
+        only: ``fnmatch`` patterns of step names to run (empty: all).
+        dry_run: print the steps and their state, run nothing.
+        off_policy_steps: steps of the SAC/TD3 runs instead of the CPU-time budget.
+        runner: runs ``uav-bench ARGV`` and returns its exit status.
+
+    Returns:
+        0 when every selected step is done, else the failing step's exit status (130: interrupted).
+    """
+    root = Path(root)
+
+    def selected(step: Step) -> bool:
+        return not only or any(fnmatch.fnmatchcase(step.name, pattern) for pattern in only)
+
+    for phase in (lambda: tuning_steps(root), lambda: training_steps(root, off_policy_steps)):
+        for step in filter(selected, phase()):
+            command = "uav-bench " + shlex.join(step.argv) if step.argv else "-"
+            if step.done:
+                print(f"[done] {step.name} ({step.why})", flush=True)
+                continue
+            if step.argv is None:
+                print(f"[wait] {step.name}: {step.why}", flush=True)
+                continue
+            print(f"[{'plan' if dry_run else 'run'}] {step.name} ({step.why}): {command}", flush=True)
+            if dry_run:
+                continue
+            status = runner(step.argv)
+            if status != 0:
+                print(f"programme stopped at {step.name} (exit status {status}); run it again to continue")
+                return status
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m baselines.programme``: run (or continue) the programme."""
+    parser = argparse.ArgumentParser(
+        prog="python -m baselines.programme", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--root", default=str(DEFAULT_ROOT), help=f"output folder (default: {DEFAULT_ROOT})")
+    parser.add_argument(
+        "--only", nargs="+", default=(), metavar="PATTERN", help="run only steps matching (e.g. 'tune/*')"
+    )
+    parser.add_argument("--dry-run", action="store_true", help="print the steps and their state; run nothing")
+    parser.add_argument(
+        "--off-policy-steps",
+        type=int,
+        help=f"steps of each SAC/TD3 run (default: ~{OFF_POLICY_CPU_MINUTES:g} CPU-minutes from the study)",
+    )
+    args = parser.parse_args(argv)
+    try:
+        return run_programme(
+            Path(args.root), only=args.only, dry_run=args.dry_run, off_policy_steps=args.off_policy_steps
+        )
+    except KeyboardInterrupt:
+        print("\ninterrupted; run the same command again to continue", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,139 @@
+"""The RL programme driver: the steps it runs, what it skips, and that a stopped programme resumes."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import pytest
+import yaml
+
+from baselines.programme import (
+    RUNS,
+    STUDIES,
+    main,
+    off_policy_timesteps,
+    run_programme,
+    study_yaml,
+)
+
+# A best trial that took 240 CPU-s for its 50 000 steps: 4.8 ms per step, so 20 CPU-min is 250 000 steps.
+PROVENANCE = {"trials_complete": 12, "trials_pruned": 3, "best_trial_cpu_seconds": 240.0,
+              "budget_steps_per_trial": 50_000}  # fmt: skip
+
+
+def finish_study(root, algo, regime, **changes):
+    path = study_yaml(root, algo, regime)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump({"provenance": {**PROVENANCE, **changes}, "gamma": 0.99}))
+
+
+class FakeUavBench:
+    """Records each command and leaves behind what the real one would (a study's YAML, a model's sidecar)."""
+
+    def __init__(self, root, fail_at=None):
+        self.root, self.fail_at, self.calls = root, fail_at, []
+
+    def __call__(self, argv):
+        self.calls.append(list(argv))
+        flags = dict(zip(argv[1::2], argv[2::2], strict=False))
+        if self.fail_at is not None and len(self.calls) == self.fail_at:
+            return 130  # Ctrl-C in the child
+        if argv[0] == "tune":
+            trials = int(flags["--trials"])
+            finish_study(
+                self.root, flags["--algo"], flags["--regime"], trials_complete=trials, trials_pruned=0
+            )
+        else:
+            model = self.root / "models" / flags["--out"].rpartition("/")[2]
+            model.parent.mkdir(parents=True, exist_ok=True)
+            model.write_bytes(b"zip")
+            sidecar = {"timesteps_done": int(flags["--timesteps"]), "interrupted": False}
+            model.with_suffix(".json").write_text(json.dumps(sidecar))
+        return 0
+
+
+def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path, capsys):
+    fake = FakeUavBench(tmp_path)
+    assert run_programme(tmp_path, runner=fake) == 0
+    names = [f"{c[0]} {c[2]} {c[4]}" for c in fake.calls]
+    assert names[:5] == [f"tune {a} {r}" for a, r, _ in STUDIES]
+    assert len(fake.calls) == 5 + sum(len(seeds) for _, _, seeds, _ in RUNS) == 5 + 5 + 5 + 3 + 3 + 3
+    printed = capsys.readouterr().out
+    assert (
+        "[run] tune/ppo-paper (0/30 trials): uav-bench tune --algo ppo --regime paper --trials 30" in printed
+    )
+
+    ppo = fake.calls[5]
+    assert ppo[:4] == ["train", "--algo", "ppo", "--scenario"] and "--resume" in ppo
+    flags = dict(zip(ppo[1::2], ppo[2::2], strict=False))
+    assert flags["--timesteps"] == "2000000" and flags["--seed"] == "0"
+    assert flags["--hyperparams"] == str(study_yaml(tmp_path, "ppo", "paper"))
+    sac_random = next(
+        c for c in fake.calls if c[:3] == ["train", "--algo", "sac"] and "UAVPenetrationRandom-v0" in c
+    )
+    assert dict(zip(sac_random[1::2], sac_random[2::2], strict=False))["--timesteps"] == "250000"
+
+    again = FakeUavBench(tmp_path)
+    assert run_programme(tmp_path, runner=again) == 0
+    assert again.calls == []
+    assert capsys.readouterr().out.count("[done]") == 5 + 19
+
+
+def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
+    first = FakeUavBench(tmp_path, fail_at=7)  # interrupted in the second training run
+    assert run_programme(tmp_path, runner=first) == 130
+    assert "programme stopped at train/ppo-paper-s1 (exit status 130)" in capsys.readouterr().out
+    rest = FakeUavBench(tmp_path)
+    assert run_programme(tmp_path, runner=rest) == 0
+    assert rest.calls[0][rest.calls[0].index("--seed") + 1] == "1"  # the cut run first, nothing before it
+    assert len(rest.calls) == 19 - 1
+
+
+def test_an_unfinished_study_runs_again_and_holds_back_its_training(tmp_path, capsys):
+    for algo, regime, trials in STUDIES:
+        finish_study(tmp_path, algo, regime, trials_complete=trials, trials_pruned=0)
+    finish_study(tmp_path, "sac", "random", trials_complete=4, trials_pruned=2)  # 6 of 15
+    assert run_programme(tmp_path, dry_run=True, only=["tune/*", "train/sac-random-*"]) == 0
+    printed = capsys.readouterr().out
+    assert (
+        "[plan] tune/sac-random (6/15 trials)" in printed
+        and "[done] tune/ppo-paper (30/30 trials)" in printed
+    )
+    assert "[wait] train/sac-random-s0: waits for tune/sac-random" in printed
+    assert "train/ppo" not in printed  # not selected
+
+
+def test_off_policy_budget_is_twenty_cpu_minutes_of_the_best_trial():
+    assert off_policy_timesteps(PROVENANCE) == 250_000
+    assert off_policy_timesteps({**PROVENANCE, "best_trial_cpu_seconds": 6000.0}) == 100_000  # floor
+    assert off_policy_timesteps({**PROVENANCE, "best_trial_cpu_seconds": 10.0}) == 2_000_000  # ceiling
+    with pytest.raises(ValueError, match="pass --off-policy-steps"):
+        off_policy_timesteps({"trials_complete": 15})
+
+
+def test_the_commands_parse_with_the_real_flags(tmp_path):
+    pytest.importorskip("optuna")
+    from baselines.cli import add_train_arguments
+    from baselines.tune import add_tune_arguments
+
+    fake = FakeUavBench(tmp_path)
+    run_programme(tmp_path, runner=fake)
+    parsers = {
+        "tune": argparse.ArgumentParser(exit_on_error=False),
+        "train": argparse.ArgumentParser(exit_on_error=False),
+    }
+    add_tune_arguments(parsers["tune"])
+    add_train_arguments(parsers["train"])
+    for argv in fake.calls:
+        args = parsers[argv[0]].parse_args(argv[1:])
+        assert args.out.startswith(str(tmp_path))
+
+
+def test_main_dry_run(tmp_path, capsys):
+    assert main(["--root", str(tmp_path), "--dry-run", "--only", "tune/td3-*"]) == 0
+    assert capsys.readouterr().out.strip().splitlines() == [
+        f"[plan] tune/td3-paper (0/15 trials): uav-bench tune --algo td3 --regime paper --trials 15 "
+        f"--out {tmp_path}/tune/td3-paper"
+    ]
+    assert not any(tmp_path.iterdir())
