@@ -9,7 +9,7 @@ train --hyperparams`` loads, with a provenance block, and the trials as CSV and 
 
 ```python
 from baselines.tune import TuneConfig, run_study
-result = run_study(TuneConfig(algo="ppo", regime="paper", trials=30, timesteps=150_000))
+result = run_study(TuneConfig(algo="ppo", regime="paper", trials=30, timesteps=200_000))
 print(result.best_value, result.files.best_yaml)
 ```
 
@@ -52,12 +52,13 @@ VALIDATION_SEED_START = 40_000
 VALIDATION_SEEDS = 50
 RANDOM_DIFFICULTY = 0.5
 DEFAULT_OUT = Path("results/rl/tune")
-# DECISION (docs/rl.md §1.3): steps per trial, measured on one core of the development machine:
-# a PPO trial of 150 k steps takes ~2-4 min with the sampled network sizes and epochs; SAC and
-# TD3 spend their time in gradient steps, so their trials are shorter in steps (50 k) and still
-# take ~3-6 min at the sampled update ratios. Long enough for PPO to learn to reach the goal (it
-# does within ~60 k steps with the untuned set), short enough for 30 trials in ~1.5-2 h.
-DEFAULT_TIMESTEPS = {"ppo": 150_000, "sac": 50_000, "td3": 50_000}
+# DECISION (docs/rl.md §1.3): steps per trial, from benchmarks/bench_rl.py (CPU seconds, one torch
+# thread, 8 sub-envs): PPO trains at ~1300 steps per CPU-second with the untuned set (64x64, 10
+# epochs), ~400 at the space's slowest corner (256x256, 20 epochs, batch 64) and ~2900 at its
+# fastest, so a 200 k-step trial takes ~2.5 CPU-minutes at typical sizes (1-8 at the corners):
+# well past the ~60 k steps PPO needs to reach the goal. SAC and TD3 spend their time in gradient
+# steps, so their trials are 50 k steps (see the measured figures in docs/rl.md §1.3).
+DEFAULT_TIMESTEPS = {"ppo": 200_000, "sac": 50_000, "td3": 50_000}
 DEFAULT_TRIALS = {"ppo": 30, "sac": 15, "td3": 15}
 STATES_COUNTED = ("COMPLETE", "PRUNED")
 
@@ -102,17 +103,21 @@ def sample_ppo(trial: Any) -> dict[str, Any]:
 def _off_policy_common(trial: Any) -> dict[str, Any]:
     """The keys SAC and TD3 share, after the zoo's ``sample_sac_params`` / ``sample_td3_params``.
 
-    DECISION (docs/rl.md §1.2): the zoo's gamma, learning-rate, batch, tau and network choices; three changes.
-    ``train_freq`` counts vector steps of 8 transitions here, so its choices are 1-16 and the
-    update ratio is sampled as ``updates_per_step`` (gradient steps per vector step: 1, 2, 4, 8,
-    i.e. 1/8 to 1 update per transition; the zoo ties gradient_steps to train_freq with one env, a
-    ratio of 1). ``learning_starts`` is 1000-10000 (a trial is 50 k steps; the zoo's 20000 would
-    spend 40 % of it acting at random). ``buffer_size`` is not tuned (300 000, the untuned set's): a
-    trial never fills it, so a trial cannot tell the choices apart.
+    DECISION (docs/rl.md §1.2): the zoo's gamma, learning-rate, batch, tau and network choices;
+    three changes. ``train_freq`` counts vector steps of 8 transitions here, so its choices are
+    1-16, and the update ratio is sampled on its own as ``updates_per_step`` (gradient steps per
+    vector step: 1, 2, 4, i.e. 1/8 to 1/2 update per transition; the zoo ties gradient_steps to
+    train_freq with one env, a ratio of 1). A ratio of 1 is left out: SAC then trains at ~50 steps
+    per CPU-second (benchmarks/bench_rl.py), so a 50 k-step trial would take ~16 CPU-minutes and
+    the ~20-minute final runs would see only ~60 k steps; a study at a fixed step budget would
+    favour it for its sample efficiency, which the CPU-budgeted runs cannot afford.
+    ``learning_starts`` is 1000-10000 (a trial is 50 k steps; the zoo's 20000 would spend 40 % of
+    it acting at random). ``buffer_size`` is not tuned (300 000, the untuned set's): a trial never
+    fills it, so a study cannot tell the choices apart.
     """
     gamma = trial.suggest_categorical("gamma", [0.95, 0.98, 0.99, 0.995, 0.999])
     train_freq = trial.suggest_categorical("train_freq", [1, 2, 4, 8, 16])
-    updates = trial.suggest_categorical("updates_per_step", [1, 2, 4, 8])
+    updates = trial.suggest_categorical("updates_per_step", [1, 2, 4])
     net = trial.suggest_categorical("net_arch", ["small", "medium", "big"])
     return {
         "gamma": gamma,
@@ -766,6 +771,11 @@ def write_study_files(study: Any, plan: TunePlan) -> None:
         f"{len(plan.eval_seeds)} episode(s) (seeds {plan.eval_seeds[0]}-{plan.eval_seeds[-1]})",
         f"- storage `{plan.files.storage}`; {counts['COMPLETE']} complete, {counts['PRUNED']} pruned, "
         f"{counts['FAIL']} failed/interrupted of {plan.trials} wanted",
+        *(
+            [f"- fixed after sampling (these override the param_ columns): `{json.dumps(plan.fixed)}`"]
+            if plan.fixed
+            else []
+        ),
         "- best: "
         + (
             f"trial {best.number}, cost {best.value:.4f} -> `{plan.files.best_yaml.name}`"
