@@ -59,8 +59,11 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as folder:
         for name, (algo, overrides, steps) in CASES.items():
             if args.quick:
-                steps = 256
-                overrides = {**overrides, **({"learning_starts": 64} if algo != "ppo" else {"n_steps": 32})}
+                steps = 128
+                overrides = {
+                    **overrides,
+                    **({"learning_starts": 32} if algo != "ppo" else {"n_steps": 16, "batch_size": 64}),
+                }
             started, cpu = time.perf_counter(), time.process_time()
             train_agent(
                 algo, total_timesteps=steps, n_envs=8, seed=0, out=Path(folder) / f"{algo}.zip",

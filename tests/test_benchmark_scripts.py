@@ -51,3 +51,14 @@ def test_bench_checks_quick_run_reports_every_entry_point(capsys):
     for name in ("step, 1 row", "observe, 1 row", "rollout_cost", "height"):
         assert name in out
     assert len(results) == 5 and all(value > 0 for value in results.values())
+
+
+def test_bench_rl_quick_run_reports_every_case(capsys):
+    from conftest import RL_EXTRA
+
+    pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
+    bench = load("bench_rl")
+    results = bench.main(["--quick"])
+    out = capsys.readouterr().out
+    assert set(results) == set(bench.CASES) and all(value > 0 for value in results.values())
+    assert out.count("steps per CPU-s") == len(bench.CASES)
