@@ -256,3 +256,35 @@ def test_cli_tune_errors_exit_2(argv, message, tmp_path, capsys, baselines_plugi
     assert main(["tune", "--out", str(tmp_path / "x"), *argv]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_the_paper_start_is_fixed_so_one_evaluation_episode_suffices():
+    # Two reset seeds, the same actions: the same observations and costs, step for step. A
+    # deterministic policy therefore flies one episode whatever the evaluation seed (docs/rl.md §1.1).
+    import gymnasium as gym
+    import numpy as np
+
+    import uav_penetration_env  # noqa: F401 (registers the ids)
+
+    tracks = []
+    for seed in (40000, 12345):
+        env = gym.make("UAVPenetration-v0")
+        observation, _ = env.reset(seed=seed)
+        rows, actions = [observation], np.random.default_rng(0).uniform(-1, 1, size=(40, 3))
+        for action in actions * env.action_space.high:
+            observation, reward, terminated, truncated, _ = env.step(action.astype(np.float32))
+            rows.append(np.append(observation, reward))
+            if terminated or truncated:
+                break
+        tracks.append(rows)
+    assert len(tracks[0]) == len(tracks[1]) > 1
+    for first, second in zip(*tracks, strict=True):
+        np.testing.assert_array_equal(first, second)
+
+
+def test_random_id_training_seeds_lie_in_the_pool_range():
+    from baselines.run import train_env_seeds
+
+    plain, pool = train_env_seeds(3, 8), train_env_seeds(3, 8, pool=True)
+    assert all(p == 2**32 + s for p, s in zip(pool, plain, strict=True))
+    assert min(pool) >= 2**32  # never a held-out (10000-), suite (30000-) or validation (40000-) seed
