@@ -311,7 +311,10 @@ def _finished_result(plan: TrainingPlan) -> TrainResult | None:
     rows: list[dict[str, float]] = []
     if files.evaluations.is_file():
         with files.evaluations.open(newline="") as handle:
-            rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)]
+            rows = [
+                {k: int(float(v)) if k in ("timesteps", "episodes") else float(v) for k, v in row.items()}
+                for row in csv.DictReader(handle)
+            ]
     return TrainResult(files=files, sidecar=sidecar, evaluations=rows, model=None)
 
 
