@@ -541,7 +541,9 @@ def open_study(plan: TunePlan) -> Any:
     import optuna
 
     plan.files.database.parent.mkdir(parents=True, exist_ok=True)
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    # Optuna's own lines (a trial's failure with a traceback on Ctrl-C) only repeat what the
+    # command prints per trial; its errors still show.
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
     pruner = optuna.pruners.MedianPruner(
         n_startup_trials=plan.pruner_startup_trials, n_warmup_steps=plan.pruner_warmup_steps
     )
