@@ -69,13 +69,13 @@ STATES_COUNTED = ("COMPLETE", "PRUNED")
 def sample_ppo(trial: Any) -> dict[str, Any]:
     """PPO's search space, after rl-baselines3-zoo's ``sample_ppo_params``.
 
-    Returns overrides of ``baselines/hyperparams/ppo.yaml`` in its format (``policy_kwargs`` with
-    the activation by name). DECISION (docs/rl.md §1.2): the zoo's space with three adaptations. ``n_steps`` is per
-    sub-env here (8 by default), so its choices stop at 1024 (8192 transitions per update) and
-    start at 64; ``batch_size`` 64-512. ``log_std_init`` (the initial exploration std, -3..0) is
-    sampled, because the untuned set's hand-picked -1 was the one setting that changed whether PPO
-    learned at all (hyperparams/ppo.yaml's provenance). ``norm_reward`` is sampled (value scale is
-    one of issue 15's suspects for the high corridor); observations are always normalised.
+    Returns overrides of ``baselines/hyperparams/ppo.yaml`` in its format (``policy_kwargs`` with the
+    activation by name). DECISION (docs/rl.md §1.2): the zoo's space with three adaptations. ``n_steps``
+    is per sub-env here (8 by default), so its choices stop at 1024 (8192 transitions per update) and
+    start at 64; ``batch_size`` 64-512. ``log_std_init`` (the initial exploration std, -3..0) is sampled,
+    because the untuned set's hand-picked -1 was the one setting that changed whether PPO learned at all
+    (hyperparams/ppo.yaml's provenance). ``norm_reward`` is sampled (value scale is one of issue 15's
+    suspects for the high corridor); observations are always normalised.
     """
     one_minus_gamma = trial.suggest_float("one_minus_gamma", 1e-4, 0.03, log=True)
     one_minus_gae_lambda = trial.suggest_float("one_minus_gae_lambda", 1e-4, 0.1, log=True)
@@ -139,9 +139,9 @@ def sample_sac(trial: Any) -> dict[str, Any]:
 def sample_td3(trial: Any) -> dict[str, Any]:
     """TD3's search space (:func:`_off_policy_common` plus the zoo's action noise: type and std).
 
-    DECISION (docs/rl.md §1.2): the zoo samples the noise std in [0, 1]; here 0.05-0.5 (log), as a std of 1 in the
-    [-1, 1] box saturates most actions, and no noise at all is not offered (TD3 then explores only
-    through its initial random steps).
+    DECISION (docs/rl.md §1.2): the zoo samples the noise std in [0, 1]; here 0.05-0.5 (log), as a std of
+    1 in the [-1, 1] box saturates most actions, and no noise at all is not offered (TD3 then explores
+    only through its initial random steps).
     """
     return {
         **_off_policy_common(trial),
@@ -424,10 +424,10 @@ def _counts(study: Any) -> dict[str, int]:
 def _recover(study: Any, progress: bool) -> None:
     """Fail the trials a killed run left RUNNING and queue once more every interrupted trial's parameters.
 
-    DECISION (docs/rl.md §1.4): a trial cut by Ctrl-C or a kill is not a result (its training did not finish), so it
-    is marked FAIL (not counted) and its sampled parameters are queued to run first, so the
-    resumed study tries the point the sampler chose instead of losing it. Under :func:`study_lock`
-    no other process runs the study, so a RUNNING trial found at start is stale.
+    DECISION (docs/rl.md §1.4): a trial cut by Ctrl-C or a kill is not a result (its training did not
+    finish), so it is marked FAIL (not counted) and its sampled parameters are queued to run first, so the
+    resumed study tries the point the sampler chose instead of losing it. Under :func:`study_lock` no
+    other process runs the study, so a RUNNING trial found at start is stale.
     """
     from optuna.trial import TrialState
 
@@ -530,8 +530,8 @@ def _merge(sampled: Mapping[str, Any], fixed: Mapping[str, Any]) -> dict[str, An
 def open_study(plan: TunePlan) -> Any:
     """Create or load the study (TPE sampler, median pruner), checking a loaded one's settings.
 
-    DECISION (docs/rl.md §1.4): the sampler's seed is ``seed + number of trials already in the study``: a seeded
-    sampler restarted with the same seed would propose the same first random points again.
+    DECISION (docs/rl.md §1.4): the sampler's seed is ``seed + number of trials already in the study``: a
+    seeded sampler restarted with the same seed would propose the same first random points again.
 
     Raises:
         ValueError: a stored study with other settings (algorithm, regime, budget, ...).
@@ -644,7 +644,7 @@ def _result(study: Any, plan: TunePlan) -> TuneResult:
 
 
 def best_yaml_text(study: Any, plan: TunePlan) -> str | None:
-    """The best trial's hyper-parameters as a ``baselines/hyperparams`` file with provenance (``None``: no trial done)."""
+    """The best trial's hyper-parameters as a ``baselines/hyperparams`` file (``None``: none complete yet)."""
     from uav_penetration_env.benchmark.provenance import library_versions
 
     best = _best(study)
@@ -752,7 +752,7 @@ def _cell(value: Any) -> str:
 
 
 def write_study_files(study: Any, plan: TunePlan) -> None:
-    """Rewrite the best YAML (once a trial is complete), the trials CSV and the Markdown summary, atomically."""
+    """Rewrite the best YAML (once a trial is complete), the trials CSV and the summary, atomically."""
     text = best_yaml_text(study, plan)
     if text is not None:
         write_text_atomic(plan.files.best_yaml, text)
