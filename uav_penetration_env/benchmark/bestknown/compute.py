@@ -5,7 +5,7 @@ the greedy episode and random starts alone (the *unseeded* search, whose result 
 as ``unseeded_total``), then once more seeded with the best stored tracks of the scenario, the
 existing record and the unseeded result (the *seeded* search). :func:`update_from_store` looks for
 stored episodes (any policy) cheaper than the record. Both replace a record only when the new
-total is lower (docs/best-known.md, "Commands").
+total is lower (docs/best-known.md §3).
 """
 
 from __future__ import annotations

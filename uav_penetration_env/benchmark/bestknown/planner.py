@@ -5,7 +5,7 @@ The decision variables are the K_max x 3 controls of an episode, normalised to t
 3 K_max numbers. The objective is the compiled model's :meth:`PenetrationModel.rollout_cost` of the
 whole sequence from the start state with no discount and no cost-to-go: the sum of J(k) + penalty
 of the transitions flown until the goal, a failure or K_max, which is the evaluator's
-``total_cost`` of the same controls (docs/best-known.md, "The planner"; a test pins the equality).
+``total_cost`` of the same controls (docs/best-known.md §1; a test pins the equality).
 
 The search is a schedule of separable CMA-ES runs (``cmaes.SepCMA``, Ros & Hansen 2008: a
 diagonal covariance, linear in the dimension, for hundreds of variables), one run per start:
@@ -45,7 +45,7 @@ CHECKPOINT_FORMAT = "uav-penetration-best-known-search/1"
 
 @dataclass(frozen=True)
 class SearchSettings:
-    """The offline search's settings (docs/best-known.md, "The planner").
+    """The offline search's settings (docs/best-known.md §1).
 
     Attributes:
         seconds: wall-clock budget of the search [s] (``None``: evaluations only).
@@ -53,7 +53,7 @@ class SearchSettings:
         seed: seed of the search's generator (random starts and every CMA-ES run's seed).
         population: CMA-ES population (``None``: cmaes' default 4 + floor(3 ln n), 22 for n = 450).
         start_sigma: initial step size of a run from a given start or the incumbent (normalised).
-            DECISION: 0.01 of the action box (0.02 m/s, 0.15 deg per step): a start is a good
+            DECISION (docs/best-known.md §1): 0.01 of the action box (0.02 m/s, 0.15 deg per step): a start is a good
             track, and on the paper scenario a step of 0.05 turned almost every sample of the
             450 variables into a crash (measured: 20 of 22 samples crashed).
         random_sigma: initial step size of a run from a random start.
@@ -207,10 +207,12 @@ def _load_checkpoint(path: Path, scenario_hash: str, key: dict[str, Any]) -> Sea
     if not path.is_file():
         return None
     with path.open("rb") as handle:
-        data = pickle.load(handle)  # noqa: S301 - the work folder is the user's own output
+        data = pickle.load(handle)
     if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(f"--work {path}: not a best-known search checkpoint; expected {CHECKPOINT_FORMAT}")
     state: SearchState = data["state"]
+    if state.optimizer is not None:
+        state.optimizer._rng.set_state(data["optimizer_rng"])
     if state.scenario_hash != scenario_hash or state.key != key:
         raise ValueError(
             f"--work {path}: holds a search with settings {state.key} of scenario {state.scenario_hash}, "
@@ -220,7 +222,15 @@ def _load_checkpoint(path: Path, scenario_hash: str, key: dict[str, Any]) -> Sea
 
 
 def _save_checkpoint(path: Path, state: SearchState) -> None:
-    write_bytes_atomic(path, pickle.dumps({"format": CHECKPOINT_FORMAT, "state": state}))
+    """Pickle the search state atomically.
+
+    ``cmaes`` optimisers leave their random generator out of a pickle (``__getstate__`` drops
+    ``_rng``), so its state is saved beside them and restored on load; without it a continued run
+    would draw other samples than an uninterrupted one.
+    """
+    optimizer_rng = None if state.optimizer is None else state.optimizer._rng.get_state()
+    data = {"format": CHECKPOINT_FORMAT, "state": state, "optimizer_rng": optimizer_rng}
+    write_bytes_atomic(path, pickle.dumps(data))
 
 
 def search(

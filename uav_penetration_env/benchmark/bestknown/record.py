@@ -11,7 +11,7 @@ Records live in ``uav_penetration_env/benchmark/bestknown/records/<scenario.hash
 flies a policy (:func:`~uav_penetration_env.benchmark.evaluate.run_episode`, seed 0), so the
 replayed ``total_cost`` is the number every leaderboard row is compared with (docs/best-known.md).
 
-DECISION (docs/best-known.md, "Record format"): the controls are stored as physical controls, not
+DECISION (docs/best-known.md §2): the controls are stored as physical controls, not
 the search's normalised [-1, 1] variables, so a record replays through ``env.step`` with no
 knowledge of the search; JSON floats are written with ``repr`` (Python's shortest round-trip
 form), so ``json.loads`` gives back the identical float64 values.
@@ -47,8 +47,8 @@ __all__ = [
     "REPLAY_TOLERANCE",
     "BestKnownRecord",
     "RecordError",
-    "ReplayPolicy",
     "Replay",
+    "ReplayPolicy",
     "best_known_total",
     "library_versions",
     "load_record",
@@ -69,7 +69,7 @@ class RecordError(ValueError):
 
 @dataclass(frozen=True)
 class BestKnownRecord:
-    """The best control sequence known for one scenario (docs/best-known.md, "Record format").
+    """The best control sequence known for one scenario (docs/best-known.md §2).
 
     Attributes:
         scenario_name: the scenario's name.
@@ -277,7 +277,7 @@ def relative_difference(value: float, reference: float) -> float:
 class ReplayPolicy:
     """A policy that flies a fixed control sequence (then holds course with zero controls).
 
-    DECISION (docs/best-known.md): past the end of the sequence it returns zeros (keep speed,
+    DECISION (docs/best-known.md §2): past the end of the sequence it returns zeros (keep speed,
     heading and pitch); a record's sequence always covers its episode, so this only matters for
     a shorter sequence under test.
     """
