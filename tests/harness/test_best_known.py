@@ -348,3 +348,38 @@ def test_gap_columns_are_left_out_without_a_record_and_blank_for_a_policy_withou
     header, rows, _ = markdown_rows(table, "a")
     b_cells = dict(zip(header, rows[table["policy"].tolist().index("b")], strict=True))
     assert b_cells["gap to J* mean [95% CI]"] == "" and b_cells["≤5% of J*"] == ""
+
+
+def test_track_figures_draw_the_best_known_track(tmp_path, store, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from uav_penetration_env.benchmark.figures.common import FigureInput, policy_styles
+    from uav_penetration_env.benchmark.figures.tracks import plot_tracks_3d, plot_tracks_top, scenario_model
+    from uav_penetration_env.benchmark.leaderboard import scenario_groups
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    with ResultsStore(store, create=False) as results:
+        group = scenario_groups(results.episodes())[0]
+        rows = results.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
+        yaml_text = results.scenarios()[group.scenario_hash][1]
+    styles = policy_styles(group.episodes["label"].unique())
+    inp = FigureInput(
+        group, rows[rows["step"] > 0], rows[rows["step"] == 0], scenario_model(yaml_text), styles
+    )
+
+    def labels(figure) -> list[str]:
+        return [line.get_label() for ax in figure.axes for line in ax.get_lines()]
+
+    assert not any(label.startswith("best known") for label in labels(plot_tracks_top(inp)))
+    monkeypatch.setattr(record_module, "RECORDS_DIR", tmp_path)
+    record_module._cached.cache_clear()
+    record = update_from_store(SCENARIO, store, folder=tmp_path).record
+    expected = f"best known (J* = {record.total_cost:.4g})"
+    top, three_d = plot_tracks_top(inp), plot_tracks_3d(inp)
+    assert labels(top).count(expected) == 1 and labels(three_d).count(expected) == 1
+    line = next(line for line in top.axes[0].get_lines() if line.get_label() == expected)
+    replay = replay_record(record)
+    np.testing.assert_allclose(line.get_xdata(), replay.positions[:, 0] / 1000.0)
+    assert len(line.get_xdata()) == record.steps + 1
+    record_module._cached.cache_clear()

@@ -40,7 +40,7 @@ from uav_penetration_env.atomic import write_bytes_atomic
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
-CHECKPOINT_FORMAT = "uav-penetration-best-known-search/1"
+CHECKPOINT_FORMAT = "uav-penetration-best-known-search/2"
 
 
 @dataclass(frozen=True)
