@@ -336,6 +336,11 @@ def search(
             bounds=bounds,
             seed=int(rng.integers(2**31 - 1)),
             population_size=settings.population,
+            # Clip an out-of-box sample (cmaes' repair) instead of resampling it up to 100 times:
+            # tracks sit on the box (greedy turns at the maximum rate), so nearly every sample of
+            # 450 variables leaves it, and resampling cost more than the evaluations (measured:
+            # 917 against 375 evaluations/s on the paper scenario).
+            n_max_resampling=1,
         )
         state.run_label, state.run_best, state.run_stall = label, math.inf, 0
         state.runs.append({"label": label, "evals": 0, "best": math.inf})
