@@ -232,8 +232,10 @@ def _record_from(
             {"total_cost": previous.total_cost, "found_by": previous.found_by, "found_at": previous.found_at},
         )
     unseeded_total, unseeded_budget = (None, None) if unseeded is None else unseeded
-    if unseeded is None and previous is not None:
-        unseeded_total, unseeded_budget = previous.unseeded_total, previous.unseeded_budget
+    if previous is not None and previous.unseeded_total is not None:
+        if unseeded_total is None or previous.unseeded_total <= unseeded_total:
+            # The best unseeded result so far stays, whichever search found the record.
+            unseeded_total, unseeded_budget = previous.unseeded_total, previous.unseeded_budget
     return BestKnownRecord(
         scenario_name=scenario.name,
         scenario_hash=scenario.hash,
