@@ -9,7 +9,7 @@ train --hyperparams`` loads, with a provenance block, and the trials as CSV and 
 
 ```python
 from baselines.tune import TuneConfig, run_study
-result = run_study(TuneConfig(algo="ppo", regime="paper", trials=30, timesteps=200_000))
+result = run_study(TuneConfig(algo="ppo", regime="paper", trials=30, timesteps=150_000))
 print(result.best_value, result.files.best_yaml)
 ```
 
@@ -58,7 +58,7 @@ DEFAULT_OUT = Path("results/rl/tune")
 # fastest, so a 200 k-step trial takes ~2.5 CPU-minutes at typical sizes (1-8 at the corners):
 # well past the ~60 k steps PPO needs to reach the goal. SAC and TD3 spend their time in gradient
 # steps, so their trials are 50 k steps (see the measured figures in docs/rl.md §1.3).
-DEFAULT_TIMESTEPS = {"ppo": 200_000, "sac": 50_000, "td3": 50_000}
+DEFAULT_TIMESTEPS = {"ppo": 150_000, "sac": 50_000, "td3": 50_000}
 DEFAULT_TRIALS = {"ppo": 30, "sac": 15, "td3": 15}
 STATES_COUNTED = ("COMPLETE", "PRUNED")
 
