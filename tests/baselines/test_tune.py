@@ -217,7 +217,7 @@ def test_bad_settings_fail_before_anything_runs(tmp_path, changes, message):
 def test_defaults_state_the_budget_and_the_validation_seeds(tmp_path):
     paper = prepare_tuning(TuneConfig(algo="ppo", out=tmp_path))
     assert paper.trials == 30 and paper.timesteps == 150_000 and paper.eval_seeds == (40000,)
-    assert paper.eval_every == 40_000 and paper.pruner_warmup_steps == 66_666 and paper.startup_trials == 10
+    assert paper.eval_every == 30_000 and paper.pruner_warmup_steps == 50_000 and paper.startup_trials == 10
     random = prepare_tuning(TuneConfig(algo="sac", regime="random", out=tmp_path))
     assert random.trials == 15 and random.timesteps == 50_000
     assert random.eval_seeds == tuple(range(40000, 40050))
