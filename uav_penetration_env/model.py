@@ -24,6 +24,7 @@ import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -124,6 +125,11 @@ class PenetrationModel:
         self.scenario: Scenario = first
         self.grid = built[0].grid
         self.limits = UAVLimits.from_scenario(first)
+        self._action_high = self.limits.action_high  # (3,) float64, read by the single env's hot path
+        self._start_jitters = [
+            b.scenario.start.jitter.xy_km > 0 or b.scenario.start.jitter.heading_deg > 0 for b in built
+        ]
+        self._fixed_starts: FloatArray | None = None  # (P, 6) start poses without jitter, on first use
         self.fuel = FuelParams.from_scenario(first)
         self.normalisation = Normalisation.from_scenario(first, self.fuel)
         self.weights = first.cost.weights
@@ -334,7 +340,27 @@ class PenetrationModel:
     def initial_states(
         self, rngs: Sequence[np.random.Generator | None], scenario_index: Sequence[int]
     ) -> FloatArray:
-        """Start states (n, 6) for several episodes, each drawing its jitter from its own generator."""
+        """Start states (n, 6) for several episodes, each drawing its jitter from its own generator.
+
+        Rows that draw no jitter (no generator, or a scenario without ``start.jitter``) copy the
+        pool's fixed start poses, computed once by the same code (an env resets often).
+        """
+        rngs = list(rngs)
+        indices = list(scenario_index)
+        if len(rngs) != len(indices):
+            raise ValueError(
+                f"scenario_index: got {len(indices)} entries, expected {len(rngs)} (one per generator)"
+            )
+        if all(rng is None or not self._start_jitters[p] for rng, p in zip(rngs, indices, strict=True)):
+            if self._fixed_starts is None:
+                self._fixed_starts = self._draw_initial_states([None] * self.pool_size, range(self.pool_size))
+            return self._fixed_starts[np.asarray(indices, dtype=np.intp)]
+        return self._draw_initial_states(rngs, indices)
+
+    def _draw_initial_states(
+        self, rngs: Sequence[np.random.Generator | None], scenario_index: Sequence[int]
+    ) -> FloatArray:
+        """:meth:`initial_states` computed row by row."""
         poses = np.zeros((len(rngs), 6))
         for row, (rng, p) in enumerate(zip(rngs, scenario_index, strict=True)):
             start = self.built[p].scenario.start
@@ -722,3 +748,81 @@ class PenetrationModel:
             out,
         )
         return out
+
+    # --- a single env's hot path ------------------------------------------------------------------------
+
+    def _env_step_one(self, state: np.ndarray, action: np.ndarray, step_index: int) -> SingleStep | None:
+        """One env step from ``state`` (6,) with the float64 ``action`` (3,) at k = ``step_index``.
+
+        The single env's hot path (issue 10): the action check and clip, :meth:`step` and
+        :meth:`observe` of one row in one compiled call (:func:`kernels.env_step_one`), on
+        arguments the env has already checked. The same numbers as the public methods.
+
+        Returns:
+            The raw outputs, or ``None`` when the action holds a NaN or infinite entry.
+        """
+        slots = self.radar_slots
+        next_states = np.empty((1, 6))
+        per_radar = np.empty((1, slots))
+        visible = np.empty((1, slots))
+        scalars = np.empty((1, kernels.N_SCALARS))
+        flags = np.empty((1, kernels.N_FLAGS), dtype=np.bool_)
+        obs = np.empty((1, OBSERVATION_SIZE), dtype=np.float32)
+        ok = kernels.env_step_one(
+            self.arrays,
+            action,
+            self._action_high,
+            state.reshape(1, 6),
+            step_index,
+            _ROW_ZERO,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
+            obs,
+        )
+        if not ok:
+            return None
+        return SingleStep(next_states[0], per_radar[0], scalars[0].tolist(), flags[0].tolist(), obs[0])
+
+    def _env_reset_one(self, state: np.ndarray, step_index: int) -> SingleReset:
+        """The reset quantities and observation of ``state`` (6,) at k = ``step_index`` (one compiled call).
+
+        The single env's hot path for :meth:`reset_result` plus :meth:`observe` (issue 10): the
+        same numbers (the goal distance with ``np.hypot``, as :meth:`goal_distance`).
+        """
+        per_radar = np.empty((1, self.radar_slots))
+        visible = np.empty((1, self.radar_slots))
+        obs = np.empty((1, OBSERVATION_SIZE), dtype=np.float32)
+        terrain, radar, detection, altitude_agl = kernels.env_reset_one(
+            self.arrays, state.reshape(1, 6), step_index, _ROW_ZERO, per_radar, visible, obs
+        )
+        goal = self.goal[0]
+        distance = float(np.hypot(goal[0] - state[0], goal[1] - state[1]))
+        return SingleReset(terrain, radar, per_radar[0], detection, altitude_agl, distance, obs[0])
+
+
+_ROW_ZERO = np.zeros(1, dtype=np.int64)  # pool index of a single env's one row (a one-scenario model)
+
+
+class SingleStep(NamedTuple):
+    """Raw outputs of :meth:`PenetrationModel._env_step_one` (one row; lists indexed by ``kernels.S_*`` / ``F_*``)."""
+
+    state: FloatArray  # (6,) the next state
+    radar_threat_per_radar: FloatArray  # (M,)
+    scalars: list[float]  # kernels.N_SCALARS values
+    flags: list[bool]  # kernels.N_FLAGS values
+    observation: np.ndarray  # (67,) float32
+
+
+class SingleReset(NamedTuple):
+    """Outputs of :meth:`PenetrationModel._env_reset_one`: the state-only quantities of one state."""
+
+    terrain_threat: float
+    radar_threat: float
+    radar_threat_per_radar: FloatArray  # (M,)
+    detection_prob: float
+    altitude_agl: float
+    goal_distance: float  # [m]
+    observation: np.ndarray  # (67,) float32
