@@ -254,6 +254,30 @@ def termination_spreads(
     Raises:
         ValueError: If ``spread`` or ``cut`` is unknown.
     """
+    spreads, _ = termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut, spread=spread)
+    return spreads
+
+
+def termination_spreads_and_groups(
+    U: ArrayLike,
+    n_groups: int,
+    *,
+    method: str = "complete",
+    eps: float = 1e-12,
+    cut: str = "maxclust",
+    spread: str = "rms",
+) -> tuple[tuple[float, float], dict[str, IntArray]]:
+    """:func:`termination_spreads`, and the entropy and cluster groupings it was computed from.
+
+    The groupings are those :func:`dendrogram_groups` gives for ``U`` (same distances, linkage and cut),
+    so IHPSO regroups after a failed test without clustering the same positions again.
+
+    Returns:
+        ``((SD_pemin, SD_psmax), {"entropy": labels, "cluster": labels})``.
+
+    Raises:
+        ValueError: If ``spread`` or ``cut`` is unknown.
+    """
     if spread not in SPREAD_STATISTICS:
         raise ValueError(f"spread: got {spread!r}, expected one of {SPREAD_STATISTICS}")
     U = np.asarray(U, dtype=np.float64)
@@ -261,17 +285,19 @@ def termination_spreads(
     distances = pdist(U)
     entropy = groups_from_distances(distances, n, n_groups, inverse=True, method=method, eps=eps, cut=cut)
     cluster = groups_from_distances(distances, n, n_groups, inverse=False, method=method, eps=eps, cut=cut)
+    groups = {"entropy": entropy, "cluster": cluster}
     if spread == "sum":
         # Only the labels present: a maxclust cut may give fewer than G groups, and an empty group's sum
         # of 0 would pass the test. (The equal cut always fills all G, so 2022v0 is unchanged.)
         sd_entropy = group_distance_sums(distances, entropy, int(entropy.max()) + 1)
         sd_cluster = group_distance_sums(distances, cluster, int(cluster.max()) + 1)
-        return float(sd_entropy.min()), float(sd_cluster.max())
+        return (float(sd_entropy.min()), float(sd_cluster.max())), groups
     sd_entropy = group_rms_distances(distances, entropy)
     sd_cluster = group_rms_distances(distances, cluster)
     if np.isnan(sd_entropy).all() or np.isnan(sd_cluster).all():
-        return math.nan, math.nan
-    return float(np.nanmin(sd_entropy)), spread_threshold(n_groups, U.shape[1]) * float(np.nanmax(sd_cluster))
+        return (math.nan, math.nan), groups
+    spreads = float(np.nanmin(sd_entropy)), spread_threshold(n_groups, U.shape[1]) * float(np.nanmax(sd_cluster))
+    return spreads, groups
 
 
 def termination_test(
@@ -633,11 +659,14 @@ class IHPSO(SwarmOptimizer):
             # Step 1.5: accurate mode with a zero slope: terminate, lock, or go back to broad search.
             elif not locked and slope_is_zero(slopes[t], level, self.slope_atol, self.slope_rtol):
                 U = swarm.normalised()
-                converged = self.converged(U)
+                # One clustering serves the test, its trace and a reverse switch's regrouping (the same
+                # numbers as converged(U), termination_spreads(U) and group(broad_method, U)).
+                (entropy_min, cluster_max), tested_groups = termination_spreads_and_groups(
+                    U, self.n_groups, method=self.linkage, eps=self.entropy_eps, cut=self.grouping_cut,
+                    spread=self.spread)
+                converged = bool(entropy_min <= cluster_max)  # termination_test; NaN compares False
                 tests.append((t, converged))
-                spreads.append((t, *termination_spreads(U, self.n_groups, method=self.linkage,
-                                                        eps=self.entropy_eps, cut=self.grouping_cut,
-                                                        spread=self.spread)))
+                spreads.append((t, entropy_min, cluster_max))
                 if converged:
                     if self.terminate:
                         trace["stopped_by"] = "termination"
@@ -649,7 +678,8 @@ class IHPSO(SwarmOptimizer):
                     accurate = False
                     phase_start = t
                     reverse_switches.append(t)
-                    labels = self.group(broad_method, U, rng)
+                    labels = tested_groups[broad_method] if broad_method in tested_groups else self.group(
+                        broad_method, U, rng)
                     since_grouping = 0
             yield stop
 

@@ -51,3 +51,44 @@ def test_bench_checks_quick_run_reports_every_entry_point(capsys):
     for name in ("step, 1 row", "observe, 1 row", "rollout_cost", "height"):
         assert name in out
     assert len(results) == 5 and all(value > 0 for value in results.values())
+
+
+def test_reproduce_published_counts_exact_rounding_and_differing_episodes():
+    import pandas as pd
+
+    module = load("reproduce_published")
+    published = pd.DataFrame(
+        {
+            "policy": ["pso", "pso", "pso", "cem"],
+            "scenario": ["paper", "paper", "paper", "paper"],
+            "seed": [0, 1, 2, 0],
+            "outcome": ["success", "success", "success", "collision"],
+            "total_J": [14.5, 16.0, 15.0, 20.0],
+            "steps": [50, 55, 52, 30],
+        }
+    )
+    rerun = pd.DataFrame(
+        {
+            "policy": ["pso", "pso", "pso", "cem", "cem"],
+            "scenario": ["paper"] * 5,
+            "seed": [0, 1, 2, 0, 7],  # cem seed 7 has no published row
+            "outcome": ["success", "success", "success", "success", "success"],
+            "total_J": [14.5, 16.0 * (1 + 4e-16), 15.3, 19.0, 18.0],
+            "steps": [50, 55, 53, 40, 41],
+            "error": ["", "", "", "", ""],
+        }
+    )
+    compared = module.compare(rerun, published)
+    assert compared["exact"].tolist() == [False, False, True, False, False]  # sorted: cem 0, cem 7, pso 0-2
+    assert compared["published_found"].tolist() == [True, False, True, True, True]
+    table = module.summary(compared, published).set_index("policy")
+    assert table.loc["pso", ["rerun", "exact", "within_1e-12", "same_outcome", "differing"]].tolist() == [
+        3,
+        1,
+        2,
+        3,
+        2,
+    ]
+    assert table.loc["pso", "max_|dJ|/J"] == pytest.approx(0.02)  # (15.3 - 15) / 15
+    assert table.loc["cem", ["exact", "same_outcome", "differing"]].tolist() == [0, 0, 1]
+    assert table.loc["cem", "mean_dJ/J"] == pytest.approx(-0.05)

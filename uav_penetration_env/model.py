@@ -20,9 +20,10 @@ fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -654,11 +655,14 @@ class PenetrationModel:
                 infinite entry; ``step`` outside [0, K_max]; ``discount`` outside (0, 1];
                 ``terminal_cost`` negative or not finite; ``scenario_index`` outside the pool.
         """
-        controls = checks.finite_array(
-            controls, "controls", (None, None, 3), "a (B, H, 3) array of finite controls"
-        )
-        if controls.shape[1] == 0:
-            raise ValueError("controls: got shape (B, 0, 3), expected a horizon H >= 1")
+        controls = _rollout_controls(controls)
+        window = self._rollout_window(state, step, discount, terminal_cost, scenario_index)
+        return self._rollout_cost(window[0], controls, *window[1:])
+
+    def _rollout_window(
+        self, state: FloatArray, step: int, discount: float, terminal_cost: float, scenario_index: int
+    ) -> tuple[np.ndarray, int, float, float, int]:
+        """:meth:`rollout_cost`'s arguments other than the controls, checked and converted."""
         state = checks.finite_array(state, "state", (6,), "a (6,) state of finite numbers")
         step = checks.integer_scalar(
             step, "step", 0, self.max_steps, f"an integer in [0, {self.max_steps}] (K_max)"
@@ -670,7 +674,58 @@ class PenetrationModel:
         scenario_index = checks.integer_scalar(
             scenario_index, "scenario_index", 0, self.pool_size - 1, f"an integer in [0, {self.pool_size})"
         )
-        return self._rollout_cost(state, controls, step, discount, terminal_cost, scenario_index)
+        return state, step, discount, terminal_cost, scenario_index
+
+    def rollout_function(
+        self,
+        state: FloatArray,
+        *,
+        step: int,
+        discount: float = 1.0,
+        terminal_cost: float = 0.0,
+        scenario_index: int = 0,
+    ) -> Callable[[FloatArray], FloatArray]:
+        """:meth:`rollout_cost` from one window's state, as a function of the controls alone.
+
+        A planner scores thousands of batches from one state: the state and the scalars are checked
+        here once, and each call checks only its (B, H, 3) controls. The same numbers as
+        :meth:`rollout_cost` (a subclass that redefines :meth:`rollout_cost` gets its own method
+        with the arguments bound).
+
+        Args:
+            state: (6,) the window's exact state (copied).
+            step: k, as :meth:`rollout_cost`.
+            discount: gamma, as :meth:`rollout_cost`.
+            terminal_cost: c_T, as :meth:`rollout_cost`.
+            scenario_index: pool index, as :meth:`rollout_cost`.
+
+        Returns:
+            ``costs(controls) -> (B,)`` window costs.
+
+        Raises:
+            TypeError, ValueError: as :meth:`rollout_cost`, for the bound arguments here and for
+                ``controls`` at each call.
+        """
+        if type(self).rollout_cost is not PenetrationModel.rollout_cost:
+            return functools.partial(
+                self.rollout_cost,
+                state,
+                step=step,
+                discount=discount,
+                terminal_cost=terminal_cost,
+                scenario_index=scenario_index,
+            )
+        state, step, discount, terminal_cost, scenario_index = self._rollout_window(
+            state, step, discount, terminal_cost, scenario_index
+        )
+        state = state.copy()  # bound: later changes to the caller's array must not move the window
+
+        def costs(controls: FloatArray) -> FloatArray:
+            return self._rollout_cost(
+                state, _rollout_controls(controls), step, discount, terminal_cost, scenario_index
+            )
+
+        return costs
 
     def _rollout_cost(
         self,
@@ -801,6 +856,16 @@ class PenetrationModel:
         goal = self.goal[0]
         distance = float(np.hypot(goal[0] - state[0], goal[1] - state[1]))
         return SingleReset(terrain, radar, per_radar[0], detection, altitude_agl, distance, obs[0])
+
+
+def _rollout_controls(controls: FloatArray) -> np.ndarray:
+    """``controls`` as a contiguous float64 (B, H, 3) batch of finite numbers with H >= 1 (rollout_cost)."""
+    controls = checks.finite_array(
+        controls, "controls", (None, None, 3), "a (B, H, 3) array of finite controls"
+    )
+    if controls.shape[1] == 0:
+        raise ValueError("controls: got shape (B, 0, 3), expected a horizon H >= 1")
+    return controls
 
 
 _ROW_ZERO = np.zeros(1, dtype=np.int64)  # pool index of a single env's one row (a one-scenario model)
