@@ -116,3 +116,34 @@ def test_a_model_subclass_that_overrides_the_physics_gets_the_generic_path():
     info = env.step([0.0, 0.0, 0.0])[-1]
     assert info["J"] == reference.step([0.0, 0.0, 0.0])[-1]["J"] + 1.0
     assert runs_compiled_kernels(reference.model)
+
+
+def test_rollout_function_equals_rollout_cost_and_checks_its_arguments():
+    model = PenetrationModel(tiny_scenario())
+    state = model.initial_state()
+    controls = np.random.default_rng(0).uniform(-1, 1, size=(40, 4, 3)) * model.limits.action_high
+    costs = model.rollout_function(state, step=2, discount=0.9, terminal_cost=0.06)
+    expected = model.rollout_cost(state, controls, step=2, discount=0.9, terminal_cost=0.06)
+    np.testing.assert_array_equal(costs(controls), expected)
+    state[0] += 1000.0  # the window was copied when bound
+    np.testing.assert_array_equal(costs(controls), expected)
+    with pytest.raises(ValueError, match=r"^controls: got a non-finite entry"):
+        costs(np.full((2, 4, 3), np.nan))
+    with pytest.raises(ValueError, match=r"^controls: got shape"):
+        costs(np.zeros((2, 0, 3)))
+    with pytest.raises(ValueError, match=r"^discount: got 0\.0"):
+        model.rollout_function(state, step=0, discount=0.0)
+    with pytest.raises(TypeError, match=r"^step: got 1\.5"):
+        model.rollout_function(state, step=1.5)
+
+
+def test_rollout_function_of_a_subclass_calls_its_own_rollout_cost():
+    class Doubled(PenetrationModel):
+        def rollout_cost(self, state, controls, **kwargs):
+            return 2.0 * super().rollout_cost(state, controls, **kwargs)
+
+    model = Doubled(tiny_scenario())
+    state = model.initial_state()
+    controls = np.zeros((3, 2, 3))
+    plain = PenetrationModel(tiny_scenario()).rollout_cost(state, controls, step=0)
+    np.testing.assert_array_equal(model.rollout_function(state, step=0)(controls), 2.0 * plain)
