@@ -92,3 +92,31 @@ def test_reproduce_published_counts_exact_rounding_and_differing_episodes():
     assert table.loc["pso", "max_|dJ|/J"] == pytest.approx(0.02)  # (15.3 - 15) / 15
     assert table.loc["cem", ["exact", "same_outcome", "differing"]].tolist() == [0, 0, 1]
     assert table.loc["cem", "mean_dJ/J"] == pytest.approx(-0.05)
+
+
+def test_mechanism_share_row_reads_the_traces():
+    module = load("ihpso_mechanism_shares")
+
+    def trace(reverse, stopped_by, switch, tests):
+        return {
+            "reverse_switch_iterations": reverse,
+            "stopped_by": stopped_by,
+            "switch_iterations": switch,
+            "termination_tests": [(0, False)] * tests,
+        }
+
+    traces = [
+        trace([10, 30], "termination", [3], 3),  # reverse at 10 / 49, stopped at 40 / 49
+        trace([], "termination", [3], 1),  # stopped at 20 / 49
+        trace([], "max_evals", [5], 0),
+        trace([], "max_evals", [], 0),
+    ]
+    row = module.share_row(5_000, traces, nits=[40, 20, 49, 49], nfevs=[4_100, 2_100, 5_000, 5_000])
+    assert row["T"] == "49" and row["runs"] == "4"
+    assert row["reverse switch"] == "1/4 (25%)" and row["first reverse / T"] == "0.20 [0.20, 0.20]"
+    assert row["termination"] == "2/4 (50%)"
+    assert (
+        row["stop / T"] == f"{30 / 49:.2f} [{25 / 49:.2f}, {35 / 49:.2f}]"
+    )  # median of 20 and 40, quartiles
+    assert row["eq. 33 tests/run"] == "1.00" and row["evals used"] == "81%"
+    assert module.quartiles([]) == "-"
