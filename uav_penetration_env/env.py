@@ -200,7 +200,7 @@ def batched_info(
 def runs_compiled_kernels(model: PenetrationModel) -> bool:
     """Whether the single env may take its one-call hot path with ``model``.
 
-    DECISION (issue 10): only a one-scenario :class:`PenetrationModel` whose transition,
+    DECISION (issue 10, model.md §7a): only a one-scenario :class:`PenetrationModel` whose transition,
     observation and state queries are the class's own; a subclass that redefines any of them
     (the numpy test oracle, a user's variant) gets the generic path through those methods, so the
     env never bypasses an override.
