@@ -22,10 +22,12 @@ the mean finite pbest cost, a 1e-9 relative tolerance) are kept, bit-identical, 
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import lru_cache, partial
 from itertools import count
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -126,6 +128,9 @@ def dendrogram_groups(
         (N,) group labels in ``0..k-1``, ``k <= G``.
     """
     U = np.asarray(U, dtype=np.float64)
+    last = _last_termination()
+    if last.get("key") == _positions_key(U, n_groups, method, eps, cut):
+        return last["groups"]["entropy" if inverse else "cluster"].copy()  # eq. 33's clustering of U
     return groups_from_distances(pdist(U), U.shape[0], n_groups, inverse=inverse, method=method, eps=eps,
                                  cut=cut)
 
@@ -281,6 +286,41 @@ def termination_spreads_and_groups(
     if spread not in SPREAD_STATISTICS:
         raise ValueError(f"spread: got {spread!r}, expected one of {SPREAD_STATISTICS}")
     U = np.asarray(U, dtype=np.float64)
+    key = _positions_key(U, n_groups, method, eps, cut)
+    last = _last_termination()
+    if last.get("key") == key and spread in last["spreads"]:
+        return last["spreads"][spread], {name: labels.copy() for name, labels in last["groups"].items()}
+    spreads, groups = _termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut,
+                                                      spread=spread)
+    if last.get("key") != key:
+        last.clear()
+        last.update(key=key, spreads={}, groups={name: labels.copy() for name, labels in groups.items()})
+    last["spreads"][spread] = spreads
+    return spreads, groups
+
+
+# The last positions eq. 33 was evaluated on (per thread), with their spreads and groupings: IHPSO tests
+# eq. 33, records its spreads in the trace and regroups after a failed test, all on the same positions, so
+# the clustering is made once (pure functions of the positions: the numbers of a fresh computation).
+_TERMINATION_CACHE = threading.local()
+
+
+def _last_termination() -> dict[str, Any]:
+    """This thread's record of the last eq. 33 clustering (key, spreads by statistic, groups)."""
+    if not hasattr(_TERMINATION_CACHE, "last"):
+        _TERMINATION_CACHE.last = {}
+    return _TERMINATION_CACHE.last
+
+
+def _positions_key(U: np.ndarray, n_groups: int, method: str, eps: float, cut: str) -> tuple[Any, ...]:
+    """What a grouping of ``U`` depends on: the positions' bytes and shape, G, linkage, ε and cut."""
+    return (U.shape, U.tobytes(), int(n_groups), method, float(eps), cut)
+
+
+def _termination_spreads_and_groups(
+    U: np.ndarray, n_groups: int, *, method: str, eps: float, cut: str, spread: str
+) -> tuple[tuple[float, float], dict[str, IntArray]]:
+    """:func:`termination_spreads_and_groups` computed (no cache)."""
     n = U.shape[0]
     distances = pdist(U)
     entropy = groups_from_distances(distances, n, n_groups, inverse=True, method=method, eps=eps, cut=cut)
@@ -659,14 +699,12 @@ class IHPSO(SwarmOptimizer):
             # Step 1.5: accurate mode with a zero slope: terminate, lock, or go back to broad search.
             elif not locked and slope_is_zero(slopes[t], level, self.slope_atol, self.slope_rtol):
                 U = swarm.normalised()
-                # One clustering serves the test, its trace and a reverse switch's regrouping (the same
-                # numbers as converged(U), termination_spreads(U) and group(broad_method, U)).
-                (entropy_min, cluster_max), tested_groups = termination_spreads_and_groups(
-                    U, self.n_groups, method=self.linkage, eps=self.entropy_eps, cut=self.grouping_cut,
-                    spread=self.spread)
-                converged = bool(entropy_min <= cluster_max)  # termination_test; NaN compares False
+                converged = self.converged(U)
                 tests.append((t, converged))
-                spreads.append((t, entropy_min, cluster_max))
+                # termination_spreads reuses the clustering converged(U) just made (_last_termination).
+                spreads.append((t, *termination_spreads(U, self.n_groups, method=self.linkage,
+                                                        eps=self.entropy_eps, cut=self.grouping_cut,
+                                                        spread=self.spread)))
                 if converged:
                     if self.terminate:
                         trace["stopped_by"] = "termination"
@@ -678,8 +716,7 @@ class IHPSO(SwarmOptimizer):
                     accurate = False
                     phase_start = t
                     reverse_switches.append(t)
-                    labels = tested_groups[broad_method] if broad_method in tested_groups else self.group(
-                        broad_method, U, rng)
+                    labels = self.group(broad_method, U, rng)  # served from _last_termination for U
                     since_grouping = 0
             yield stop
 
