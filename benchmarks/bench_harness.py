@@ -6,6 +6,8 @@ Prints, for each planner as an MPC policy (horizon 5, ``--max-evals`` per step),
   evaluations);
 * the share of the compiled step spent inside ``model.rollout_cost`` (the rest is optimiser +
   harness overhead), and for DE its own overhead per iteration;
+* DE's own time per iteration on a free objective, split into scipy's solver parts (issue 10:
+  "bring it down, or say why it cannot be"; docs/optimizers.md §3b);
 and the speed-up of ``n_jobs=2`` over ``n_jobs=1`` on a sweep of 8 episodes (target: >= 1.7x on
 2 cores), both timed end to end (worker start-up included).
 
@@ -68,6 +70,70 @@ def planning_profile(
         if terminated or truncated:
             observation, info = env.reset(seed=0)
     return planning / steps, inside / planning, evaluations / steps, (planning - inside) / iterations
+
+
+# scipy's DifferentialEvolutionSolver methods timed by de_overhead_breakdown (inclusive seconds).
+DE_PARTS = (
+    ("_select_samples", "3-of-N picks: one Generator.shuffle per member"),
+    ("_mutate_many", "mutation + crossover (incl. the picks)"),
+    ("_accept_trial", "selection: one Python call per member"),
+    ("_calculate_population_energies", "objective call + bookkeeping"),
+    ("converged", "convergence test (std of the energies)"),
+)
+
+
+def de_overhead_breakdown(max_evals: int, dim: int = 15) -> tuple[float, int, dict[str, float]]:
+    """Where DE's own time goes: scipy's solver parts per iteration, on a free objective.
+
+    Runs the project's DE (scipy's ``differential_evolution``, population 100) on ``sum(x^2)``
+    (about 10 us per batch) so that nearly all of the time is DE's own, then again with each
+    method of :data:`DE_PARTS` wrapped in a timer (the wrappers add about 0.2 us per call).
+
+    Returns:
+        (CPU seconds per iteration unwrapped, iterations, {method: seconds per iteration, inclusive}).
+    """
+    import numpy as np
+    from scipy.optimize import Bounds
+    from scipy.optimize._differentialevolution import DifferentialEvolutionSolver
+
+    from optimizers import get_optimizer
+
+    optimizer = get_optimizer("de")
+    bounds = Bounds(-np.ones(dim), np.ones(dim))
+
+    def run():
+        return optimizer.minimize(
+            lambda x: (x * x).sum(axis=1), bounds, rng=np.random.default_rng(0), max_evals=max_evals
+        )
+
+    run()
+    best = np.inf
+    for _ in range(3):
+        start = time.process_time()
+        result = run()
+        best = min(best, time.process_time() - start)
+    spent = dict.fromkeys((name for name, _ in DE_PARTS), 0.0)
+    originals = {name: getattr(DifferentialEvolutionSolver, name) for name in spent}
+
+    def timed(name, method):
+        def wrapper(*args, **kwargs):
+            start = time.process_time()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                spent[name] += time.process_time() - start
+
+        return wrapper
+
+    try:
+        for name, method in originals.items():
+            setattr(DifferentialEvolutionSolver, name, timed(name, method))
+        run()
+    finally:
+        for name, method in originals.items():
+            setattr(DifferentialEvolutionSolver, name, method)
+    iterations = max(1, result.nit)
+    return best / iterations, iterations, {name: seconds / iterations for name, seconds in spent.items()}
 
 
 def main_job_seconds() -> float:
@@ -144,6 +210,16 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
             )
     finally:
         numba.set_num_threads(threads)
+
+    per_iteration, iterations, parts = de_overhead_breakdown(max_evals)
+    results["de_own_per_iteration_s"] = per_iteration
+    print(
+        f"\n== DE's own time per iteration (scipy differential_evolution, population 100, free objective, "
+        f"{iterations} iterations) ==\ntotal {per_iteration * 1e3:7.3f} ms per iteration (CPU)"
+    )
+    for name, meaning in DE_PARTS:
+        results[f"de_{name.strip('_')}_per_iteration_s"] = parts[name]
+        print(f"  {name:<32}{parts[name] * 1e3:7.3f} ms  {parts[name] / per_iteration:6.1%}  {meaning}")
 
     sweep_evals = 300 if args.quick else args.sweep_max_evals
     print(

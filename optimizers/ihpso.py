@@ -22,10 +22,12 @@ the mean finite pbest cost, a 1e-9 relative tolerance) are kept, bit-identical, 
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import lru_cache, partial
 from itertools import count
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -126,6 +128,9 @@ def dendrogram_groups(
         (N,) group labels in ``0..k-1``, ``k <= G``.
     """
     U = np.asarray(U, dtype=np.float64)
+    last = _last_termination()
+    if last.get("key") == _positions_key(U, n_groups, method, eps, cut):
+        return last["groups"]["entropy" if inverse else "cluster"].copy()  # eq. 33's clustering of U
     return groups_from_distances(pdist(U), U.shape[0], n_groups, inverse=inverse, method=method, eps=eps,
                                  cut=cut)
 
@@ -254,24 +259,85 @@ def termination_spreads(
     Raises:
         ValueError: If ``spread`` or ``cut`` is unknown.
     """
+    spreads, _ = termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut, spread=spread)
+    return spreads
+
+
+def termination_spreads_and_groups(
+    U: ArrayLike,
+    n_groups: int,
+    *,
+    method: str = "complete",
+    eps: float = 1e-12,
+    cut: str = "maxclust",
+    spread: str = "rms",
+) -> tuple[tuple[float, float], dict[str, IntArray]]:
+    """:func:`termination_spreads`, and the entropy and cluster groupings it was computed from.
+
+    The groupings are those :func:`dendrogram_groups` gives for ``U`` (same distances, linkage and cut),
+    so IHPSO regroups after a failed test without clustering the same positions again.
+
+    Returns:
+        ``((SD_pemin, SD_psmax), {"entropy": labels, "cluster": labels})``.
+
+    Raises:
+        ValueError: If ``spread`` or ``cut`` is unknown.
+    """
     if spread not in SPREAD_STATISTICS:
         raise ValueError(f"spread: got {spread!r}, expected one of {SPREAD_STATISTICS}")
     U = np.asarray(U, dtype=np.float64)
+    key = _positions_key(U, n_groups, method, eps, cut)
+    last = _last_termination()
+    if last.get("key") == key and spread in last["spreads"]:
+        return last["spreads"][spread], {name: labels.copy() for name, labels in last["groups"].items()}
+    spreads, groups = _termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut,
+                                                      spread=spread)
+    if last.get("key") != key:
+        last.clear()
+        last.update(key=key, spreads={}, groups={name: labels.copy() for name, labels in groups.items()})
+    last["spreads"][spread] = spreads
+    return spreads, groups
+
+
+# The last positions eq. 33 was evaluated on (per thread), with their spreads and groupings: IHPSO tests
+# eq. 33, records its spreads in the trace and regroups after a failed test, all on the same positions, so
+# the clustering is made once (pure functions of the positions: the numbers of a fresh computation).
+_TERMINATION_CACHE = threading.local()
+
+
+def _last_termination() -> dict[str, Any]:
+    """This thread's record of the last eq. 33 clustering (key, spreads by statistic, groups)."""
+    if not hasattr(_TERMINATION_CACHE, "last"):
+        _TERMINATION_CACHE.last = {}
+    return _TERMINATION_CACHE.last
+
+
+def _positions_key(U: np.ndarray, n_groups: int, method: str, eps: float, cut: str) -> tuple[Any, ...]:
+    """What a grouping of ``U`` depends on: the positions' bytes and shape, G, linkage, ε and cut."""
+    return (U.shape, U.tobytes(), int(n_groups), method, float(eps), cut)
+
+
+def _termination_spreads_and_groups(
+    U: np.ndarray, n_groups: int, *, method: str, eps: float, cut: str, spread: str
+) -> tuple[tuple[float, float], dict[str, IntArray]]:
+    """:func:`termination_spreads_and_groups` computed (no cache)."""
     n = U.shape[0]
     distances = pdist(U)
     entropy = groups_from_distances(distances, n, n_groups, inverse=True, method=method, eps=eps, cut=cut)
     cluster = groups_from_distances(distances, n, n_groups, inverse=False, method=method, eps=eps, cut=cut)
+    groups = {"entropy": entropy, "cluster": cluster}
     if spread == "sum":
         # Only the labels present: a maxclust cut may give fewer than G groups, and an empty group's sum
         # of 0 would pass the test. (The equal cut always fills all G, so 2022v0 is unchanged.)
         sd_entropy = group_distance_sums(distances, entropy, int(entropy.max()) + 1)
         sd_cluster = group_distance_sums(distances, cluster, int(cluster.max()) + 1)
-        return float(sd_entropy.min()), float(sd_cluster.max())
+        return (float(sd_entropy.min()), float(sd_cluster.max())), groups
     sd_entropy = group_rms_distances(distances, entropy)
     sd_cluster = group_rms_distances(distances, cluster)
     if np.isnan(sd_entropy).all() or np.isnan(sd_cluster).all():
-        return math.nan, math.nan
-    return float(np.nanmin(sd_entropy)), spread_threshold(n_groups, U.shape[1]) * float(np.nanmax(sd_cluster))
+        return (math.nan, math.nan), groups
+    spreads = float(np.nanmin(sd_entropy)), spread_threshold(n_groups, U.shape[1]) * float(np.nanmax(sd_cluster))
+    return spreads, groups
 
 
 def termination_test(
@@ -635,6 +701,7 @@ class IHPSO(SwarmOptimizer):
                 U = swarm.normalised()
                 converged = self.converged(U)
                 tests.append((t, converged))
+                # termination_spreads reuses the clustering converged(U) just made (_last_termination).
                 spreads.append((t, *termination_spreads(U, self.n_groups, method=self.linkage,
                                                         eps=self.entropy_eps, cut=self.grouping_cut,
                                                         spread=self.spread)))
@@ -649,7 +716,7 @@ class IHPSO(SwarmOptimizer):
                     accurate = False
                     phase_start = t
                     reverse_switches.append(t)
-                    labels = self.group(broad_method, U, rng)
+                    labels = self.group(broad_method, U, rng)  # served from _last_termination for U
                     since_grouping = 0
             yield stop
 

@@ -433,6 +433,10 @@ def level_weights(n_levels: int = N_LEVELS) -> FloatArray:
     return (n_levels - levels + 1) / n_levels
 
 
+_HOLONIC_LEVEL_WEIGHTS = level_weights(N_LEVELS)  # computed once: eqs. 22-23 read it every iteration
+_HOLONIC_LEVEL_WEIGHTS.flags.writeable = False
+
+
 def holonic_attractors(
     pbest: FloatArray, f_pbest: FloatArray, labels: ArrayLike
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -477,7 +481,7 @@ def holonic_velocity(
     Returns:
         (N, d) velocities before the clamp.
     """
-    weights = level_weights(N_LEVELS)
+    weights = _HOLONIC_LEVEL_WEIGHTS
     coefficients = (acceleration * weights[0], sign * acceleration * weights[1],
                     sign * acceleration * weights[2])
     return attractor_velocity(v, x, attractors, coefficients, r, inertia, constriction)

@@ -62,3 +62,72 @@ def test_bench_rl_quick_run_reports_every_case(capsys):
     out = capsys.readouterr().out
     assert set(results) == set(bench.CASES) and all(value > 0 for value in results.values())
     assert out.count("steps per CPU-s") == len(bench.CASES)
+
+
+def test_reproduce_published_counts_exact_rounding_and_differing_episodes():
+    import pandas as pd
+
+    module = load("reproduce_published")
+    published = pd.DataFrame(
+        {
+            "policy": ["pso", "pso", "pso", "cem"],
+            "scenario": ["paper", "paper", "paper", "paper"],
+            "seed": [0, 1, 2, 0],
+            "outcome": ["success", "success", "success", "collision"],
+            "total_J": [14.5, 16.0, 15.0, 20.0],
+            "steps": [50, 55, 52, 30],
+        }
+    )
+    rerun = pd.DataFrame(
+        {
+            "policy": ["pso", "pso", "pso", "cem", "cem"],
+            "scenario": ["paper"] * 5,
+            "seed": [0, 1, 2, 0, 7],  # cem seed 7 has no published row
+            "outcome": ["success", "success", "success", "success", "success"],
+            "total_J": [14.5, 16.0 * (1 + 4e-16), 15.3, 19.0, 18.0],
+            "steps": [50, 55, 53, 40, 41],
+            "error": ["", "", "", "", ""],
+        }
+    )
+    compared = module.compare(rerun, published)
+    assert compared["exact"].tolist() == [False, False, True, False, False]  # sorted: cem 0, cem 7, pso 0-2
+    assert compared["published_found"].tolist() == [True, False, True, True, True]
+    table = module.summary(compared, published).set_index("policy")
+    assert table.loc["pso", ["rerun", "exact", "within_1e-12", "same_outcome", "differing"]].tolist() == [
+        3,
+        1,
+        2,
+        3,
+        2,
+    ]
+    assert table.loc["pso", "max_|dJ|/J"] == pytest.approx(0.02)  # (15.3 - 15) / 15
+    assert table.loc["cem", ["exact", "same_outcome", "differing"]].tolist() == [0, 0, 1]
+    assert table.loc["cem", "mean_dJ/J"] == pytest.approx(-0.05)
+
+
+def test_mechanism_share_row_reads_the_traces():
+    module = load("ihpso_mechanism_shares")
+
+    def trace(reverse, stopped_by, switch, tests):
+        return {
+            "reverse_switch_iterations": reverse,
+            "stopped_by": stopped_by,
+            "switch_iterations": switch,
+            "termination_tests": [(0, False)] * tests,
+        }
+
+    traces = [
+        trace([10, 30], "termination", [3], 3),  # reverse at 10 / 49, stopped at 40 / 49
+        trace([], "termination", [3], 1),  # stopped at 20 / 49
+        trace([], "max_evals", [5], 0),
+        trace([], "max_evals", [], 0),
+    ]
+    row = module.share_row(5_000, traces, nits=[40, 20, 49, 49], nfevs=[4_100, 2_100, 5_000, 5_000])
+    assert row["T"] == "49" and row["runs"] == "4"
+    assert row["reverse switch"] == "1/4 (25%)" and row["first reverse / T"] == "0.20 [0.20, 0.20]"
+    assert row["termination"] == "2/4 (50%)"
+    assert (
+        row["stop / T"] == f"{30 / 49:.2f} [{25 / 49:.2f}, {35 / 49:.2f}]"
+    )  # median of 20 and 40, quartiles
+    assert row["eq. 33 tests/run"] == "1.00" and row["evals used"] == "81%"
+    assert module.quartiles([]) == "-"

@@ -20,10 +20,12 @@ fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -124,6 +126,11 @@ class PenetrationModel:
         self.scenario: Scenario = first
         self.grid = built[0].grid
         self.limits = UAVLimits.from_scenario(first)
+        self._action_high = self.limits.action_high  # (3,) float64, read by the single env's hot path
+        self._start_jitters = [
+            b.scenario.start.jitter.xy_km > 0 or b.scenario.start.jitter.heading_deg > 0 for b in built
+        ]
+        self._fixed_starts: FloatArray | None = None  # (P, 6) start poses without jitter, on first use
         self.fuel = FuelParams.from_scenario(first)
         self.normalisation = Normalisation.from_scenario(first, self.fuel)
         self.weights = first.cost.weights
@@ -334,7 +341,27 @@ class PenetrationModel:
     def initial_states(
         self, rngs: Sequence[np.random.Generator | None], scenario_index: Sequence[int]
     ) -> FloatArray:
-        """Start states (n, 6) for several episodes, each drawing its jitter from its own generator."""
+        """Start states (n, 6) for several episodes, each drawing its jitter from its own generator.
+
+        Rows that draw no jitter (no generator, or a scenario without ``start.jitter``) copy the
+        pool's fixed start poses, computed once by the same code (an env resets often).
+        """
+        rngs = list(rngs)
+        indices = list(scenario_index)
+        if len(rngs) != len(indices):
+            raise ValueError(
+                f"scenario_index: got {len(indices)} entries, expected {len(rngs)} (one per generator)"
+            )
+        if all(rng is None or not self._start_jitters[p] for rng, p in zip(rngs, indices, strict=True)):
+            if self._fixed_starts is None:
+                self._fixed_starts = self._draw_initial_states([None] * self.pool_size, range(self.pool_size))
+            return self._fixed_starts[np.asarray(indices, dtype=np.intp)]
+        return self._draw_initial_states(rngs, indices)
+
+    def _draw_initial_states(
+        self, rngs: Sequence[np.random.Generator | None], scenario_index: Sequence[int]
+    ) -> FloatArray:
+        """:meth:`initial_states` computed row by row."""
         poses = np.zeros((len(rngs), 6))
         for row, (rng, p) in enumerate(zip(rngs, scenario_index, strict=True)):
             start = self.built[p].scenario.start
@@ -628,11 +655,14 @@ class PenetrationModel:
                 infinite entry; ``step`` outside [0, K_max]; ``discount`` outside (0, 1];
                 ``terminal_cost`` negative or not finite; ``scenario_index`` outside the pool.
         """
-        controls = checks.finite_array(
-            controls, "controls", (None, None, 3), "a (B, H, 3) array of finite controls"
-        )
-        if controls.shape[1] == 0:
-            raise ValueError("controls: got shape (B, 0, 3), expected a horizon H >= 1")
+        controls = _rollout_controls(controls)
+        window = self._rollout_window(state, step, discount, terminal_cost, scenario_index)
+        return self._rollout_cost(window[0], controls, *window[1:])
+
+    def _rollout_window(
+        self, state: FloatArray, step: int, discount: float, terminal_cost: float, scenario_index: int
+    ) -> tuple[np.ndarray, int, float, float, int]:
+        """:meth:`rollout_cost`'s arguments other than the controls, checked and converted."""
         state = checks.finite_array(state, "state", (6,), "a (6,) state of finite numbers")
         step = checks.integer_scalar(
             step, "step", 0, self.max_steps, f"an integer in [0, {self.max_steps}] (K_max)"
@@ -644,7 +674,58 @@ class PenetrationModel:
         scenario_index = checks.integer_scalar(
             scenario_index, "scenario_index", 0, self.pool_size - 1, f"an integer in [0, {self.pool_size})"
         )
-        return self._rollout_cost(state, controls, step, discount, terminal_cost, scenario_index)
+        return state, step, discount, terminal_cost, scenario_index
+
+    def rollout_function(
+        self,
+        state: FloatArray,
+        *,
+        step: int,
+        discount: float = 1.0,
+        terminal_cost: float = 0.0,
+        scenario_index: int = 0,
+    ) -> Callable[[FloatArray], FloatArray]:
+        """:meth:`rollout_cost` from one window's state, as a function of the controls alone.
+
+        A planner scores thousands of batches from one state: the state and the scalars are checked
+        here once, and each call checks only its (B, H, 3) controls. The same numbers as
+        :meth:`rollout_cost` (a subclass that redefines :meth:`rollout_cost` gets its own method
+        with the arguments bound).
+
+        Args:
+            state: (6,) the window's exact state (copied).
+            step: k, as :meth:`rollout_cost`.
+            discount: gamma, as :meth:`rollout_cost`.
+            terminal_cost: c_T, as :meth:`rollout_cost`.
+            scenario_index: pool index, as :meth:`rollout_cost`.
+
+        Returns:
+            ``costs(controls) -> (B,)`` window costs.
+
+        Raises:
+            TypeError, ValueError: as :meth:`rollout_cost`, for the bound arguments here and for
+                ``controls`` at each call.
+        """
+        if type(self).rollout_cost is not PenetrationModel.rollout_cost:
+            return functools.partial(
+                self.rollout_cost,
+                state,
+                step=step,
+                discount=discount,
+                terminal_cost=terminal_cost,
+                scenario_index=scenario_index,
+            )
+        state, step, discount, terminal_cost, scenario_index = self._rollout_window(
+            state, step, discount, terminal_cost, scenario_index
+        )
+        state = state.copy()  # bound: later changes to the caller's array must not move the window
+
+        def costs(controls: FloatArray) -> FloatArray:
+            return self._rollout_cost(
+                state, _rollout_controls(controls), step, discount, terminal_cost, scenario_index
+            )
+
+        return costs
 
     def _rollout_cost(
         self,
@@ -722,3 +803,91 @@ class PenetrationModel:
             out,
         )
         return out
+
+    # --- a single env's hot path ------------------------------------------------------------------------
+
+    def _env_step_one(self, state: np.ndarray, action: np.ndarray, step_index: int) -> SingleStep | None:
+        """One env step from ``state`` (6,) with the float64 ``action`` (3,) at k = ``step_index``.
+
+        The single env's hot path (issue 10): the action check and clip, :meth:`step` and
+        :meth:`observe` of one row in one compiled call (:func:`kernels.env_step_one`), on
+        arguments the env has already checked. The same numbers as the public methods.
+
+        Returns:
+            The raw outputs, or ``None`` when the action holds a NaN or infinite entry.
+        """
+        slots = self.radar_slots
+        next_states = np.empty((1, 6))
+        per_radar = np.empty((1, slots))
+        visible = np.empty((1, slots))
+        scalars = np.empty((1, kernels.N_SCALARS))
+        flags = np.empty((1, kernels.N_FLAGS), dtype=np.bool_)
+        obs = np.empty((1, OBSERVATION_SIZE), dtype=np.float32)
+        ok = kernels.env_step_one(
+            self.arrays,
+            action,
+            self._action_high,
+            state.reshape(1, 6),
+            step_index,
+            _ROW_ZERO,
+            next_states,
+            per_radar,
+            visible,
+            scalars,
+            flags,
+            obs,
+        )
+        if not ok:
+            return None
+        return SingleStep(next_states[0], per_radar[0], scalars[0].tolist(), flags[0].tolist(), obs[0])
+
+    def _env_reset_one(self, state: np.ndarray, step_index: int) -> SingleReset:
+        """The reset quantities and observation of ``state`` (6,) at k = ``step_index`` (one compiled call).
+
+        The single env's hot path for :meth:`reset_result` plus :meth:`observe` (issue 10): the
+        same numbers (the goal distance with ``np.hypot``, as :meth:`goal_distance`).
+        """
+        per_radar = np.empty((1, self.radar_slots))
+        visible = np.empty((1, self.radar_slots))
+        obs = np.empty((1, OBSERVATION_SIZE), dtype=np.float32)
+        terrain, radar, detection, altitude_agl = kernels.env_reset_one(
+            self.arrays, state.reshape(1, 6), step_index, _ROW_ZERO, per_radar, visible, obs
+        )
+        goal = self.goal[0]
+        distance = float(np.hypot(goal[0] - state[0], goal[1] - state[1]))
+        return SingleReset(terrain, radar, per_radar[0], detection, altitude_agl, distance, obs[0])
+
+
+def _rollout_controls(controls: FloatArray) -> np.ndarray:
+    """``controls`` as a contiguous float64 (B, H, 3) batch of finite numbers with H >= 1 (rollout_cost)."""
+    controls = checks.finite_array(
+        controls, "controls", (None, None, 3), "a (B, H, 3) array of finite controls"
+    )
+    if controls.shape[1] == 0:
+        raise ValueError("controls: got shape (B, 0, 3), expected a horizon H >= 1")
+    return controls
+
+
+_ROW_ZERO = np.zeros(1, dtype=np.int64)  # pool index of a single env's one row (a one-scenario model)
+
+
+class SingleStep(NamedTuple):
+    """Raw outputs of :meth:`PenetrationModel._env_step_one` (one row; lists indexed by ``kernels.S_*`` / ``F_*``)."""
+
+    state: FloatArray  # (6,) the next state
+    radar_threat_per_radar: FloatArray  # (M,)
+    scalars: list[float]  # kernels.N_SCALARS values
+    flags: list[bool]  # kernels.N_FLAGS values
+    observation: np.ndarray  # (67,) float32
+
+
+class SingleReset(NamedTuple):
+    """Outputs of :meth:`PenetrationModel._env_reset_one`: the state-only quantities of one state."""
+
+    terrain_threat: float
+    radar_threat: float
+    radar_threat_per_radar: FloatArray  # (M,)
+    detection_prob: float
+    altitude_agl: float
+    goal_distance: float  # [m]
+    observation: np.ndarray  # (67,) float32

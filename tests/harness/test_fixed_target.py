@@ -160,6 +160,42 @@ def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
     assert (out / "tiny-runtime-ecdf.png").is_file()
 
 
+def test_report_shows_the_fixed_target_tables_and_writes_their_pages(window_store, capsys):
+    import html as html_module
+
+    from uav_penetration_env.benchmark.report import sections
+
+    folder, store = window_store
+    out = folder / "report"
+    assert run_cli("report", "--store", store, "--out", out) == 0
+    assert "fixed target: " in capsys.readouterr().out
+    assert (out / "tiny-fixed-target.md").is_file() and (out / "tiny-fixed-target.csv").is_file()
+    page = html_module.unescape((out / "index.html").read_text())
+    assert [s.key for s in sections()].count("fixed-target") == 1
+    assert 'id="fixed-target"' in page and "Fixed target and fixed budget" in page
+    section = page[page.index('id="fixed-target"') :]
+    section = section[: section.index("</section>")]
+    # The three tables, with the reference ihpso paired against hpso on both comparisons.
+    assert "tiny (reference ihpso)" in section
+    for title in ("Expected running time (ERT)", "Paired per (window, seed) against ihpso", "state machines"):
+        assert title in section
+    assert "fixed budget: J" in section and "fixed target: evaluations" in section
+    assert section.count("<tr>") == 1 + 2 * len(ft.TARGET_PRECISIONS) + 1 + 2 + 1 + 2  # headers + rows
+    # Each of the 4 (window, seed) runs of each optimiser is counted in the ERT rows' "solved" cell.
+    assert section.count("/4</td>") == 2 * len(ft.TARGET_PRECISIONS)
+
+
+def test_report_without_window_runs_says_how_to_get_the_fixed_target_tables(tmp_path, tiny_yaml):
+    store = tmp_path / "e.sqlite"
+    assert run_cli("run", "--policies", "greedy", "--scenarios", tiny_yaml, "--seeds", "1", "--store", store,
+                   "--jobs", "1", "--no-progress", "--out", tmp_path / "out") == 0  # fmt: skip
+    page = (tmp_path / "out" / "index.html").read_text()
+    section = page[page.index('id="fixed-target"') :]
+    section = section[: section.index("</section>")]
+    assert "holds no window runs" in section and "<table" not in section
+    assert not list((tmp_path / "out").glob("*-fixed-target.*"))
+
+
 def test_windows_command_rejects_bad_input(window_store, capsys):
     _, store = window_store
     assert (

@@ -271,6 +271,68 @@ def _number(value: Any, digits: int = 4) -> str:
     return format_number(value, digits)
 
 
+def fixed_target_frames(rows: pd.DataFrame, reference: str) -> tuple[str, dict[str, pd.DataFrame]]:
+    """The three tables of one scenario's window runs, formatted for display (the HTML report).
+
+    The content of :func:`fixed_target_markdown`'s tables: the ERT per target precision, the paired
+    fixed-budget and fixed-target comparisons with the reference, and the evaluations and state
+    machines per optimiser.
+
+    Args:
+        rows: the scenario's ``window_runs`` rows.
+        reference: the optimiser the others are paired with (the first name if it has no rows).
+
+    Returns:
+        (the reference used, {title: DataFrame of display strings}); the paired table is empty when
+        no other optimiser shares a (window, seed) with the reference.
+    """
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue
+
+    ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
+    ert = ert_table(target_runs(rows), ref)
+    paired = paired_table(rows, ref)
+    traces = trace_table(rows)
+    ert_frame = pd.DataFrame(
+        {
+            "Δ": [f"{value:.0e}" for value in ert["precision"]],
+            "optimizer": ert["optimizer"].astype(str),
+            "solved": [f"{s}/{r}" for s, r in zip(ert["successes"], ert["runs"], strict=True)],
+            "ERT [evals]": [_number(value) for value in ert["ert"]],
+            f"ERT / {ref}": [_number(value, 3) for value in ert["ert_ratio"]],
+        }
+    )
+    paired_frame = pd.DataFrame(
+        [
+            {
+                "comparison": r.comparison,
+                "other": r.other,
+                f"{ref} median": _number(r.reference_median, 6),
+                "other median": _number(r.other_median, 6),
+                "median Δ (other − ref)": _number(r.median_difference, 4),
+                f"{ref} better / other better": f"{r.reference_better} / {r.other_better} of {r.pairs}",
+                "p": format_pvalue(r.pvalue),
+            }
+            for r in paired.itertuples()
+        ]
+    )
+    trace_frame = pd.DataFrame(
+        {
+            "optimizer": traces["optimizer"].astype(str),
+            "runs": traces["runs"],
+            "evals/run": [_number(value) for value in traces["nfev_mean"]],
+            "stopped early": [_number(value, 3) for value in traces["stopped_early_share"]],
+            "switches/run": [_number(value, 3) for value in traces["switches_mean"]],
+            "reverse/run": [_number(value, 3) for value in traces["reverse_switches_mean"]],
+            "median J": [_number(value, 6) for value in traces["fun_median"]],
+        }
+    )
+    return ref, {
+        "Expected running time (ERT) to the targets f* + Δ|f*|": ert_frame,
+        f"Paired per (window, seed) against {ref}": paired_frame,
+        "Evaluations and the optimisers' state machines": trace_frame,
+    }
+
+
 def fixed_target_markdown(
     rows: pd.DataFrame, reference: str, name: str, command: str
 ) -> tuple[str, pd.DataFrame]:

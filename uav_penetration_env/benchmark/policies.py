@@ -8,10 +8,11 @@ they never parse the observation.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -281,12 +282,13 @@ class MPCObjective:
 
     def __call__(self, flat: FloatArray) -> FloatArray:
         """(n,) window costs ``model.rollout_cost`` of (n, 3H) flattened control sequences."""
-        return self.model.rollout_cost(
-            self.state,
-            flat.reshape(len(flat), self.horizon, 3),
-            step=self.step,
-            discount=self.discount,
-            terminal_cost=self.terminal_cost,
+        return self._costs(flat.reshape(len(flat), self.horizon, 3))
+
+    @functools.cached_property
+    def _costs(self) -> Callable[[FloatArray], FloatArray]:
+        """``model.rollout_cost`` with this window's state and scalars bound (checked once)."""
+        return self.model.rollout_function(
+            self.state, step=self.step, discount=self.discount, terminal_cost=self.terminal_cost
         )
 
 

@@ -74,6 +74,7 @@ class ReportContext:
     out_dir: Path
     tables: Sequence[Path] = ()
     figures: Sequence[Path] = ()
+    reference: str = "ihpso"
     _store: ResultsStore | None = field(default=None, repr=False)
 
     @property
@@ -100,6 +101,11 @@ class ReportContext:
     def scenarios(self) -> dict[str, tuple[str, str]]:
         """Stored scenarios: ``hash -> (name, yaml text)``."""
         return self.store.scenarios()
+
+    @cached_property
+    def window_runs(self) -> pd.DataFrame:
+        """Window-run rows of ``uav-bench windows`` (empty when the store holds none)."""
+        return self.store.window_runs()
 
     def steps(self, episode_ids: Sequence[int]) -> pd.DataFrame:
         """Step rows of some episodes, the start state (step 0) included."""
@@ -191,6 +197,7 @@ def write_report(
     *,
     tables: Sequence[str | Path] = (),
     figures: Sequence[str | Path] = (),
+    reference: str = "ihpso",
 ) -> Path:
     """Write ``out_dir/index.html`` for a results store, atomically.
 
@@ -199,6 +206,7 @@ def write_report(
         out_dir: the folder of the report (created if needed).
         tables: leaderboard CSV files to show (the Markdown twins are linked, not shown).
         figures: PNG figures to embed (other formats are ignored).
+        reference: the optimiser the fixed-target section pairs the others with.
 
     Returns:
         The path of ``index.html``.
@@ -214,6 +222,7 @@ def write_report(
         out_dir,
         tables=[Path(t) for t in tables if str(t).endswith(".csv")],
         figures=[Path(f) for f in figures if str(f).endswith(".png")],
+        reference=reference,
     )
     try:
         page = render_report(context)
@@ -286,6 +295,35 @@ def _leaderboards(context: ReportContext) -> str | None:
             else ""
         )
         parts.append(f"<h3>{html.escape(path.stem)}{link}</h3>{_html_table(frame)}")
+    return "".join(parts)
+
+
+@register_section("fixed-target", "Fixed target and fixed budget (identical windows)")
+def _fixed_target(context: ReportContext) -> str:
+    """The tables of :func:`~.fixedtarget.fixed_target_frames` per scenario of the window runs (api.md §4.8)."""
+    rows = context.window_runs
+    if rows.empty:
+        return (
+            "<p>The store holds no window runs: <code>uav-bench windows</code> reruns optimisers on the "
+            "same stored MPC window states and adds the fixed-target and fixed-budget tables here.</p>"
+        )
+    from uav_penetration_env.benchmark.fixedtarget import fixed_target_frames
+
+    parts = [
+        "<p>From <code>uav-bench windows</code>: every optimiser rerun on the same stored MPC window "
+        "states, many seeds (api.md §4.8). f* is the best cost any run found on a window; the targets "
+        "are f* + Δ|f*|. ERT = (evaluations of the successful runs to the target + evaluations of the "
+        "unsuccessful runs) / successes. Paired: fixed budget = the other's best-so-far J at the "
+        "reference's evaluation count against the reference's final J; fixed target = evaluations each "
+        "needed to reach the worse of the two final costs; two-sided Wilcoxon signed-rank test.</p>"
+    ]
+    for scenario_hash, group in rows.groupby("scenario_hash", sort=True):
+        name = context.scenarios.get(scenario_hash, (str(group["scenario"].iloc[0]), ""))[0]
+        reference, frames = fixed_target_frames(group, context.reference)
+        parts.append(f"<h3>{html.escape(str(name))} (reference {html.escape(reference)})</h3>")
+        for title, frame in frames.items():
+            if not frame.empty:
+                parts.append(f"<h4>{html.escape(title)}</h4>{_html_table(frame)}")
     return "".join(parts)
 
 

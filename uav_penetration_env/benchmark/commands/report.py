@@ -33,6 +33,7 @@ class Written:
     tables: list[Path] = field(default_factory=list)
     figures: list[Path] = field(default_factory=list)
     report: Path | None = None
+    fixed_target: list[Path] = field(default_factory=list)  # Markdown + CSV per scenario with window runs
 
 
 def write_results(
@@ -59,13 +60,16 @@ def write_results(
         The written paths.
     """
     from uav_penetration_env.benchmark.figures import write_figures
+    from uav_penetration_env.benchmark.fixedtarget import write_fixed_target
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
     from uav_penetration_env.benchmark.report import write_report
 
     tables = write_leaderboards(store, out, reference=reference, command=command)
+    # Window runs (uav-bench windows): the fixed-target pages beside the leaderboards (api.md §4.8).
+    fixed_target = write_fixed_target(store, out, reference=reference, command=command)
     figures = write_figures(store, out, formats=formats, altitude=altitude)
-    page = write_report(store, out, tables=tables, figures=figures)
-    return Written(tables=tables, figures=figures, report=page)
+    page = write_report(store, out, tables=tables, figures=figures, reference=reference)
+    return Written(tables=tables, figures=figures, report=page, fixed_target=fixed_target)
 
 
 def print_written(written: Written, out: Path, reference: str | None = None) -> None:
@@ -78,6 +82,8 @@ def print_written(written: Written, out: Path, reference: str | None = None) -> 
         figures=out if written.figures else None,
         reference=reference,
     )
+    for path in written.fixed_target:
+        print(f"fixed target: {path}")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

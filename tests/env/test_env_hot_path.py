@@ -1,0 +1,149 @@
+"""The single env's one-call hot path gives exactly what the generic path (model.step, observe, batched_info) gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import tiny_scenario
+
+from uav_penetration_env import PenetrationModel
+from uav_penetration_env.env import UAVPenetrationEnv, UAVPenetrationRandomEnv, runs_compiled_kernels
+
+
+def generic(env: UAVPenetrationEnv) -> UAVPenetrationEnv:
+    """``env`` forced onto the generic path (every call through the model's public methods)."""
+    env._use = _generic_use.__get__(env)  # reset() re-chooses the model: keep the flag off
+    env._compiled = False
+    return env
+
+
+def _generic_use(self, scenario):
+    UAVPenetrationEnv._use(self, scenario)
+    self._compiled = False
+
+
+def assert_same_output(fast, slow):
+    """Observations and infos equal value for value, with the same Python types."""
+    assert fast[0].dtype == slow[0].dtype == np.float32
+    np.testing.assert_array_equal(fast[0], slow[0])
+    fast_info, slow_info = fast[-1], slow[-1]
+    assert list(fast_info) == list(slow_info)  # same keys, same order
+    for key, value in slow_info.items():
+        assert type(fast_info[key]) is type(value), key
+        np.testing.assert_array_equal(fast_info[key], value, err_msg=key)
+    for fast_item, slow_item in zip(fast[1:-1], slow[1:-1], strict=True):  # reward, terminated, truncated
+        assert type(fast_item) is type(slow_item)
+        assert fast_item == slow_item
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},
+        {"start": {"jitter": {"xy_km": 1.0, "heading_deg": 5.0}}},
+        {"radar_model": {"fusion": "or"}},
+        {"radar_model": {"detection": "ratio", "masking": "hard"}},
+        {"time": {"max_steps": 9}},  # episodes truncate
+    ],
+    ids=["default", "jitter", "or-fusion", "ratio-hard", "truncation"],
+)
+def test_hot_path_equals_the_generic_path_over_episodes(changes):
+    scenario = tiny_scenario(**changes)
+    fast, slow = UAVPenetrationEnv(scenario), generic(UAVPenetrationEnv(scenario))
+    assert fast._compiled and not slow._compiled
+    rng = np.random.default_rng(3)
+    high = fast.action_space.high.astype(np.float64)
+    ends = 0
+    assert_same_output(fast.reset(seed=5), slow.reset(seed=5))
+    for step in range(120):
+        # float32 and float64 arrays, lists; some actions outside the box (clipped)
+        action = rng.uniform(-1.5, 1.5, size=3) * high * [1.0, 0.5, 0.2]
+        action = [action.astype(np.float32), action, action.tolist()][step % 3]
+        fast_out, slow_out = fast.step(action), slow.step(action)
+        assert_same_output(fast_out, slow_out)
+        if fast_out[2] or fast_out[3]:
+            ends += 1
+            assert_same_output(fast.reset(), slow.reset())
+    assert ends >= 2  # the episodes ended (a crash or the time limit), so resets were compared too
+    state = fast.state + np.array([500.0, -300.0, 40.0, 1.0, 0.1, 0.02])
+    assert_same_output(fast.set_state(state, 3), slow.set_state(state, 3))
+    assert_same_output(fast.step([0.0, 0.1, 0.0]), slow.step([0.0, 0.1, 0.0]))
+
+
+def test_hot_path_equals_the_generic_path_on_the_random_id():
+    fast, slow = UAVPenetrationRandomEnv(0.5), generic(UAVPenetrationRandomEnv(0.5))
+    assert_same_output(fast.reset(seed=11), slow.reset(seed=11))
+    assert fast._compiled
+    for _ in range(20):
+        out = fast.step([1.0, 0.05, 0.0])
+        assert_same_output(out, slow.step([1.0, 0.05, 0.0]))
+        assert out[-1]["radar_threat_per_radar"].shape == (8,)
+
+
+@pytest.mark.parametrize(
+    "action, message",
+    [
+        ([0.0, np.nan, 0.0], "expected finite values"),
+        ([0.0, 0.0, np.inf], "expected finite values"),
+        ([0.0, 0.0], "expected (3,)"),
+        (np.zeros((1, 3)), "expected (3,)"),
+        (0.5, "expected (3,)"),
+        ("fast", "expected a float array"),
+    ],
+)
+def test_hot_path_rejects_bad_actions_as_the_generic_path_does(action, message):
+    for env in (UAVPenetrationEnv(tiny_scenario()), generic(UAVPenetrationEnv(tiny_scenario()))):
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match=f"^action: .*{message.replace('(', '[(]').replace(')', '[)]')}"):
+            env.step(action)
+        assert env.step_index == 0  # nothing moved
+
+
+def test_a_model_subclass_that_overrides_the_physics_gets_the_generic_path():
+    class Shifted(PenetrationModel):
+        def step(self, states, controls, step_index, scenario_index=None):
+            result = super().step(states, controls, step_index, scenario_index)
+            result.J[:] += 1.0
+            return result
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    key = env.scenario.hash
+    env._models[key] = Shifted(env.model.built)
+    env.reset(seed=0)
+    assert not env._compiled and not runs_compiled_kernels(env.model)
+    reference = UAVPenetrationEnv(tiny_scenario())
+    reference.reset(seed=0)
+    info = env.step([0.0, 0.0, 0.0])[-1]
+    assert info["J"] == reference.step([0.0, 0.0, 0.0])[-1]["J"] + 1.0
+    assert runs_compiled_kernels(reference.model)
+
+
+def test_rollout_function_equals_rollout_cost_and_checks_its_arguments():
+    model = PenetrationModel(tiny_scenario())
+    state = model.initial_state()
+    controls = np.random.default_rng(0).uniform(-1, 1, size=(40, 4, 3)) * model.limits.action_high
+    costs = model.rollout_function(state, step=2, discount=0.9, terminal_cost=0.06)
+    expected = model.rollout_cost(state, controls, step=2, discount=0.9, terminal_cost=0.06)
+    np.testing.assert_array_equal(costs(controls), expected)
+    state[0] += 1000.0  # the window was copied when bound
+    np.testing.assert_array_equal(costs(controls), expected)
+    with pytest.raises(ValueError, match=r"^controls: got a non-finite entry"):
+        costs(np.full((2, 4, 3), np.nan))
+    with pytest.raises(ValueError, match=r"^controls: got shape"):
+        costs(np.zeros((2, 0, 3)))
+    with pytest.raises(ValueError, match=r"^discount: got 0\.0"):
+        model.rollout_function(state, step=0, discount=0.0)
+    with pytest.raises(TypeError, match=r"^step: got 1\.5"):
+        model.rollout_function(state, step=1.5)
+
+
+def test_rollout_function_of_a_subclass_calls_its_own_rollout_cost():
+    class Doubled(PenetrationModel):
+        def rollout_cost(self, state, controls, **kwargs):
+            return 2.0 * super().rollout_cost(state, controls, **kwargs)
+
+    model = Doubled(tiny_scenario())
+    state = model.initial_state()
+    controls = np.zeros((3, 2, 3))
+    plain = PenetrationModel(tiny_scenario()).rollout_cost(state, controls, step=0)
+    np.testing.assert_array_equal(model.rollout_function(state, step=0)(controls), 2.0 * plain)
