@@ -1,6 +1,7 @@
 """What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
 
-- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip``;
+- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` and
+  the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``) and
   ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
 
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from baselines.cli import add_train_arguments, train_command
 from baselines.curves import add_curve_arguments, curves_command
+from baselines.hybrid import load_hybrid
 from baselines.policy import load_policy
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
@@ -32,7 +34,7 @@ def sb3_label(path: str) -> str:
 
 
 SB3_POLICY_KIND = PolicyKind(
-    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA
+    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA, hybrid=load_hybrid
 )
 TRAIN_COMMAND = Command(
     name="train",

@@ -91,3 +91,14 @@ def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_li
     train = uav_bench_without_rl("train", "--algo", "ppo", "--timesteps", 10, cwd=tmp_path)
     assert train.returncode == 2 and train.stderr.count("\n") == 1
     assert "uav-bench train needs stable_baselines3, torch (not installed)" in train.stderr
+
+
+def test_without_the_rl_extra_a_hybrid_is_refused_in_one_line(tmp_path):
+    store = tmp_path / "never.sqlite"
+    refused = uav_bench_without_rl(
+        "run", "--policies", "ihpso+sb3:models/ppo.zip", "--seeds", 1, "--store", store, cwd=tmp_path
+    )
+    assert refused.returncode == 2 and not store.exists()
+    assert refused.stderr.count("\n") == 1
+    assert refused.stderr.startswith("uav-bench: error: --policies: policy 'ihpso+sb3:models/ppo.zip' needs ")
+    assert "pip install 'uav-penetration[rl]'" in refused.stderr
