@@ -16,7 +16,7 @@ make the hybrid a different optimiser from the planner it is compared with. Sinc
 evaluated in the first batch and the result is the best evaluated point, the hybrid's plan is
 never worse, on the window cost, than the agent's.
 
-DECISION: the agent's plan *replaces* the shifted previous plan as ``x0`` (an optimiser takes one
+DECISION (docs/rl-statistics.md §3): the agent's plan *replaces* the shifted previous plan as ``x0`` (an optimiser takes one
 ``x0``); the previous plan's information survives only through the agent's state feedback. A
 rollout that ends early (goal, crash, K_max) is padded with zero controls, as the shifted plan
 is, since the window cost ignores controls after the end.
@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.policy import SB3Policy, load_policy
+from baselines.policy import SB3Policy, load_policy, sb3_label
 from uav_penetration_env.benchmark.policies import HYBRID_SEPARATOR, MPCPolicy
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -139,8 +139,6 @@ class AgentWarmStartedMPC(MPCPolicy):
 
 def hybrid_label(planner: str, path: str) -> str:
     """A hybrid's name in result tables: ``ihpso`` and ``DIR/ppo-paper-s0.zip`` -> ``ihpso+sb3:ppo-paper-s0``."""
-    from baselines.plugin import sb3_label
-
     return f"{planner}{HYBRID_SEPARATOR}{sb3_label(path)}"
 
 

@@ -13,12 +13,10 @@ to install. Learning curves read CSV and JSON files only and need no extra.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from baselines.cli import add_train_arguments, train_command
 from baselines.curves import add_curve_arguments, curves_command
 from baselines.hybrid import load_hybrid
-from baselines.policy import load_policy
+from baselines.policy import load_policy, sb3_label
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
 
@@ -26,11 +24,6 @@ RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
     install="the rl extra: pip install 'uav-penetration[rl]' (in a checkout: pip install -e '.[rl]')",
 )
-
-
-def sb3_label(path: str) -> str:
-    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
-    return f"sb3:{Path(path).stem}"
 
 
 SB3_POLICY_KIND = PolicyKind(

@@ -22,7 +22,7 @@ returns, higher is better. Every function here takes ``higher_is_better`` (defau
 with costs, "better than tau" is ``cost < tau`` and "X improves on Y" is ``cost_X < cost_Y``, which
 is rliable's definition applied to the negated scores. IQM is the same in both directions.
 
-DECISION: implemented with numpy and scipy rather than by depending on ``rliable``: its release
+DECISION (docs/rl-statistics.md §1): implemented with numpy and scipy rather than by depending on ``rliable``: its release
 pulls ``arch``, ``statsmodels``, ``seaborn`` and ``absl-py`` into the core install (a pip dry
 run, 2026-11-29), for some fifty lines of estimators; tests check these against values computed
 by hand from rliable's published definitions and against ``scipy.stats.mannwhitneyu``.
