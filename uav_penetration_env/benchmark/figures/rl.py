@@ -36,6 +36,11 @@ _MARKERS = {
     "floors": "v",
     "RL agents": "^",
 }
+HYBRID_MARKER = "P"  # an MPC planner warm-started by an agent (``ihpso+sb3:...``): planning time, RL family
+
+
+def _is_hybrid(label: str) -> bool:
+    return "+" in label.partition(":")[0]
 
 
 def plot_compute_axis(inp: FigureInput):
@@ -43,7 +48,8 @@ def plot_compute_axis(inp: FigureInput):
 
     Each point is the mean over runs x scenarios with its stratified-bootstrap 95 % interval in both
     directions (runs: training seeds of an RL group, episode seeds of any other policy); colour and
-    marker by family, colour and bar line style as in the other figures (:func:`~.common.policy_styles`). The decision time is the evaluator's
+    marker by family (a filled plus for the agent-warm-started hybrids), colour and bar line style as
+    in the other figures (:func:`~.common.policy_styles`). The decision time is the evaluator's
     wall-clock seconds per action, so the figure is machine-dependent in x.
     """
     points = compute_points(inp.group.episodes, n_resamples=COMPUTE_RESAMPLES)
@@ -73,7 +79,7 @@ def plot_compute_axis(inp: FigureInput):
             y,
             xerr=np.clip(xerr, 0.0, None),
             yerr=np.clip(yerr, 0.0, None),
-            fmt=_MARKERS.get(r.family, "o"),
+            fmt=HYBRID_MARKER if _is_hybrid(r.method) else _MARKERS.get(r.family, "o"),
             color=style.colour,
             markersize=6,
             capsize=2.5,
