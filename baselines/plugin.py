@@ -1,6 +1,7 @@
 """What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
 
-- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip``;
+- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` and
+  the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
   -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
 
@@ -12,11 +13,10 @@ to install. Learning curves read CSV and JSON files only and need no extra.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from baselines.cli import add_train_arguments, train_command
 from baselines.curves import add_curve_arguments, curves_command
-from baselines.policy import load_policy
+from baselines.hybrid import load_hybrid
+from baselines.policy import load_policy, sb3_label
 from baselines.tune import add_tune_arguments, tune_command
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
@@ -27,13 +27,8 @@ RL_EXTRA = Needs(
 )
 
 
-def sb3_label(path: str) -> str:
-    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
-    return f"sb3:{Path(path).stem}"
-
-
 SB3_POLICY_KIND = PolicyKind(
-    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA
+    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA, hybrid=load_hybrid
 )
 TRAIN_COMMAND = Command(
     name="train",

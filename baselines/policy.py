@@ -200,6 +200,11 @@ def _read_verified(path: Path, sha256: str) -> bytes:
     return data
 
 
+def sb3_label(path: str | Path) -> str:
+    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
+    return f"sb3:{Path(path).stem}"
+
+
 def load_policy(path: str | Path) -> SB3Policy:
     """A harness Policy for the model saved at ``path`` (``.zip``; the suffix may be omitted).
 

@@ -99,3 +99,14 @@ def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_li
     assert tune.returncode == 2 and tune.stderr.count("\n") == 1
     assert "uav-bench tune needs stable_baselines3, torch, optuna (not installed)" in tune.stderr
     assert not (tmp_path / "results").exists()
+
+
+def test_without_the_rl_extra_a_hybrid_is_refused_in_one_line(tmp_path):
+    store = tmp_path / "never.sqlite"
+    refused = uav_bench_without_rl(
+        "run", "--policies", "ihpso+sb3:models/ppo.zip", "--seeds", 1, "--store", store, cwd=tmp_path
+    )
+    assert refused.returncode == 2 and not store.exists()
+    assert refused.stderr.count("\n") == 1
+    assert refused.stderr.startswith("uav-bench: error: --policies: policy 'ihpso+sb3:models/ppo.zip' needs ")
+    assert "pip install 'uav-penetration[rl]'" in refused.stderr

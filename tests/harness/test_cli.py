@@ -356,6 +356,47 @@ def test_plugin_policy_kind_is_used_and_labelled(tmp_path, tiny_yaml, monkeypatc
     assert stored_rows(store)["policy"].tolist() == ["fake:agent"]
 
 
+def test_a_hybrid_name_builds_the_planner_and_hands_it_to_the_kind(tmp_path, tiny_yaml, monkeypatch):
+    from uav_penetration_env.benchmark.policies import MPCPolicy, make_policy, policy_label, split_hybrid
+
+    handed = []
+
+    def hybrid(argument, planner):
+        handed.append((argument, planner))
+        return planner  # the planner itself stands in for a warm-started one
+
+    kind = PolicyKind(
+        prefix="fake", load=lambda a: GreedyPolicy(), usage="fake:PATH", label=lambda a: f"fake:{Path(a).stem}",
+        hybrid=hybrid,
+    )  # fmt: skip
+    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", kind)})
+    assert split_hybrid("pso+fake:dir/a+b.zip") == ("pso", "fake:dir/a+b.zip")
+    assert split_hybrid("fake:dir/a+b.zip") is None and split_hybrid("pso") is None
+    assert policy_label("ihpso-eq37+fake:dir/agent.zip") == "ihpso-eq37+fake:agent"
+    policy = make_policy("ihpso-eq37+fake:dir/agent.zip", horizon=3, max_evals=50)
+    ((argument, planner),) = handed
+    assert argument == "dir/agent.zip" and planner is policy and isinstance(planner, MPCPolicy)
+    assert (planner.horizon, planner.max_evals, planner.terminal_cost, planner.name) == (
+        3,
+        50,
+        0.0,
+        "ihpso-eq37",
+    )
+    store = tmp_path / "hybrid.sqlite"
+    assert run_cli("run", "--policies", "pso+fake:dir/agent.zip", "--scenarios", tiny_yaml, "--seeds", 1,
+                   "--max-evals", 30, "--store", store, "--no-report", "--no-progress", "--jobs", 1) == 0  # fmt: skip
+    assert stored_rows(store)["policy"].tolist() == ["pso+fake:agent"]
+
+
+def test_a_hybrid_of_a_kind_without_one_is_an_unknown_name(tmp_path, tiny_yaml, monkeypatch, capsys):
+    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", spy_kind(Needs(), []))})
+    assert (
+        run_cli("run", "--policies", "pso+fake:m.zip", "--scenarios", tiny_yaml, "--store", tmp_path / "s")
+        == 2
+    )
+    assert "the plug-in kind 'fake' cannot warm-start a planner" in capsys.readouterr().err
+
+
 def test_a_plugin_kind_whose_extra_is_missing_is_refused_before_the_store_opens(
     tmp_path, tiny_yaml, monkeypatch, capsys
 ):

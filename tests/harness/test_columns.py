@@ -9,7 +9,7 @@ from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, STEP_COLUMNS
 
 
 def test_names_are_unique_per_table():
-    for table in (columns.EPISODE, columns.STEP, columns.STATISTICS):
+    for table in (columns.EPISODE, columns.STEP, columns.STATISTICS, columns.RL_GROUP):
         names = [column.name for column in table]
         assert len(names) == len(set(names))
     outs = [name for column in columns.leaderboard_columns() for name in column.csv]
@@ -31,6 +31,7 @@ def test_glossary_lists_every_column():
         "Step columns",
         "Leaderboard columns",
         "Window-run columns",
+        "RL-group columns",
     ]
     for lines, table in zip(
         [*sections[:2], sections[3]], (columns.EPISODE, columns.STEP, columns.WINDOW_RUN), strict=True
@@ -40,6 +41,9 @@ def test_glossary_lists_every_column():
     rows = [line for line in sections[2] if line.startswith("| ")][2:]
     headers = [column.board.header.format(reference="reference") for column in columns.leaderboard_columns()]
     assert [row[2:].split(" | ")[0] for row in rows] == headers
+    rl_rows = [line for line in sections[4] if line.startswith("| ")][2:]
+    csv = [[name.strip("`") for name in row.split(" | ")[1].split(", ")] for row in rl_rows]
+    assert csv == [list(column.csv) for column in columns.RL_GROUP]
 
 
 def test_legend_merges_consecutive_columns_that_share_a_definition():

@@ -224,6 +224,7 @@ MANY_POLICIES = (
     + [f"sb3:{algo}-paper-seed{seed}-1000000steps" for algo in ("ppo", "sac") for seed in range(3)]
 )
 RL_ALTITUDE = 2000.0  # [m] the fake RL agents fly high; the coverage altitude must ignore them
+RL_FIGURES = ("compute-axis", "rl-profile")  # RL agents pooled over training seeds, one panel
 
 
 @pytest.fixture(scope="module")
@@ -241,7 +242,11 @@ def many_store(tmp_path_factory):
                     if family == "RL agents":
                         row["z_m"] = RL_ALTITUDE
                 episode = synthetic_episode(policy, seed, "tiny", tiny.hash, 5.0 + 0.1 * index + seed)
-                store.write_episode(episode | {"policy_hash": f"h{index:015d}"}, steps)
+                # Decision times for the compute axis: MPC planners plan, the others only evaluate.
+                seconds = (0.2 if family.endswith("(MPC)") else 1e-4) * (1.0 + 0.01 * index + 0.001 * seed)
+                store.write_episode(
+                    episode | {"policy_hash": f"h{index:015d}", "planning_seconds": seconds}, steps
+                )
     return path
 
 
@@ -294,6 +299,22 @@ def test_every_policy_has_a_unique_colour_and_line_style_and_legends_lie_outside
             assert sorted(labels) == sorted(MANY_POLICIES)
             for label, box in zip(labels, boxes, strict=True):
                 pairs.setdefault(style_key(box, box._unscaled_dash_pattern), set()).add(label)
+        elif name in RL_FIGURES:
+            # One panel of methods: no label here ends in -sN, so each agent is an RL group of one.
+            # The profile shows the RL groups with greedy and the best paper planner (ihpso: its
+            # costs 5.0 + 0.1 index + seed are the lowest of its family); the compute axis shows all.
+            (ax,) = axes
+            handles, labels = ax.get_legend_handles_labels()
+            drawn = {label.split(" (", 1)[0] for label in labels}
+            rl = {p for p in MANY_POLICIES if p.startswith("sb3:")}
+            assert drawn == (set(MANY_POLICIES) if name == "compute-axis" else rl | {"greedy", "ihpso"}), name
+            for handle, label in zip(handles, labels, strict=True):
+                if name == "compute-axis":  # an errorbar: marker and colour of its point, dashes of its bars
+                    point, bars = handle.lines[0], handle.lines[2][0]
+                    key = (*style_key(point), point.get_marker(), repr(bars.get_linestyle()))
+                else:
+                    key = style_key(handle)
+                pairs.setdefault(key, set()).add(label.split(" (", 1)[0])
         else:
             for ax in axes:
                 for line in ax.get_lines():

@@ -56,7 +56,8 @@ def test_suite_leaderboard_and_figures_from_a_store(tmp_path):
     assert set(table["policy"]) == {"greedy", "random"} and (table["episodes"] == 4).all()
     figures = write_figures(store, tmp_path, formats=("png",), suite="tiny-suite")
     assert [p.name for p in figures] == [
-        "tiny-suite-j-per-point.png", "tiny-suite-cost-box.png", "tiny-suite-performance-profile.png", "tiny-suite-convergence.png"
+        "tiny-suite-j-per-point.png", "tiny-suite-cost-box.png", "tiny-suite-performance-profile.png", "tiny-suite-convergence.png",
+        "tiny-suite-compute-axis.png", "tiny-suite-rl-profile.png",
     ]  # fmt: skip
 
 

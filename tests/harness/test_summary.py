@@ -128,7 +128,8 @@ def test_run_writes_the_report_by_default_and_report_rewrites_it(tmp_path, tiny_
     assert f"report: {page / 'index.html'}" in printed and "Δ vs greedy (p)" in printed
     html = (page / "index.html").read_text()
     assert 'id="policy-greedy"' in html and 'id="policy-random"' in html
-    assert sorted(p.suffix for p in page.iterdir() if p.name.startswith("tiny-")) == [".png"] * 7
+    assert sorted(p.suffix for p in page.iterdir() if p.name.startswith("tiny-")) == [".png"] * 9
+    assert 'id="compute"' in html and "Compute: decision time per step" in html
 
     assert cli.main(["report", "--store", str(tmp_path / "none.sqlite"), "--out", str(page)]) == 2
     error = capsys.readouterr().err

@@ -12,6 +12,9 @@ Three tables of :class:`Column`:
 * :data:`STATISTICS`: leaderboard columns computed by the leaderboard's statistics code rather
   than aggregated from one episode column (success with its Wilson interval, the bootstrap
   intervals of total cost, ranks, paired tests).
+* :data:`RL_GROUP`: the RL table of a scenario group (one row per RL group of training seeds
+  and per reference policy; IQM, probability of improvement, compute), printed by
+  :mod:`~.leaderboard.rl` (docs/rl-statistics.md §2). :data:`WINDOW_RUN` holds the window runs.
 
 A column shown on the leaderboard carries a :class:`Board`: its header, the legend line of the
 leaderboard's "Columns" section, its section (the table lays out sections in
@@ -40,7 +43,7 @@ import numpy as np
 
 from uav_penetration_env.types import FloatArray
 
-TABLES = ("episodes", "steps", "leaderboard", "window_runs")
+TABLES = ("episodes", "steps", "leaderboard", "window_runs", "rl_groups")
 SECTIONS = ("outcomes", "means", "comparison", "training")
 AGGREGATES = ("mean", "mean_recorded", "statistic")
 STYLES = ("number", "count")
@@ -467,7 +470,48 @@ WINDOW_RUN: tuple[Column, ...] = (
     _window("finished", "TEXT", "UTC time the run finished (ISO 8601)"),
 )  # fmt: skip
 
-COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS, *WINDOW_RUN)
+
+def _rl(name: str, board: Board, definition: str) -> Column:
+    return Column(name, "rl_groups", None, definition, board=board)
+
+
+_RUNS = (
+    "stratified bootstrap 95 % interval: runs resampled within each scenario ({resamples} resamples, seeded)"
+)
+_POI = (
+    "probability of improvement P(X < Y) + ½ P(X = Y): the chance that a run of this row has a lower total J "
+    "(incl. penalty) than a run of {versus}, from the Mann-Whitney U over all run pairs of each scenario, "
+    "averaged over scenarios; 0.5 = no preference; interval: both sides resampled independently, stratified "
+    "by scenario"
+)
+
+# The RL table of a scenario group (leaderboard/rl.py; docs/rl-statistics.md §2): one row per RL
+# group (an algorithm and regime: all its training seeds) and per reference policy (greedy, the
+# best swarm planner).
+RL_GROUP: tuple[Column, ...] = (
+    _rl("group", Board("group", "an RL group (all training seeds of one algorithm and regime: the label without its `-sN`) or a reference policy (greedy, the best swarm planner; kind `reference`)",
+                       csv=("group", "kind", "members")),
+        "the RL group, e.g. sb3:ppo-paper, or a reference policy"),
+    _rl("runs", Board("runs", "independent runs: an RL group's training seeds (each scored by its mean episode cost), a reference policy's episode seeds"),
+        "runs of the row: training seeds of a group, episode seeds of a reference policy"),
+    _rl("tasks", Board("scenarios", "scenarios every run finished: the strata of the bootstrap"), "scenarios (strata) the row's scores cover"),
+    _rl("episodes", Board("episodes", "finished episodes behind the row's scores"), "finished episodes behind the row's scores"),
+    _rl("iqm", Board("IQM [95% CI]", "interquartile mean of total J (incl. penalty) over all runs x scenarios, " + _RUNS, csv=("iqm", "iqm_ci_low", "iqm_ci_high")),
+        "interquartile mean of the run scores (total J incl. penalty), with its stratified-bootstrap interval"),
+    _rl("mean", Board("mean [95% CI]", "mean of the run scores (scenarios weigh alike), " + _RUNS, csv=("mean", "mean_ci_low", "mean_ci_high")),
+        "mean of the run scores, with its stratified-bootstrap interval"),
+    _rl("poi_greedy", Board("P(< greedy) [95% CI]", _POI.format(versus="the greedy floor"), csv=("poi_greedy", "poi_greedy_ci_low", "poi_greedy_ci_high")),
+        "probability of improvement over the greedy floor, with its interval"),
+    _rl("poi_planner", Board("P(< {planner}) [95% CI]", _POI.format(versus="the best swarm planner (the paper planner with the lowest mean total J in the group)"),
+                             csv=("best_planner", "poi_planner", "poi_planner_ci_low", "poi_planner_ci_high")),
+        "probability of improvement over the best swarm planner, with its interval"),
+    _rl("decision_seconds", Board("decision [s/step]", "mean wall-clock seconds per action (network inference for agents, planning for MPC; machine-dependent)", digits=3),
+        "mean wall-clock seconds per action over the row's episodes"),
+    _rl("train_timesteps", Board("train steps", _TRAINING, style="count"), "mean environment steps the group's agents trained for"),
+    _rl("train_seconds", Board("train [s]", _TRAINING, digits=3), "mean wall-clock seconds the group's agents trained for"),
+)  # fmt: skip
+
+COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS, *WINDOW_RUN, *RL_GROUP)
 
 
 # --- what derives from the table -------------------------------------------------------------------------
@@ -546,7 +590,7 @@ def glossary_markdown() -> str:
     """Every column as Markdown: the README's column glossary (generated; paste it, do not edit it).
 
     Returns:
-        Four tables (episode, step, leaderboard and window-run columns), no trailing newline.
+        Five tables (episode, step, leaderboard, window-run and RL-group columns), no trailing newline.
     """
 
     def escape(text: str) -> str:
@@ -594,6 +638,18 @@ def glossary_markdown() -> str:
     ]
     for column in WINDOW_RUN:
         lines.append(f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} |")
+    lines += [
+        "",
+        "### RL-group columns (`<stem>-rl.csv`, one row per RL group and reference policy; docs/rl-statistics.md §2)",
+        "",
+        "| header | CSV columns | definition |",
+        "| --- | --- | --- |",
+    ]
+    for column in RL_GROUP:
+        board = column.board
+        header = board.header.format(planner="best planner")
+        csv = ", ".join(f"`{name}`" for name in column.csv)
+        lines.append(f"| {escape(header)} | {csv} | {escape(board.legend.format(resamples='10,000'))} |")
     return "\n".join(lines)
 
 

@@ -80,6 +80,9 @@ class PolicyKind:
         label: the policy's name in result tables, from the text after the colon (default: the
             whole ``PREFIX:ARGUMENT``).
         needs: what :attr:`load` and the policy need at run time.
+        hybrid: builds ``PLANNER+PREFIX:ARGUMENT`` from the text after the colon and the planner's
+            :class:`~.policies.MPCPolicy` (built by the harness): the planner warm-started by this
+            kind's policy (docs/rl-statistics.md §3); ``None`` when the kind offers no hybrid.
     """
 
     prefix: str
@@ -87,6 +90,7 @@ class PolicyKind:
     usage: str
     label: Callable[[str], str] | None = None
     needs: Needs = field(default_factory=Needs)
+    hybrid: Callable[[str, Any], Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -204,8 +204,23 @@ class MPCPolicy:
         self._plan = None
         self.last_record = {}
 
+    def initial_guess(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray | None:
+        """The (H, 3) plan the optimiser starts from (its ``x0``), or None for no warm start.
+
+        Here: the previous plan shifted by one step, when ``warm_start`` is on and the optimiser
+        takes ``x0``. A subclass may start from another plan (``baselines.hybrid``: an RL agent's
+        rollout, docs/rl-statistics.md §3); each optimiser uses ``x0`` by its own rule (optimizers.md D1).
+        """
+        del observation, info
+        if self.warm_start and self._accepts_x0 and self._plan is not None:
+            return self._plan
+        return None
+
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
-        """Plan on ``rollout_cost`` from the exact state and apply the plan's first control."""
+        """Plan on ``rollout_cost`` from the exact state and apply the plan's first control.
+
+        The planning seconds include building the initial guess.
+        """
         if self.model is None or self.rng is None:
             raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
         state = np.asarray(info["state"], dtype=np.float64)
@@ -226,9 +241,10 @@ class MPCPolicy:
             return costs
 
         kwargs: dict[str, Any] = {"rng": self.rng, "max_evals": self.max_evals}
-        if self.warm_start and self._accepts_x0 and self._plan is not None:
-            kwargs["x0"] = self._plan.reshape(-1)
         start = time.perf_counter()
+        guess = self.initial_guess(observation, info)
+        if guess is not None:
+            kwargs["x0"] = np.asarray(guess, dtype=np.float64).reshape(-1)
         result = self.optimizer.minimize(objective, cost.bounds, **kwargs)
         planning = time.perf_counter() - start
         found = bool(np.isfinite(result.fun))
@@ -369,12 +385,46 @@ def policy_names() -> list[str]:
 
 
 def plugin_policy_forms() -> list[str]:
-    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``)."""
-    return [k.usage if not isinstance(k, Plugin) else f"{p}:..." for p, k in policy_kinds().items()]
+    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``).
+
+    A kind that warm-starts planners adds its hybrid form, ``PLANNER+sb3:PATH.zip``.
+    """
+    forms = []
+    for prefix, kind in policy_kinds().items():
+        if isinstance(kind, Plugin):
+            forms.append(f"{prefix}:...")
+            continue
+        forms.append(kind.usage)
+        if kind.hybrid is not None:
+            forms.append(f"PLANNER{HYBRID_SEPARATOR}{kind.usage}")
+    return forms
+
+
+HYBRID_SEPARATOR = "+"
+
+
+def split_hybrid(spec: str) -> tuple[str, str] | None:
+    """``(planner, plug-in spec)`` of a hybrid name ``PLANNER+PREFIX:ARGUMENT``, else None.
+
+    The planner is an optimiser name or ``NAME-eq37``; the part after ``+`` is a plug-in policy
+    (``ihpso+sb3:models/ppo.zip`` -> ``("ihpso", "sb3:models/ppo.zip")``). Only the text before the
+    first colon is searched for ``+``, so a path may contain one.
+    """
+    prefix, colon, _ = spec.partition(":")
+    planner, plus, kind = prefix.partition(HYBRID_SEPARATOR)
+    if not (colon and plus and planner and kind):
+        return None
+    return planner, spec[len(planner) + len(HYBRID_SEPARATOR) :]
 
 
 def policy_label(spec: str) -> str:
-    """The name of a policy in result tables: a plug-in kind may shorten it (``sb3:DIR/m.zip`` -> ``sb3:m``)."""
+    """The name of a policy in result tables: a plug-in kind may shorten it (``sb3:DIR/m.zip`` -> ``sb3:m``).
+
+    A hybrid keeps its planner: ``ihpso+sb3:DIR/m.zip`` -> ``ihpso+sb3:m``.
+    """
+    hybrid = split_hybrid(spec)
+    if hybrid is not None:
+        return f"{hybrid[0]}{HYBRID_SEPARATOR}{policy_label(hybrid[1])}"
     prefix, colon, argument = spec.partition(":")
     kind = policy_kinds().get(prefix) if colon else None
     if kind is None or isinstance(kind, Plugin) or kind.label is None:
@@ -393,10 +443,12 @@ def make_policy(
     """A policy from its CLI name (api.md).
 
     Names: an optimiser name (an MPC planner), ``NAME-eq37`` (the same with ``terminal_cost=0``,
-    the paper's literal eq. 37), ``greedy``, ``random``, or ``PREFIX:ARGUMENT`` of a plug-in
+    the paper's literal eq. 37), ``greedy``, ``random``, ``PREFIX:ARGUMENT`` of a plug-in
     policy kind (entry-point group ``uav_penetration.policies``; the ``rl`` extra's ``baselines``
-    adds ``sb3:PATH.zip``). A plug-in kind is checked for its run-time needs here, so a missing
-    extra is refused before any episode runs.
+    adds ``sb3:PATH.zip``), or ``PLANNER+PREFIX:ARGUMENT``: the MPC planner warm-started by the
+    plug-in policy, when its kind offers that (``ihpso+sb3:PATH.zip``, docs/rl-statistics.md §3).
+    A plug-in kind is checked for its run-time needs here, so a missing extra is refused before
+    any episode runs.
 
     Raises:
         KeyError: an unknown name or prefix, with suggestions and the list of known forms.
@@ -407,6 +459,9 @@ def make_policy(
 
     if spec in FLOOR_POLICIES:
         return FLOOR_POLICIES[spec]()
+    hybrid = split_hybrid(spec)
+    if hybrid is not None:
+        return _make_hybrid(spec, *hybrid, horizon, max_evals, discount, terminal_cost)
     prefix, colon, argument = spec.partition(":")
     kinds = policy_kinds() if colon else {}
     if prefix in kinds:
@@ -435,3 +490,30 @@ def make_policy(
         terminal_cost=0.0 if literal else terminal_cost,
         name=spec,
     )
+
+
+def _make_hybrid(
+    spec: str, planner: str, plugin: str, horizon: int, max_evals: int, discount: float, terminal_cost: float
+) -> Any:
+    """``PLANNER+PREFIX:ARGUMENT``: the planner built here, warm-started by the plug-in kind's ``hybrid``."""
+    if planner in FLOOR_POLICIES or split_hybrid(plugin) is not None:
+        raise KeyError(
+            f"unknown policy {spec!r} — a hybrid is PLANNER+PREFIX:ARGUMENT with an MPC planner "
+            f"(an optimiser name or NAME-eq37) before the '+', got {planner!r}"
+        )
+    prefix, _, argument = plugin.partition(":")
+    kinds = policy_kinds()
+    kind = kinds.get(prefix)
+    if kind is None:
+        make_policy(plugin)  # raises the unknown-kind error with its suggestions
+    if isinstance(kind, Plugin):
+        raise PluginUnavailable(f"policy {spec!r}: the plug-in {kind.error}")
+    if kind.hybrid is None:
+        raise KeyError(f"unknown policy {spec!r} — the plug-in kind {prefix!r} cannot warm-start a planner")
+    kind.needs.check(f"policy {spec!r}")
+    mpc = make_policy(
+        planner, horizon=horizon, max_evals=max_evals, discount=discount, terminal_cost=terminal_cost
+    )
+    if not isinstance(mpc, MPCPolicy):
+        raise KeyError(f"unknown policy {spec!r} — {planner!r} is not an MPC planner")
+    return kind.hybrid(argument, mpc)

@@ -487,3 +487,53 @@ def _policies(context: ReportContext) -> str | None:
         parts.append(f'<h3 id="policy-{html.escape(str(policy))}">{html.escape(str(policy))}</h3>{note}')
         parts.append(_html_table(summary))
     return "".join(parts)
+
+
+@register_section("compute", "Compute: decision time per step and training budget")
+def _compute(context: ReportContext) -> str | None:
+    """Per scenario group, each policy's (RL agents: each group's) decision time, total J and training.
+
+    docs/rl-statistics.md §2: the numbers behind the ``compute-axis`` figure, means with
+    stratified-bootstrap 95 % intervals over runs (training seeds of an RL group, episode seeds of
+    any other policy).
+    """
+    from uav_penetration_env.benchmark.leaderboard import compute_points, scenario_groups
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_interval, format_number
+
+    parts = []
+    for group in scenario_groups(context.store.episodes()):
+        points = compute_points(group.episodes)
+        if points.empty:
+            continue
+        rows = pd.DataFrame(
+            {
+                "policy / RL group": points["method"],
+                "family": points["family"],
+                "runs": points["runs"],
+                "decision [s/step] [95% CI]": [
+                    format_interval(
+                        r.decision_seconds, r.decision_seconds_ci_low, r.decision_seconds_ci_high, 3
+                    )
+                    for r in points.itertuples()
+                ],
+                "total J [95% CI]": [
+                    format_interval(r.total_cost, r.total_cost_ci_low, r.total_cost_ci_high)
+                    for r in points.itertuples()
+                ],
+                "train steps": [
+                    f"{int(v):,}" if np.isfinite(v) else ""
+                    for v in points["train_timesteps"].to_numpy(dtype=float)
+                ],
+                "train [s]": [format_number(v) for v in points["train_seconds"]],
+            }
+        )
+        parts.append(f"<h3>{html.escape(group.name)}</h3>{_html_table(rows)}")
+    if not parts:
+        return None
+    note = (
+        "<p>Decision time: wall-clock seconds per action as the evaluator measured them (MPC planning, "
+        "network inference, the greedy rule), on the machine of the run. RL agents are pooled over "
+        "training seeds (runs); other policies' runs are their episode seeds. Intervals: stratified "
+        "bootstrap over runs within scenarios (docs/rl-statistics.md).</p>"
+    )
+    return note + "".join(parts)

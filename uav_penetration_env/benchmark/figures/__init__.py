@@ -13,6 +13,10 @@ For each scenario group (:func:`~uav_penetration_env.benchmark.leaderboard.scena
 * ``<stem>-convergence``: the optimisers' normalised best-so-far against evaluations, averaged
   over MPC steps (policies without an optimiser history, e.g. floors, are left out).
 * ``<stem>-timeline``: altitude above ground and detection probability per step, same seed as the tracks.
+* ``<stem>-compute-axis``: total J against decision time per step (log x), one point per policy or
+  RL group (all training seeds) with 95 % intervals in both directions (docs/rl-statistics.md §2).
+* ``<stem>-rl-profile``: rliable's run-score performance profiles (fraction of runs with total J
+  below tau) with stratified-bootstrap bands, RL agents pooled over training seeds.
 * ``<stem>-runtime-ecdf``: when the store has window runs (``uav-bench windows``), the share of
   (run, target) pairs each optimiser solved within x evaluations on identical MPC windows
   (api.md §4.8).
@@ -62,6 +66,7 @@ from uav_penetration_env.benchmark.figures.costs import (
     plot_j_per_point,
     plot_performance_profile,
 )
+from uav_penetration_env.benchmark.figures.rl import plot_compute_axis, plot_rl_profile
 from uav_penetration_env.benchmark.figures.runtime_ecdf import plot_runtime_ecdf
 from uav_penetration_env.benchmark.figures.tracks import (
     COVERAGE_LEVEL,
@@ -100,6 +105,8 @@ FIGURES: dict[str, FigureSpec] = {
     "performance-profile": FigureSpec(plot_performance_profile),
     "convergence": FigureSpec(plot_convergence),
     "timeline": FigureSpec(plot_timeline, per_scenario=True),
+    "compute-axis": FigureSpec(plot_compute_axis),
+    "rl-profile": FigureSpec(plot_rl_profile),
 }
 # Figures of the window runs (``uav-bench windows``, api.md §4.8), drawn after the others for a scenario
 # whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
@@ -129,10 +136,12 @@ __all__ = [
     "note_empty",
     "outside_legend",
     "performance_profile",
+    "plot_compute_axis",
     "plot_convergence",
     "plot_cost_box",
     "plot_j_per_point",
     "plot_performance_profile",
+    "plot_rl_profile",
     "plot_runtime_ecdf",
     "plot_timeline",
     "plot_tracks_3d",

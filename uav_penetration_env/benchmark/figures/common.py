@@ -16,6 +16,13 @@ import pandas as pd
 from scipy import stats as scipy_stats
 
 from uav_penetration_env.atomic import atomic_path
+from uav_penetration_env.benchmark.families import (  # noqa: F401 (re-exported: the figures' names)
+    FAMILIES,
+    FLOORS,
+    MPC_FAMILIES,
+    PAPER_PLANNERS,
+    policy_family,
+)
 from uav_penetration_env.benchmark.leaderboard import ScenarioGroup
 
 PNG_DPI = 150
@@ -77,16 +84,6 @@ class FigureInput:
 
 # --- who is who: families, colours, line styles, legends -------------------------------------------
 
-FAMILIES = (
-    "paper planners (MPC)",
-    "reference optimisers (MPC)",
-    "IHPSO ablations (MPC)",
-    "floors",
-    "RL agents",
-)
-MPC_FAMILIES = FAMILIES[:3]  # the families whose policies are MPC planners
-PAPER_PLANNERS = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism")
-FLOORS = ("greedy", "random")
 PANEL_THRESHOLD = 10  # more policies than this in a figure: one panel per family
 # Line style by family; a family with more members than colours continues with its second style.
 FAMILY_LINESTYLES: dict[str, tuple[Any, ...]] = {
@@ -109,29 +106,6 @@ class PolicyStyle:
     def line(self) -> dict[str, Any]:
         """``color`` and ``linestyle`` keywords for ``plot``/``step``."""
         return {"color": self.colour, "linestyle": self.linestyle}
-
-
-def policy_family(label: str) -> str:
-    """The family of a policy label (one of :data:`FAMILIES`).
-
-    DECISION (api.md §4.1): a plug-in policy (``PREFIX:...``, e.g. ``sb3:ppo``) is an RL agent;
-    ``greedy`` and ``random`` are floors; the paper's six swarm planners and their variants
-    (``hpso-literal``, ``NAME-eq37``) are the paper planners; other ``ihpso-*`` configurations
-    are IHPSO ablations; every other optimiser name (``pso``, ``cem``, ``cmaes``, ``de``, ...)
-    is a reference optimiser.
-    """
-    if ":" in label:
-        return "RL agents"
-    base = label.removesuffix("-eq37")
-    if base in FLOORS:
-        return "floors"
-    if base == "ihpso":
-        return "paper planners (MPC)"
-    if base.startswith("ihpso-"):
-        return "IHPSO ablations (MPC)"
-    if any(base == name or base.startswith(f"{name}-") for name in PAPER_PLANNERS):
-        return "paper planners (MPC)"
-    return "reference optimisers (MPC)"
 
 
 def _palette() -> list[Any]:

@@ -52,6 +52,7 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
     provenance_lines,
     statistics_paragraph,
 )
+from uav_penetration_env.benchmark.leaderboard.rl import compute_points, rl_markdown, rl_table
 from uav_penetration_env.benchmark.leaderboard.table import (
     ALPHA,
     CONFIDENCE,
@@ -72,6 +73,7 @@ __all__ = [
     "cell",
     "compact_names",
     "compact_ranges",
+    "compute_points",
     "cost_table",
     "format_interval",
     "format_number",
@@ -85,6 +87,8 @@ __all__ = [
     "prepare_episodes",
     "provenance_lines",
     "resolve_reference",
+    "rl_markdown",
+    "rl_table",
     "sanitize",
     "scenario_groups",
     "statistics_paragraph",
@@ -118,9 +122,13 @@ def write_leaderboards(
         n_resamples: bootstrap resamples.
         suite: write one table over all scenarios, named ``suite``.
 
+    A group with RL agents gets an "RL agents over training seeds" section in its Markdown file
+    and ``<stem>-rl.csv`` (:func:`~.rl.rl_table`, docs/rl-statistics.md §2).
+
     Returns:
-        The written paths, Markdown then CSV per group, groups sorted by (name, hash). The
-        fixed-target tables of window runs are written by :func:`~.fixedtarget.write_fixed_target`.
+        The written paths, Markdown then CSV per group (then the RL CSV, when written), groups
+        sorted by (name, hash). The fixed-target tables of window runs are written by
+        :func:`~.fixedtarget.write_fixed_target`.
 
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
@@ -150,10 +158,17 @@ def write_leaderboards(
     )
     for group in groups:
         table = leaderboard_table(group.episodes, reference=reference, seed=seed, n_resamples=n_resamples)
+        rl = rl_table(group.episodes, seed=seed, n_resamples=n_resamples)
         markdown = out_dir / f"{group.stem}.md"
-        write_text_atomic(markdown, leaderboard_markdown(group, table, runs, command, date))
+        text = leaderboard_markdown(group, table, runs, command, date)
+        write_text_atomic(markdown, text + ("\n" + rl_markdown(rl) if not rl.empty else ""))
         csv = out_dir / f"{group.stem}.csv"
         with atomic_path(csv) as temporary:  # whole or not at all (uav_penetration_env.atomic)
             table.to_csv(temporary, index=False, lineterminator="\n")
         written += [markdown, csv]
+        if not rl.empty:
+            rl_csv = out_dir / f"{group.stem}-rl.csv"
+            with atomic_path(rl_csv) as temporary:
+                rl.to_csv(temporary, index=False, lineterminator="\n")
+            written.append(rl_csv)
     return written
