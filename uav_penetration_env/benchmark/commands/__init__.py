@@ -25,6 +25,7 @@ BUILTIN_COMMANDS = (
     "calibrate",
     "scenario",
     "windows",
+    "suite",
 )
 
 
