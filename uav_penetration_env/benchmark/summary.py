@@ -150,8 +150,8 @@ def print_summary(
         if path.suffix != ".csv":
             continue
         frame = pd.read_csv(path)
-        if frame.empty:
-            continue
+        if frame.empty or "member" in frame:
+            continue  # a table stacking several members' leaderboards (leaderboard.suite) is no summary
         console.print(summary_table(frame, f"{path.stem} (lower total J is better)", reference))
     # Paths are printed whole, never wrapped, so they can be copied (a long path may pass the width).
     lines = [f"full table: {path}" for path in tables]

@@ -52,6 +52,7 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
     provenance_lines,
     statistics_paragraph,
 )
+from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables, table_writers
 from uav_penetration_env.benchmark.leaderboard.table import (
     ALPHA,
     CONFIDENCE,
@@ -61,6 +62,9 @@ from uav_penetration_env.benchmark.leaderboard.table import (
 )
 from uav_penetration_env.benchmark.store import ResultsStore
 
+# Imported for its registration (@register_tables("suite")): the frozen suites' tables.
+from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # noqa: F401  # isort: skip
+
 __all__ = [
     "ALPHA",
     "CONFIDENCE",
@@ -68,6 +72,7 @@ __all__ = [
     "NUMERIC_EPISODE_COLUMNS",
     "STATISTIC_CELLS",
     "ScenarioGroup",
+    "TableContext",
     "aggregate",
     "cell",
     "compact_names",
@@ -84,11 +89,13 @@ __all__ = [
     "policy_labels",
     "prepare_episodes",
     "provenance_lines",
+    "register_tables",
     "resolve_reference",
     "sanitize",
     "scenario_groups",
     "statistics_paragraph",
     "suite_group",
+    "table_writers",
     "write_leaderboards",
 ]
 
@@ -118,8 +125,10 @@ def write_leaderboards(
         suite: write one table over all scenarios, named ``suite``.
 
     Returns:
-        The written paths, Markdown then CSV per group, groups sorted by (name, hash). The
-        fixed-target tables of window runs are written by :func:`~.fixedtarget.write_fixed_target`.
+        The written paths, Markdown then CSV per group, groups sorted by (name, hash), then the
+        files of the registered table writers (:mod:`.registry`; a frozen suite's tables,
+        :mod:`.suite`), unless ``suite``. The fixed-target tables of window runs are written by
+        :func:`~.fixedtarget.write_fixed_target`.
 
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
@@ -151,4 +160,9 @@ def write_leaderboards(
         with atomic_path(csv) as temporary:  # whole or not at all (uav_penetration_env.atomic)
             table.to_csv(temporary, index=False, lineterminator="\n")
         written += [markdown, csv]
+    if suite is None and not episodes.empty:
+        # The registered tables (registry.register_tables), e.g. a frozen suite's (leaderboard.suite).
+        context = TableContext(store_path, out_dir, episodes, runs, reference, seed, command, n_resamples, date)
+        for writer in table_writers().values():
+            written += writer(context)
     return written
