@@ -200,3 +200,64 @@ def test_freeze_writes_a_new_version_and_never_overwrites(tmp_path, v1):
     assert [p.name for p in tmp_path.iterdir()] == ["tiny-v1.yaml"]  # no temporary file left behind
     with pytest.raises(SuiteError, match="expected a versioned name"):
         freeze_suite("tiny", "unversioned", [Recipe(catalogue="paper")], tmp_path)
+
+
+def test_the_suite_command(tmp_path, capsys):
+    from uav_penetration_env.benchmark import cli
+
+    assert cli.main(["suite", "list"]) == 0
+    assert capsys.readouterr().out.startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
+    assert cli.main(["suite", "show", "uavpen-v1", "--members", "uavpen-v1/paper*"]) == 0
+    out = capsys.readouterr().out
+    assert "| uavpen-v1/paper-w2 | fixed | paper-2022-sec5-w2 | d2cada97cea659ca |" in out
+    assert "uavpen-v1/dem" not in out
+    assert cli.main(["suite", "verify", "uavpen-v1", "--members", "uavpen-v1/paper"]) == 0
+    assert "suite uavpen-v1: all 1 members reproduce" in capsys.readouterr().out
+    recipe = tmp_path / "recipe.yaml"
+    recipe.write_text(
+        "suite: mini-v1\ndescription: one member\nmembers:\n  - {difficulty: 0.25, seeds: 30000-30000}\n"
+    )
+    out_dir = tmp_path / "suites"
+    assert cli.main(["suite", "freeze", "mini-v1", "--recipe", str(recipe), "--out", str(out_dir)]) == 0
+    assert [m.name for m in load_suite(out_dir / "mini-v1.yaml").members] == ["mini-v1/d0.25/30000"]
+    capsys.readouterr()
+    assert cli.main(["suite", "freeze", "mini-v1", "--recipe", str(recipe), "--out", str(out_dir)]) == 2
+    assert "already exists; a frozen suite is never overwritten" in capsys.readouterr().err
+    assert cli.main(["suite", "freeze", "mini-v2", "--recipe", str(recipe), "--out", str(out_dir)]) == 2
+    assert "names the suite 'mini-v1', expected 'mini-v2'" in capsys.readouterr().err
+
+
+def test_verify_reports_every_changed_member_and_fails(monkeypatch, capsys):
+    from uav_penetration_env.benchmark import cli
+
+    monkeypatch.setattr(catalogue, "RANDOM_SQUARE_KM", (0.0, 99.0))
+    status = cli.main(
+        ["suite", "verify", "uavpen-v1", "--members", "uavpen-v1/paper", "uavpen-v1/d0.25/3000[12]"]
+    )
+    captured = capsys.readouterr()
+    assert status == 1
+    assert "suite uavpen-v1: 2 of 3 members DIFFER" in captured.out
+    assert captured.err.count("MISMATCH suite uavpen-v1 member uavpen-v1/d0.25/3000") == 2
+
+
+@pytest.mark.slow
+def test_the_whole_suite_runs_with_greedy(tmp_path):
+    """The issue's check: ``uav-bench run --suite uavpen-v1 --policies greedy --seeds 1``."""
+    import sqlite3
+
+    from uav_penetration_env.benchmark import cli
+
+    store = tmp_path / "suite.sqlite"
+    argv = ["run", "--suite", "uavpen-v1", "--policies", "greedy", "--seeds", "1", "--store", str(store)]
+    assert cli.main([*argv, "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    suite = load_suite("uavpen-v1")
+    with sqlite3.connect(store) as connection:
+        totals = dict(connection.execute("SELECT scenario_hash, total_cost FROM episodes").fetchall())
+    assert len(totals) == 63
+    for member in suite.members:  # each greedy episode is its member's frozen replay
+        assert totals[member.fingerprint.scenario_hash] == pytest.approx(
+            member.fingerprint.replay_total_j, rel=1e-9
+        )
+    assert (tmp_path / "out" / "uavpen-v1.md").is_file() and (
+        tmp_path / "out" / "uavpen-v1-d0.75.csv"
+    ).is_file()

@@ -312,7 +312,6 @@ def equal_weight_markdown(
         "are those of a one-scenario leaderboard.",
         "",
         *legend_lines(f"{table.attrs['n_resamples']:,}", set(table.columns)),
-        "- **members**: (CSV) members with at least one finished episode of the policy.",
         "",
     ]
     return "\n".join(parts)
