@@ -204,3 +204,13 @@ def test_the_report_section_shows_the_group_means(tmp_path):
         context.store.close()
     assert "<h3>uavpen-v1</h3>" in page and "2 of 63 members have episodes" in page
     assert "<th>d0.25</th>" in page and "<th>fixed</th>" in page
+
+
+def test_leaderboard_refuses_a_pooled_table_under_a_frozen_suite_name(tmp_path, capsys):
+    status, store = _run(tmp_path, "--members", "uavpen-v1/paper", "--policies", "greedy", "--no-report")
+    assert status == 0
+    argv = ["leaderboard", "--store", str(store), "--out", str(tmp_path / "lb"), "--suite", "uavpen-v1"]
+    assert cli.main(argv) == 2
+    assert "--suite uavpen-v1: names a frozen suite" in capsys.readouterr().err
+    assert cli.main([*argv[:-2]]) == 0  # without --suite: the frozen suite's own tables
+    assert (tmp_path / "lb" / "uavpen-v1.md").is_file()

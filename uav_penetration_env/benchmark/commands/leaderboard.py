@@ -7,6 +7,7 @@ from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
+    CLIError,
     Command,
     add_store_argument,
     check_writable_folder,
@@ -31,6 +32,14 @@ def run(args: argparse.Namespace) -> int:
     """Write the tables; print a compact summary of each and their paths."""
     store = existing_store(args.store)
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.suites import suite_names
+
+    if args.suite in suite_names():
+        # A pooled table under a frozen suite's name would contradict the suite's own tables.
+        raise CLIError(
+            f"--suite {args.suite}: names a frozen suite, whose member-weighted tables are written without "
+            "--suite when the store holds a `run --suite` (docs/suite.md §5); give the pooled table another name"
+        )
 
     check_writable_folder(Path(args.out), "--out")
     written = write_leaderboards(
