@@ -51,3 +51,11 @@ def test_bench_checks_quick_run_reports_every_entry_point(capsys):
     for name in ("step, 1 row", "observe, 1 row", "rollout_cost", "height"):
         assert name in out
     assert len(results) == 5 and all(value > 0 for value in results.values())
+
+
+def test_bench_suite_quick_run_reports_every_figure(capsys):
+    results = load("bench_suite").main(["--quick"])
+    out = capsys.readouterr().out
+    assert "suite uavpen-v1, 3 members" in out and "run --suite --policies greedy --seeds 1" in out
+    assert set(results) == {"verify_warm_s", "verify_cold_s", "run_greedy_s"}
+    assert all(value > 0 for value in results.values())
