@@ -25,7 +25,7 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -46,6 +46,9 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
 )
 from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables
 from uav_penetration_env.benchmark.leaderboard.table import CONFIDENCE, _label_seed, leaderboard_table
+
+if TYPE_CHECKING:  # imported where used: the suites package reads YAML and builds scenarios
+    from uav_penetration_env.suites import Suite, SuiteMember
 
 OUTCOMES = ("success", "collided", "out_of_area", "truncated")
 ESTIMATOR = (
@@ -72,7 +75,7 @@ def recorded_suites(runs: pd.DataFrame) -> list[str]:
     return sorted(names)
 
 
-def suite_episodes(episodes: pd.DataFrame, suite: Any) -> pd.DataFrame:
+def suite_episodes(episodes: pd.DataFrame, suite: Suite) -> pd.DataFrame:
     """The episode rows on members of ``suite``, with ``member``, ``member_group``, ``member_index``.
 
     Args:
@@ -197,7 +200,7 @@ def member_matrix(stacked: pd.DataFrame, column: str) -> pd.DataFrame:
     return matrix.reindex(index=order, columns=sorted(matrix.columns))
 
 
-def group_overview(frame: pd.DataFrame, suite: Any) -> pd.DataFrame:
+def group_overview(frame: pd.DataFrame, suite: Suite) -> pd.DataFrame:
     """Policy x member group: the member-weighted mean total J (no bootstrap; a quick overview).
 
     Returns:
@@ -220,7 +223,7 @@ def group_overview(frame: pd.DataFrame, suite: Any) -> pd.DataFrame:
 # --- Markdown -------------------------------------------------------------------------------------------
 
 
-def _suite_lines(suite: Any, frame: pd.DataFrame, members: list[Any]) -> list[str]:
+def _suite_lines(suite: Suite, frame: pd.DataFrame, members: list[SuiteMember]) -> list[str]:
     present = set(frame["member"])
     groups = ", ".join(
         f"{group} {sum(m.group == group and m.name in present for m in members)}/{sum(m.group == group for m in members)}"
@@ -250,10 +253,10 @@ def _incomplete(table: pd.DataFrame, total: int) -> list[str]:
 
 def equal_weight_markdown(
     title: str,
-    suite: Any,
+    suite: Suite,
     frame: pd.DataFrame,
     table: pd.DataFrame,
-    members: list[Any],
+    members: list[SuiteMember],
     context: TableContext,
 ) -> str:
     """The Markdown file of one member-weighted table (overall or one group)."""
@@ -317,7 +320,7 @@ def equal_weight_markdown(
     return "\n".join(parts)
 
 
-def members_markdown(suite: Any, frame: pd.DataFrame, stacked: pd.DataFrame, context: TableContext) -> str:
+def members_markdown(suite: Suite, frame: pd.DataFrame, stacked: pd.DataFrame, context: TableContext) -> str:
     """The Markdown file of the per-member tables: the member x policy matrices, then each table."""
     from uav_penetration_env.benchmark.summary import gap_column
 
