@@ -162,7 +162,9 @@ def write_leaderboards(
         written += [markdown, csv]
     if suite is None and not episodes.empty:
         # The registered tables (registry.register_tables), e.g. a frozen suite's (leaderboard.suite).
-        context = TableContext(store_path, out_dir, episodes, runs, reference, seed, command, n_resamples, date)
+        context = TableContext(
+            store_path, out_dir, episodes, runs, reference, seed, command, n_resamples, date
+        )
         for writer in table_writers().values():
             written += writer(context)
     return written
