@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +21,10 @@ from baselines.hyperparameters import resolve_hyperparams
 from uav_penetration_env.suggest import did_you_mean
 
 DEFAULT_MODELS = Path("leaderboards/models")
+# DECISION: learning curves are measured on seeds 20000, 20001, ... for every training seed, so
+# curves of different seeds are comparable; they stay clear of the held-out set (10000-10049,
+# model.md §7c), which is kept for the final evaluation and must not steer training.
+EVAL_SEED_START = 20_000
 # The NAME in a default model path ALGO-NAME-sSEED.zip when no scenario is given.
 DEFAULT_NAMES = {
     "UAVPenetration-v0": "paper",
@@ -51,6 +55,11 @@ class TrainConfig:
         env_kwargs: other keywords of the id (e.g. ``pool_size`` of the Random id).
         eval_freq: evaluate every this many environment steps, and at the end (0: never).
         eval_episodes: episodes per evaluation, seeds ``20000 ...`` (deterministic policy).
+        eval_seeds: the evaluation episodes' reset seeds instead (``eval_episodes`` is then their
+            number); :mod:`baselines.tune` evaluates on the tuning-validation seeds ``40000 ...``.
+        on_evaluation: called with each evaluation row (a dict of :data:`~baselines.run.EVALUATION_COLUMNS`)
+            as soon as it is written; an exception it raises (e.g. ``optuna.TrialPruned``) ends
+            training and propagates (nothing more is saved).
         checkpoint_freq: save a checkpoint every this many environment steps (0/None: never).
         progress_bar: show a progress bar (steps, ETA, last evaluation).
         verbose: SB3's verbosity.
@@ -71,6 +80,8 @@ class TrainConfig:
     env_kwargs: Mapping[str, Any] | None = None
     eval_freq: int = 10_000
     eval_episodes: int = 10
+    eval_seeds: Sequence[int] | None = None
+    on_evaluation: Callable[[dict[str, float]], None] | None = None
     checkpoint_freq: int | None = 50_000
     progress_bar: bool = False
     verbose: int = 0
@@ -112,6 +123,8 @@ class TrainingPlan:
     hyperparams_source: str
     eval_freq: int
     eval_episodes: int
+    eval_seeds: tuple[int, ...]
+    on_evaluation: Callable[[dict[str, float]], None] | None
     checkpoint_freq: int
     progress_bar: bool
     verbose: int
@@ -143,6 +156,17 @@ def _check_positive(name: str, value: Any, minimum: int = 1) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{name}: got {value!r}, expected an integer >= {minimum}")
     return int(value)
+
+
+def _eval_seeds(config: TrainConfig) -> tuple[int, ...]:
+    """The evaluation seeds: ``config.eval_seeds``, else ``EVAL_SEED_START ...`` (``eval_episodes`` of them)."""
+    if config.eval_seeds is None:
+        count = _check_positive("eval_episodes", config.eval_episodes)
+        return tuple(range(EVAL_SEED_START, EVAL_SEED_START + count))
+    seeds = list(config.eval_seeds)
+    if not seeds or any(isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0 for s in seeds):
+        raise ValueError(f"eval_seeds: got {config.eval_seeds!r}, expected a non-empty list of integers >= 0")
+    return tuple(int(s) for s in seeds)
 
 
 def vector_class(env_id: str) -> type | None:
@@ -222,6 +246,7 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
     except OSError as error:
         raise ValueError(f"out: cannot create folder {files.model.parent} ({error.strerror})") from None
     torch_threads = config.torch_threads
+    eval_seeds = _eval_seeds(config)
     return TrainingPlan(
         algo=str(config.algo).lower(),
         env_id=env_id,
@@ -233,7 +258,9 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         hyperparams=params,
         hyperparams_source=source,
         eval_freq=_check_positive("eval_freq", config.eval_freq, 0),
-        eval_episodes=_check_positive("eval_episodes", config.eval_episodes),
+        eval_episodes=len(eval_seeds),
+        eval_seeds=eval_seeds,
+        on_evaluation=config.on_evaluation,
         checkpoint_freq=_check_positive("checkpoint_freq", config.checkpoint_freq or 0, 0),
         progress_bar=bool(config.progress_bar),
         verbose=int(config.verbose),

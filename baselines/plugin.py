@@ -1,8 +1,8 @@
 """What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
 
 - ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip``;
-- ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``) and
-  ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
+- ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
+  -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
 
 The harness never imports ``baselines`` by name; it finds these objects through the entry
 points and checks :data:`RL_EXTRA` before it uses the first two, so without the ``rl`` extra
@@ -17,6 +17,7 @@ from pathlib import Path
 from baselines.cli import add_train_arguments, train_command
 from baselines.curves import add_curve_arguments, curves_command
 from baselines.policy import load_policy
+from baselines.tune import add_tune_arguments, tune_command
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
 
@@ -40,6 +41,15 @@ TRAIN_COMMAND = Command(
     add_arguments=add_train_arguments,
     run=train_command,
     needs=RL_EXTRA,
+)
+# Tuning needs Optuna as well (in the rl extra).
+TUNE_EXTRA = Needs(modules=("stable_baselines3", "torch", "optuna"), install=RL_EXTRA.install)
+TUNE_COMMAND = Command(
+    name="tune",
+    help="tune an SB3 agent's hyper-parameters with Optuna (extra rl)",
+    add_arguments=add_tune_arguments,
+    run=tune_command,
+    needs=TUNE_EXTRA,
 )
 LEARNING_CURVES = CommandExtension(
     command="plot",

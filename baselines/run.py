@@ -25,10 +25,6 @@ from baselines.hyperparameters import algorithm_class, algorithm_kwargs, normali
 from baselines.plan import TrainingPlan
 from uav_penetration_env.atomic import atomic_open, atomic_path, write_text_atomic
 
-# DECISION: learning curves are measured on seeds 20000, 20001, ... for every training seed, so
-# curves of different seeds are comparable; they stay clear of the held-out set (10000-10049,
-# model.md §7c), which is kept for the final evaluation and must not steer training.
-EVAL_SEED_START = 20_000
 EVALUATION_COLUMNS = (
     "timesteps",
     "episodes",
@@ -53,10 +49,24 @@ class TrainResult:
     model: Any = field(repr=False, default=None)
 
 
-def train_env_seeds(seed: int, n_envs: int) -> list[int]:
-    """Reset seeds of the training sub-envs: one child of ``SeedSequence(seed)`` each (STYLE §5)."""
+def train_env_seeds(seed: int | Sequence[int], n_envs: int, pool: bool = False) -> list[int]:
+    """Reset seeds of the training sub-envs: one child of ``SeedSequence(seed)`` each (STYLE §5).
+
+    Args:
+        seed: the training seed (or a sequence of integers, e.g. ``[seed, timesteps]`` on resume).
+        n_envs: sub-envs.
+        pool: the Random id: the seeds are moved by ``POOL_SEED_OFFSET`` (2**32).
+
+    DECISION: a Random-id sub-env's first episode flies the scenario of its reset seed (model.md
+    §7c); a 32-bit child seed could, however rarely, be a held-out (10000-10049), suite
+    (30000-30219) or tuning-validation (40000-40049) seed, so for the Random id the reset seeds
+    lie at or above 2**32, where the id's own training pool lives (``env.POOL_SEED_OFFSET``).
+    """
+    from uav_penetration_env.env import POOL_SEED_OFFSET
+
     children = np.random.SeedSequence(seed).spawn(n_envs)
-    return [int(child.generate_state(1, dtype=np.uint32)[0]) for child in children]
+    offset = POOL_SEED_OFFSET if pool else 0
+    return [offset + int(child.generate_state(1, dtype=np.uint32)[0]) for child in children]
 
 
 def evaluate_agent(model: Any, env: Any, seeds: Sequence[int], normalizer: Any = None) -> dict[str, float]:
@@ -170,17 +180,24 @@ class _Run:
     def __init__(self, plan: TrainingPlan) -> None:
         from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
+        from baselines.plan import vector_class
         from baselines.vec_env import UAVPenetrationSB3VecEnv
+        from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
 
         self.plan = plan
-        self.seeds = train_env_seeds(plan.seed, plan.n_envs)
-        self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **plan.env_kwargs)
+        self.random_id = issubclass(vector_class(plan.env_id) or object, UAVPenetrationRandomVectorEnv)
+        self.seeds = train_env_seeds(plan.seed, plan.n_envs, pool=self.random_id)
+        env_kwargs = dict(plan.env_kwargs)
+        if self.random_id:
+            # The pool the id would draw anyway (the first reset's seed), named so a resumed run keeps it.
+            env_kwargs.setdefault("pool_seed", self.seeds[0])
+        self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **env_kwargs)
         env: Any = VecMonitor(self.venv)  # episode returns/lengths for SB3's logger
         self.norm_kwargs = normalize_kwargs(plan.hyperparams)
         if self.norm_kwargs is not None:
             env = VecNormalize(env, **self.norm_kwargs)
         self.env = env
-        self.eval_seeds = list(range(EVAL_SEED_START, EVAL_SEED_START + plan.eval_episodes))
+        self.eval_seeds = list(plan.eval_seeds)
         self.eval_env = (
             UAVPenetrationSB3VecEnv(plan.env_id, plan.eval_episodes, **plan.env_kwargs)
             if plan.eval_freq
@@ -203,6 +220,8 @@ class _Run:
         row["wall_seconds"] = time.perf_counter() - self.started
         self.evaluations.append(row)
         _write_evaluations(self.plan.files.evaluations, self.evaluations)
+        if self.plan.on_evaluation is not None:
+            self.plan.on_evaluation(dict(row))
         return row
 
     def save(self, files: ModelFiles, wall_seconds: float, interrupted: bool = False) -> dict[str, Any]:

@@ -51,6 +51,7 @@ def baselines_plugins(monkeypatch):
         plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND)},
         plugins.COMMAND_GROUP: {
             "train": plugins.Plugin("train", plugin.TRAIN_COMMAND),
+            "tune": plugins.Plugin("tune", plugin.TUNE_COMMAND),
             "plot.models": plugins.Plugin("plot.models", plugin.LEARNING_CURVES),
         },
     }

@@ -22,10 +22,13 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert entry_points[POLICY_GROUP] == {"sb3": "baselines.plugin:SB3_POLICY_KIND"}
     assert entry_points[COMMAND_GROUP] == {
         "train": "baselines.plugin:TRAIN_COMMAND",
+        "tune": "baselines.plugin:TUNE_COMMAND",
         "plot.models": "baselines.plugin:LEARNING_CURVES",
     }
     assert isinstance(plugin.SB3_POLICY_KIND, PolicyKind) and plugin.SB3_POLICY_KIND.prefix == "sb3"
     assert isinstance(plugin.TRAIN_COMMAND, Command) and plugin.TRAIN_COMMAND.name == "train"
+    assert isinstance(plugin.TUNE_COMMAND, Command) and plugin.TUNE_COMMAND.name == "tune"
+    assert "optuna" in plugin.TUNE_COMMAND.needs.modules
     assert isinstance(plugin.LEARNING_CURVES, CommandExtension) and plugin.LEARNING_CURVES.command == "plot"
     assert plugin.SB3_POLICY_KIND.label("models/ppo-paper-s0.zip") == "sb3:ppo-paper-s0"
 
@@ -38,7 +41,7 @@ WITHOUT_RL = textwrap.dedent(
 
     class NoRL(importlib.abc.MetaPathFinder):
         def find_spec(self, name, path=None, target=None):
-            if name.partition(".")[0] in ("torch", "stable_baselines3"):
+            if name.partition(".")[0] in ("torch", "stable_baselines3", "optuna"):
                 raise ModuleNotFoundError(f"No module named {name!r}", name=name)
             return None
 
@@ -49,6 +52,7 @@ WITHOUT_RL = textwrap.dedent(
     found = {
         plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", rl.SB3_POLICY_KIND)},
         plugins.COMMAND_GROUP: {"train": plugins.Plugin("train", rl.TRAIN_COMMAND),
+                                "tune": plugins.Plugin("tune", rl.TUNE_COMMAND),
                                 "plot.models": plugins.Plugin("plot.models", rl.LEARNING_CURVES)},
     }
     plugins.discover = lambda group: found[group]
@@ -58,7 +62,7 @@ WITHOUT_RL = textwrap.dedent(
         code = main(sys.argv[1:])
     except SystemExit as exit:
         code = exit.code
-    assert "torch" not in sys.modules and "stable_baselines3" not in sys.modules
+    assert not {"torch", "stable_baselines3", "optuna"} & set(sys.modules)
     sys.exit(code)
     """
 )
@@ -91,3 +95,7 @@ def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_li
     train = uav_bench_without_rl("train", "--algo", "ppo", "--timesteps", 10, cwd=tmp_path)
     assert train.returncode == 2 and train.stderr.count("\n") == 1
     assert "uav-bench train needs stable_baselines3, torch (not installed)" in train.stderr
+    tune = uav_bench_without_rl("tune", "--algo", "ppo", "--trials", 1, cwd=tmp_path)
+    assert tune.returncode == 2 and tune.stderr.count("\n") == 1
+    assert "uav-bench tune needs stable_baselines3, torch, optuna (not installed)" in tune.stderr
+    assert not (tmp_path / "results").exists()

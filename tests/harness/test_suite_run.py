@@ -214,3 +214,31 @@ def test_leaderboard_refuses_a_pooled_table_under_a_frozen_suite_name(tmp_path, 
     assert "--suite uavpen-v1: names a frozen suite" in capsys.readouterr().err
     assert cli.main([*argv[:-2]]) == 0  # without --suite: the frozen suite's own tables
     assert (tmp_path / "lb" / "uavpen-v1.md").is_file()
+
+
+def test_suite_tables_recompute_from_exported_rows(tmp_path):
+    """Issue 16: the published suite tables must be rebuilt from committed rows alone."""
+    status, store = _run(tmp_path, "--members", *MEMBERS, "--policies", "greedy", "random", "--no-report")
+    assert status == 0
+    assert cli.main(["leaderboard", "--store", str(store), "--out", str(tmp_path / "from-store")]) == 0
+    assert (
+        cli.main(
+            ["export", "--format", "parquet", "--store", str(store), "--out", str(tmp_path / "rows" / "s")]
+        )
+        == 0
+    )
+    assert (
+        cli.main(
+            ["leaderboard", "--rows", str(tmp_path / "rows" / "s"), "--out", str(tmp_path / "from-rows")]
+        )
+        == 0
+    )
+    volatile = ("- Date: ", "- Leaderboard command: ")
+    for stem in ("uavpen-v1", "uavpen-v1-fixed", "uavpen-v1-d0.25", "uavpen-v1-members"):
+        expected, got = tmp_path / "from-store", tmp_path / "from-rows"
+        assert (got / f"{stem}.csv").read_bytes() == (expected / f"{stem}.csv").read_bytes()
+        lines = [
+            [x for x in (folder / f"{stem}.md").read_text().splitlines() if not x.startswith(volatile)]
+            for folder in (expected, got)
+        ]
+        assert lines[0] == lines[1]

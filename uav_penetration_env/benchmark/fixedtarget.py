@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.benchmark import stats
+from uav_penetration_env.benchmark.rows import ResultTables, store_tables
 from uav_penetration_env.types import FloatArray
 
 TARGET_PRECISIONS = (1e-1, 1e-2, 1e-3, 1e-4)  # Δ: targets f* + Δ |f*| (DECISION api.md §4.8)
@@ -364,7 +365,7 @@ def fixed_target_markdown(
 
 
 def write_fixed_target(
-    store_path: str | Path, out_dir: str | Path, *, reference: str = "ihpso", command: str = ""
+    store_path: str | Path | ResultTables, out_dir: str | Path, *, reference: str = "ihpso", command: str = ""
 ) -> list[Path]:
     """Write ``<stem>-fixed-target.md`` and ``.csv`` per scenario whose window runs the store holds.
 
@@ -372,7 +373,7 @@ def write_fixed_target(
     sanitised name when the store has no episodes of that scenario hash.
 
     Args:
-        store_path: the SQLite results store.
+        store_path: the SQLite results store, or its row tables (:func:`~.rows.read_rows`).
         out_dir: output folder (created if needed).
         reference: the optimiser the others are paired with (default IHPSO; the first name if absent).
         command: the command line recorded in the page.
@@ -382,11 +383,9 @@ def write_fixed_target(
     """
     from uav_penetration_env.atomic import atomic_path, write_text_atomic
     from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
-    from uav_penetration_env.benchmark.store import ResultsStore
-
     out_dir = Path(out_dir)
-    with ResultsStore(store_path) as store:
-        rows, episodes = store.window_runs(), store.episodes()
+    tables = store_path if isinstance(store_path, ResultTables) else store_tables(store_path)
+    rows, episodes = tables.window_runs, tables.episodes
     written: list[Path] = []
     if rows.empty:
         return written

@@ -1,4 +1,7 @@
-"""``uav-bench export``: the store's episodes and steps tables as CSV or Parquet files.
+"""``uav-bench export``: the store's episodes, runs, window-run and steps tables as CSV or Parquet files.
+
+The episodes, runs and window-runs files are the rows ``uav-bench leaderboard --rows STEM``
+recomputes the leaderboards from without the store (:mod:`~..rows`).
 
 With ``--tracks``: every episode's track points from step 0 (state, action, cost terms, detection,
 altitude above terrain) as ``<stem>-tracks.<format>``, and ``<stem>-tracks.geojson`` (one
@@ -32,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write ``<stem>-episodes.<format>`` and ``<stem>-steps.<format>`` and print their paths."""
+    """Write ``<stem>-{episodes,runs,window_runs,steps}.<format>`` and print their paths."""
+    from uav_penetration_env.benchmark.rows import row_path, write_table
     from uav_penetration_env.benchmark.store import ResultsStore
 
     store_path = existing_store(args.store)
@@ -41,14 +45,17 @@ def run(args: argparse.Namespace) -> int:
     with ResultsStore(store_path, create=False) as store:
         if args.tracks:
             return _export_tracks(store, out, args.format)
-        tables = {"episodes": store.episodes(), "steps": store.steps()}
+        tables = {
+            "episodes": store.episodes(),
+            "runs": store.runs(),
+            "window_runs": store.window_runs(),
+            "steps": store.steps(),
+        }
     for name, frame in tables.items():
-        path = out.parent / f"{out.name}-{name}.{args.format}"
-        with atomic_path(path) as temporary:  # an interrupted export never looks complete
-            if args.format == "csv":
-                frame.to_csv(temporary, index=False)
-            else:
-                frame.to_parquet(temporary, index=False)
+        if name == "window_runs" and frame.empty:
+            continue  # a store without window runs (most): --rows treats the file as optional
+        path = row_path(out, name, args.format)
+        write_table(frame, path, args.format)
         print(path)
     return 0
 
@@ -76,7 +83,7 @@ def _export_tracks(store, out: Path, extension: str) -> int:
 
 COMMAND = Command(
     name="export",
-    help="write the episodes and steps tables, or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
+    help="write the episodes, runs, window-run and steps tables, or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
     add_arguments=add_arguments,
     run=run,
 )

@@ -1,4 +1,8 @@
-"""``uav-bench leaderboard``: Markdown + CSV leaderboards per scenario group, from a results store."""
+"""``uav-bench leaderboard``: Markdown + CSV leaderboards per scenario group, from a results store.
+
+``--rows STEM`` computes them from exported rows instead (``uav-bench export``; :mod:`~..rows`):
+the same rows give the same files, byte for byte apart from the date line, with no store at all.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
+    DEFAULT_STORE,
     CLIError,
     Command,
     add_store_argument,
@@ -18,7 +23,12 @@ from uav_penetration_env.benchmark.commands.common import (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench leaderboard``."""
-    add_store_argument(parser)
+    add_store_argument(parser, default=None)
+    parser.add_argument(
+        "--rows",
+        metavar="STEM",
+        help="compute from exported rows STEM-episodes/-runs[/-window_runs].parquet|csv instead of a store",
+    )
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument(
         "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
@@ -30,8 +40,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the tables; print a compact summary of each and their paths."""
-    store = existing_store(args.store)
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.benchmark.rows import RowsError, read_rows
+
+    if args.rows is not None and args.store is not None:
+        raise CLIError("--rows and --store: give one source of results, not both")
+    if args.rows is not None:
+        try:
+            store = read_rows(args.rows)
+        except RowsError as error:
+            raise CLIError(str(error)) from None
+    else:
+        store = existing_store(args.store if args.store is not None else DEFAULT_STORE)
+
     from uav_penetration_env.suites import suite_names
 
     if args.suite in suite_names():

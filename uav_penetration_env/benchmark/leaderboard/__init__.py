@@ -60,7 +60,7 @@ from uav_penetration_env.benchmark.leaderboard.table import (
     aggregate,
     leaderboard_table,
 )
-from uav_penetration_env.benchmark.store import ResultsStore
+from uav_penetration_env.benchmark.rows import ResultTables, store_tables
 
 # Imported for its registration (@register_tables("suite")): the frozen suites' tables.
 from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # noqa: F401  # isort: skip
@@ -101,7 +101,7 @@ __all__ = [
 
 
 def write_leaderboards(
-    store_path: str | Path,
+    store_path: str | Path | ResultTables,
     out_dir: str | Path,
     *,
     reference: str = "ihpso",
@@ -116,7 +116,8 @@ def write_leaderboards(
     are (scenario, seed) pairs: the summary of a scenario set such as the held-out random one.
 
     Args:
-        store_path: the SQLite results store.
+        store_path: the SQLite results store, or its row tables (:func:`~..rows.read_rows`: the
+            same tables give the same files).
         out_dir: output folder (created if needed).
         reference: the policy every other is tested against.
         seed: seed of the bootstraps (the same seed gives the same files).
@@ -133,16 +134,20 @@ def write_leaderboards(
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
     """
-    store_path, out_dir = Path(store_path), Path(out_dir)
-    if not store_path.is_file():
-        raise FileNotFoundError(
-            f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
-        )
-    with ResultsStore(store_path, create=False) as store:
-        episodes, runs = store.episodes(), store.runs()
+    out_dir = Path(out_dir)
+    if isinstance(store_path, ResultTables):
+        tables = store_path
+    else:
+        store_path = Path(store_path)
+        if not store_path.is_file():
+            raise FileNotFoundError(
+                f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
+            )
+        tables = store_tables(store_path)
+    episodes, runs = tables.episodes, tables.runs
     if command is None:
         command = (
-            f"write_leaderboards({str(store_path)!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"
+            f"write_leaderboards({str(store_path) if not isinstance(store_path, ResultTables) else 'rows'!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"
         )
     date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -11,8 +11,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
+
+if TYPE_CHECKING:
+    from uav_penetration_env.benchmark.rows import ResultTables
 
 
 @dataclass(frozen=True)
@@ -20,7 +24,7 @@ class TableContext:
     """What a table writer reads: the store's rows and the leaderboard's settings.
 
     Attributes:
-        store_path: the results store.
+        store_path: the results store, or its row tables (:class:`~..rows.ResultTables`, ``--rows``).
         out_dir: the output folder (exists).
         episodes: every episode row of the store (as :meth:`ResultsStore.episodes` returns them).
         runs: the store's run rows (provenance and settings as JSON text).
@@ -31,7 +35,7 @@ class TableContext:
         date: the date line of the provenance block.
     """
 
-    store_path: Path
+    store_path: Path | ResultTables
     out_dir: Path
     episodes: pd.DataFrame
     runs: pd.DataFrame

@@ -1,0 +1,126 @@
+"""Result rows outside the store: the tables a leaderboard is computed from, as plain files (api.md §4.9).
+
+A published leaderboard must be recomputable by anyone from committed rows alone, without the
+SQLite store that produced them. ``uav-bench export`` writes the store's ``episodes``, ``runs``
+and ``window_runs`` tables (and ``steps``) as ``<stem>-<table>.<format>``; ``uav-bench leaderboard
+--rows <stem>`` reads the first three back and writes the same Markdown and CSV files as
+``--store`` would, byte for byte apart from the date line.
+
+DECISION (api.md §4.9): Parquet is the exact format (types, NULL versus empty text, every float bit), so the
+published rows are committed as Parquet; CSV is read as well, with each column's type taken from
+the store's declared schema (:data:`~.store.EPISODE_COLUMNS`) and floats read back exactly (pandas' default parser round-trips them), which
+reproduces the tables too, except that a NULL text cell and an empty one cannot be told apart in
+CSV (both read as empty text, which is what every reader of these tables treats them as).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+ROW_TABLES = ("episodes", "runs", "window_runs")  # what a leaderboard reads
+ROW_FORMATS = ("parquet", "csv")  # the order --rows looks for them in
+
+
+class RowsError(ValueError):
+    """A rows stem that names no files, or files that are not result rows."""
+
+
+@dataclass(frozen=True)
+class ResultTables:
+    """The tables of a results store a leaderboard is computed from.
+
+    Attributes:
+        episodes: one row per episode (:meth:`~.store.ResultsStore.episodes`).
+        runs: run provenance rows (:meth:`~.store.ResultsStore.runs`).
+        window_runs: fixed-target window runs (:meth:`~.store.ResultsStore.window_runs`), maybe empty.
+    """
+
+    episodes: pd.DataFrame
+    runs: pd.DataFrame
+    window_runs: pd.DataFrame
+
+
+def store_tables(store_path: str | Path) -> ResultTables:
+    """The row tables of an existing SQLite results store (read only)."""
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    with ResultsStore(store_path, create=False) as store:
+        return ResultTables(store.episodes(), store.runs(), store.window_runs())
+
+
+def row_path(stem: str | Path, table: str, extension: str) -> Path:
+    """``<stem>-<table>.<extension>``: where ``export`` writes a table and ``--rows`` reads it."""
+    stem = Path(stem)
+    return stem.parent / f"{stem.name}-{table}.{extension}"
+
+
+def write_table(frame: pd.DataFrame, path: Path, extension: str) -> None:
+    """Write one table atomically (an interrupted export never looks complete)."""
+    from uav_penetration_env.atomic import atomic_path
+
+    with atomic_path(path) as temporary:
+        if extension == "csv":
+            # lineterminator fixed so the bytes do not depend on the platform
+            frame.to_csv(temporary, index=False, lineterminator="\n")
+        else:
+            frame.to_parquet(temporary, index=False)
+
+
+def _declared_types(table: str) -> dict[str, str]:
+    """SQLite type per column of a store table (``TEXT``, ``REAL``, ``INTEGER``), where declared."""
+    from uav_penetration_env.benchmark import store
+
+    declared = {"episodes": store.EPISODE_COLUMNS, "window_runs": store.WINDOW_RUN_COLUMNS}
+    # "TEXT NOT NULL DEFAULT ''" -> "TEXT"
+    types = {name: kind.split()[0] for name, kind in declared.get(table, {}).items()}
+    types.update({"episode_id": "INTEGER", "run_id": "INTEGER", "window_run_id": "INTEGER"})
+    return types
+
+
+def _read_csv(path: Path, table: str) -> pd.DataFrame:
+    """A CSV table with the store's column types (text stays text, floats exact)."""
+    header = pd.read_csv(path, nrows=0).columns
+    types = _declared_types(table)
+    text = [c for c in header if types.get(c) == "TEXT" or (table == "runs" and c not in types)]
+    frame = pd.read_csv(
+        path,
+        dtype={c: str for c in text},
+        keep_default_na=False,
+        na_values={c: [""] for c in header if c not in text},
+    )
+    for column in header:
+        if types.get(column) == "INTEGER" and frame[column].dtype.kind == "f" and frame[column].notna().all():
+            frame[column] = frame[column].astype("int64")
+    return frame
+
+
+def read_rows(stem: str | Path) -> ResultTables:
+    """The row tables exported under ``stem`` (``<stem>-episodes.parquet`` or ``.csv``, ...).
+
+    ``episodes`` and ``runs`` are required; ``window_runs`` is optional (empty when absent).
+    Parquet is preferred where both formats exist.
+
+    Raises:
+        RowsError: no ``<stem>-episodes`` or ``<stem>-runs`` file in either format, or a file
+            that cannot be read as a table.
+    """
+    frames: dict[str, pd.DataFrame] = {}
+    for table in ROW_TABLES:
+        found = [row_path(stem, table, ext) for ext in ROW_FORMATS if row_path(stem, table, ext).is_file()]
+        if not found:
+            if table == "window_runs":
+                frames[table] = pd.DataFrame()
+                continue
+            expected = " or ".join(str(row_path(stem, table, ext)) for ext in ROW_FORMATS)
+            raise RowsError(f"--rows {stem}: no {table} table; expected {expected} (from `uav-bench export`)")
+        path = found[0]
+        try:
+            frames[table] = pd.read_parquet(path) if path.suffix == ".parquet" else _read_csv(path, table)
+        except (OSError, ValueError) as error:
+            raise RowsError(f"--rows {stem}: {path} is not a readable {table} table ({error})") from None
+    if "scenario_hash" not in frames["episodes"].columns:
+        raise RowsError(f"--rows {stem}: the episodes table has no scenario_hash column; expected an export")
+    return ResultTables(frames["episodes"], frames["runs"], frames["window_runs"])
