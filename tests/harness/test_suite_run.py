@@ -242,3 +242,21 @@ def test_suite_tables_recompute_from_exported_rows(tmp_path):
             for folder in (expected, got)
         ]
         assert lines[0] == lines[1]
+
+
+def test_gap_columns_are_member_weighted(monkeypatch):
+    """With best-known records (J* = 2 on A, 8 on B) the gap columns weigh members equally too."""
+    from uav_penetration_env.benchmark import bestknown
+
+    records = {"a" * 16: 2.0, "b" * 16: 8.0}
+    monkeypatch.setattr(bestknown, "best_known_total", records.get)
+    table = equal_weight_table(_toy_episodes(), reference="a", n_resamples=200).set_index("policy")
+    # a: gap of the member means (3 - 2)/2 = 0.5 and (10 - 8)/8 = 0.25 -> 0.375; b: 1 and 0 -> 0.5.
+    assert table.loc["a", "gap_mean"] == pytest.approx(0.375) and table.loc["b", "gap_mean"] == pytest.approx(
+        0.5
+    )
+    # within 10 %: a has 2 of 5 episodes on A (costs 1, 2) and 0 of 1 on B -> 0.2; b: 0 and 1 -> 0.5.
+    assert table.loc["a", "within_10pct"] == pytest.approx(0.2) and table.loc[
+        "b", "within_10pct"
+    ] == pytest.approx(0.5)
+    assert table.loc["a", "within_1pct"] == pytest.approx(0.2)  # cost 1 and cost 2 (gap 0) on A

@@ -418,6 +418,26 @@ STATISTICS: tuple[Column, ...] = (
         "two-sided Wilcoxon signed-rank test of total J against the reference over shared seeds, "
         "Holm–Bonferroni adjusted over the comparisons in this table",
         section="comparison", aggregate="statistic", csv=("n_pairs", "wilcoxon_statistic", "pvalue", "pvalue_holm"))),
+    _statistic("gap_mean", Board(
+        "gap to J* mean [95% CI]",
+        "relative gap (J − J*)/J* of each episode's total J (incl. penalty) to the best-known total J* of its own "
+        "scenario (docs/best-known.md), in %: mean with a percentile-bootstrap 95 % interval; only episodes of "
+        "scenarios with a record count; negative = the episode beat the record (run `uav-bench best-known update`)",
+        name="gap to J* mean", section="comparison", aggregate="statistic",
+        csv=("gap_mean", "gap_mean_ci_low", "gap_mean_ci_high"), recorded_only=True)),
+    _statistic("gap_iqm", Board(
+        "gap to J* IQM [95% CI]", "interquartile mean of the relative gap to J*, in %, bootstrap 95 % interval",
+        name="gap to J* IQM", section="comparison", aggregate="statistic",
+        csv=("gap_iqm", "gap_iqm_ci_low", "gap_iqm_ci_high"), recorded_only=True)),
+    _statistic("within_1pct", Board(
+        "≤1% of J*", "share of the policy's episodes (of scenarios with a record) whose total J is within 1 %, 5 % or 10 % of J* (gap ≤ 0.01, 0.05, 0.10)",
+        section="comparison", aggregate="statistic", recorded_only=True)),
+    _statistic("within_5pct", Board(
+        "≤5% of J*", "share of the policy's episodes (of scenarios with a record) whose total J is within 1 %, 5 % or 10 % of J* (gap ≤ 0.01, 0.05, 0.10)",
+        section="comparison", aggregate="statistic", recorded_only=True)),
+    _statistic("within_10pct", Board(
+        "≤10% of J*", "share of the policy's episodes (of scenarios with a record) whose total J is within 1 %, 5 % or 10 % of J* (gap ≤ 0.01, 0.05, 0.10)",
+        section="comparison", aggregate="statistic", recorded_only=True)),
 )  # fmt: skip
 
 WINDOW_RUN: tuple[Column, ...] = (

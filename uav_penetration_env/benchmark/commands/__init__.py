@@ -1,7 +1,7 @@
 """The ``uav-bench`` commands: one module per command, each exposing a ``COMMAND``.
 
-A new built-in command is one module here with a ``COMMAND = Command(...)`` and its name in
-:data:`BUILTIN_COMMANDS`. A plug-in package adds commands, or flags of an existing command
+A new built-in command is one module here with a ``COMMAND = Command(...)`` and its module name
+in :data:`BUILTIN_COMMANDS`. A plug-in package adds commands, or flags of an existing command
 (:class:`~uav_penetration_env.benchmark.commands.common.CommandExtension`), through the
 entry-point group ``uav_penetration.commands``; :func:`available_commands` gathers both.
 """
@@ -25,13 +25,15 @@ BUILTIN_COMMANDS = (
     "calibrate",
     "scenario",
     "windows",
+    "best_known",
     "suite",
 )
 
 
 def builtin_commands() -> dict[str, Command]:
-    """The built-in commands, in :data:`BUILTIN_COMMANDS` order."""
-    return {name: importlib.import_module(f"{__name__}.{name}").COMMAND for name in BUILTIN_COMMANDS}
+    """The built-in commands by command name (``best-known`` lives in ``best_known.py``), in order."""
+    commands = [importlib.import_module(f"{__name__}.{module}").COMMAND for module in BUILTIN_COMMANDS]
+    return {command.name: command for command in commands}
 
 
 def available_commands() -> tuple[dict[str, Command], list[CommandExtension]]:

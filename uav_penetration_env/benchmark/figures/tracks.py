@@ -2,7 +2,9 @@
 
 The seed is the smallest one every planner finished, so the tracks are paired (same start, same
 jitter). Each track starts at its episode's stored step-0 row (the start state); the scenario's
-model is built from the stored YAML only to draw its terrain, radars, goal and coverage.
+model is built from the stored YAML only to draw its terrain, radars, goal and coverage. When the
+scenario has a best-known record (docs/best-known.md §4), its controls are replayed through the env and
+drawn as a dashed black track labelled with J*.
 """
 
 from __future__ import annotations
@@ -178,6 +180,30 @@ def coverage_at(model, altitude: float, start: np.ndarray | None):
     return coverage_grid(model, altitude, heading)
 
 
+BEST_KNOWN_STYLE = {"color": "black", "linestyle": (0, (4, 2)), "linewidth": 1.8, "zorder": 5}
+
+
+def best_known_track(inp: FigureInput) -> tuple[str, np.ndarray] | None:
+    """The legend label and (K + 1, 3) positions [km, km, m] of the scenario's best-known track.
+
+    ``None`` for a suite (no single scenario), a scenario without a record, or a record that no
+    longer replays (its scenario's content changed; ``uav-bench best-known verify`` says so).
+    """
+    if inp.model is None:
+        return None
+    from uav_penetration_env.benchmark.bestknown import RecordError, load_record, replay_record
+
+    try:
+        record = load_record(inp.group.scenario_hash)
+        if record is None:
+            return None
+        positions = replay_record(record).positions
+    except (RecordError, RuntimeError):
+        return None
+    track = positions / np.array([1000.0, 1000.0, 1.0])
+    return f"best known (J* = {record.total_cost:.4g})", track
+
+
 def _seed_inputs(inp: FigureInput):
     """The track seed, each policy's rows on it, and its start state."""
     seed = track_seed(inp.group.episodes, inp.steps)
@@ -258,6 +284,7 @@ def plot_tracks_top(inp: FigureInput):
     seed, tracks, start = _seed_inputs(inp)
     figure, panels = family_figure(list(tracks), 7.0, 6.2)
     model = inp.model
+    best = best_known_track(inp)
     title = f"{inp.group.name}: tracks, seed {seed}"
     coverage, altitude = None, None
     if model is None:
@@ -284,6 +311,8 @@ def plot_tracks_top(inp: FigureInput):
                 label=label,
                 zorder=4,
             )
+        if best is not None:
+            ax.plot(best[1][:, 0], best[1][:, 1], label=best[0], **BEST_KNOWN_STYLE)
         if not tracks:
             note_empty(ax, "no finished episode with stored steps")
         ax.set_aspect("equal")
@@ -309,6 +338,7 @@ def plot_tracks_3d(inp: FigureInput):
     seed, tracks, start = _seed_inputs(inp)
     figure, panels = family_figure(list(tracks), 7.5, 6.2)
     model = inp.model
+    best = best_known_track(inp)
     title = f"{inp.group.name}: tracks, seed {seed}"
     top = max((float(rows["z_m"].max()) for rows in tracks.values()), default=0.0)
     coverage, altitude = None, None
@@ -347,6 +377,8 @@ def plot_tracks_3d(inp: FigureInput):
         for label in members:
             x, y, z = _with_start(tracks[label], start)
             ax.plot(x, y, z, **inp.styles[label].line(), linewidth=1.6, label=label)
+        if best is not None:
+            ax.plot(best[1][:, 0], best[1][:, 1], best[1][:, 2], label=best[0], **BEST_KNOWN_STYLE)
         if not tracks:
             ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
         ax.set_zlim(0.0, max(top * 1.3, 1.0))

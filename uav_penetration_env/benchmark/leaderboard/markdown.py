@@ -37,6 +37,20 @@ def _success_cell(r: Any, reference: str | None) -> str:
     )
 
 
+def _percent_interval(value: Any, low: Any, high: Any) -> str:
+    """A relative gap (a fraction) as ``x% [lo, hi]``; blank without a value (no record)."""
+    scaled = [100.0 * float(v) if v is not None else math.nan for v in (value, low, high)]
+    text = format_interval(*scaled, 4)
+    return f"{text.split(' ')[0]}%{text[len(text.split(' ')[0]) :]}" if text else ""
+
+
+def _share(value: Any) -> str:
+    """A share as a whole percentage; blank without a value (no record)."""
+    if value is None or not math.isfinite(float(value)):
+        return ""
+    return f"{100 * float(value):.0f}%"
+
+
 # How each leaderboard statistic (columns.STATISTICS) prints: row of leaderboard_table -> cell.
 STATISTIC_CELLS: dict[str, Any] = {
     "policy": lambda r, reference: f"**{r.policy}**" if r.policy == reference else str(r.policy),
@@ -57,6 +71,11 @@ STATISTIC_CELLS: dict[str, Any] = {
     ),
     "median_difference": lambda r, reference: format_number(r.median_difference, 3),
     "pvalue_holm": lambda r, reference: format_pvalue(r.pvalue_holm),
+    "gap_mean": lambda r, reference: _percent_interval(r.gap_mean, r.gap_mean_ci_low, r.gap_mean_ci_high),
+    "gap_iqm": lambda r, reference: _percent_interval(r.gap_iqm, r.gap_iqm_ci_low, r.gap_iqm_ci_high),
+    "within_1pct": lambda r, reference: _share(r.within_1pct),
+    "within_5pct": lambda r, reference: _share(r.within_5pct),
+    "within_10pct": lambda r, reference: _share(r.within_10pct),
 }
 
 

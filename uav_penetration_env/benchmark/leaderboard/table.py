@@ -12,6 +12,7 @@ label)``, so a policy's intervals do not depend on which other policies are in t
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,18 @@ from uav_penetration_env.benchmark.leaderboard.groups import cost_table, prepare
 
 ALPHA = 0.05  # significance level of the pairwise tests (after Holm's correction)
 CONFIDENCE = 0.95
+GAP_THRESHOLDS = {"within_1pct": 0.01, "within_5pct": 0.05, "within_10pct": 0.10}
+GAP_COLUMNS = (
+    "gap_mean",
+    "gap_mean_ci_low",
+    "gap_mean_ci_high",
+    "gap_iqm",
+    "gap_iqm_ci_low",
+    "gap_iqm_ci_high",
+    *GAP_THRESHOLDS,
+)
+
+BestKnownLookup = Callable[[str], "float | None"]
 
 # Derived from the column table, kept for readers of the old constant: CSV column -> (episode column, header).
 MEAN_COLUMNS: dict[str, tuple[str, str]] = {
@@ -37,7 +50,12 @@ def _label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
 
 
 def leaderboard_table(
-    episodes: pd.DataFrame, *, reference: str = "ihpso", seed: int = 0, n_resamples: int = 10_000
+    episodes: pd.DataFrame,
+    *,
+    reference: str = "ihpso",
+    seed: int = 0,
+    n_resamples: int = 10_000,
+    best_known: BestKnownLookup | None = None,
 ) -> pd.DataFrame:
     """One row per policy of ONE scenario group, full precision, sorted by Friedman rank then mean cost.
 
@@ -47,6 +65,10 @@ def leaderboard_table(
         reference: the policy the Wilcoxon tests and paired differences compare against.
         seed: seed of every bootstrap (each policy and statistic derives its own stream from it).
         n_resamples: bootstrap resamples.
+        best_known: scenario hash -> best-known total J* or ``None`` (default: the committed
+            records, :func:`~uav_penetration_env.benchmark.bestknown.best_known_total`). Each
+            episode is compared with the record of its own scenario (``episode_scenario_hash`` in
+            a suite group).
 
     Returns:
         A DataFrame with columns ``policy``, ``policy_hash``, ``episodes``, ``errors``, outcome
@@ -54,7 +76,9 @@ def leaderboard_table(
         ``total_cost_iqm`` with their intervals, the aggregates of the column table's "means"
         section, ``friedman_rank``, the comparison with the reference (``delta_mean`` with its
         interval, ``median_difference``, ``n_pairs``, ``wilcoxon_statistic``, ``pvalue``,
-        ``pvalue_holm``) and the aggregates of its "training" section. ``attrs`` carries the Friedman result, the
+        ``pvalue_holm``), the gaps to the best-known total (``gap_mean``, ``gap_iqm`` with their
+        intervals, ``within_1pct``, ``within_5pct``, ``within_10pct``; left out when no episode's
+        scenario has a record) and the aggregates of its "training" section. ``attrs`` carries the Friedman result, the
         resolved reference, the seeds and ``n_resamples``.
 
     Raises:
@@ -67,6 +91,7 @@ def leaderboard_table(
             "(costs of different scenarios are not comparable; use scenario_groups)"
         )
     labels = sorted(frame["label"].unique())
+    frame["gap"] = relative_gaps(frame, best_known)
     costs = cost_table(frame)
     friedman = stats.friedman_ranks(costs)
     ref = resolve_reference(labels, frame, reference)
@@ -115,6 +140,7 @@ def leaderboard_table(
         row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
         row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
         row.update(_versus_reference(costs, label, ref, tests, seed, n_resamples))
+        row.update(_gaps(valid["gap"].to_numpy(dtype=np.float64), label, seed, n_resamples))
         row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
         rows.append(row)
     table = pd.DataFrame(rows)
@@ -124,6 +150,8 @@ def leaderboard_table(
         for column in aggregated_columns(section)
         if column.board.recorded_only and column.out in table and table[column.out].isna().all()
     ]
+    if table.empty or not frame["gap"].notna().any():
+        unrecorded += [name for name in GAP_COLUMNS if name in table]  # no record: the table of before
     table = table.drop(columns=unrecorded)  # columns.Board.recorded_only: an older store's table is unchanged
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
@@ -136,6 +164,60 @@ def leaderboard_table(
     # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
     table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
     return table
+
+
+def relative_gaps(frame: pd.DataFrame, best_known: BestKnownLookup | None = None) -> pd.Series:
+    """Each episode's relative gap (J - J*) / J* to the best-known total of its own scenario.
+
+    Args:
+        frame: episode rows; ``episode_scenario_hash`` (a suite group) or ``scenario_hash`` names
+            each row's scenario.
+        best_known: scenario hash -> J* or ``None`` (default: the committed records).
+
+    Returns:
+        (rows,) float gaps; NaN where the scenario has no record or the episode has no cost.
+
+    DECISION (docs/best-known.md §4): the gap is relative to J* (not to the
+    policy's cost) so that it reads as "x % above the best known", as in COCO's targets and
+    Shehadeh & Kudela's relative error; J* > 0 always holds for this cost (every term >= 0 and
+    a flight of one step costs > 0), and a record with J* <= 0 gives no gap.
+    """
+    if best_known is None:
+        from uav_penetration_env.benchmark.bestknown import best_known_total
+
+        best_known = best_known_total
+    hashes = frame["episode_scenario_hash"] if "episode_scenario_hash" in frame else frame["scenario_hash"]
+    lookup = {h: best_known(h) for h in sorted(set(hashes.astype(str)))}
+    reference = np.array(
+        [np.nan if lookup[h] is None or not lookup[h] > 0 else lookup[h] for h in hashes.astype(str)],
+        dtype=np.float64,
+    )
+    cost = pd.to_numeric(frame["total_cost"], errors="coerce").to_numpy(dtype=np.float64)
+    return pd.Series((cost - reference) / reference, index=frame.index, dtype=np.float64)
+
+
+def _gaps(gaps: np.ndarray, label: str, seed: int, n_resamples: int) -> dict[str, float]:
+    """A policy's gap statistics over its finished episodes that have a record (NaN when none)."""
+    gaps = gaps[np.isfinite(gaps)]
+    if not gaps.size:
+        return dict.fromkeys(GAP_COLUMNS, np.nan)
+    mean_low, mean_high = stats.bootstrap_ci(
+        gaps, np.mean, seed=_label_seed(seed, label, 3), n_resamples=n_resamples
+    )
+    iqm_low, iqm_high = stats.bootstrap_ci(
+        gaps, stats.iqm, seed=_label_seed(seed, label, 4), n_resamples=n_resamples
+    )
+    row = {
+        "gap_mean": float(gaps.mean()),
+        "gap_mean_ci_low": mean_low,
+        "gap_mean_ci_high": mean_high,
+        "gap_iqm": float(stats.iqm(gaps)),
+        "gap_iqm_ci_low": iqm_low,
+        "gap_iqm_ci_high": iqm_high,
+    }
+    # A small tolerance so that an episode equal to the record up to rounding counts as within 1 %.
+    row.update({name: float(np.mean(gaps <= limit + 1e-12)) for name, limit in GAP_THRESHOLDS.items()})
+    return row
 
 
 def aggregate(column: Column, valid: pd.DataFrame) -> float:
