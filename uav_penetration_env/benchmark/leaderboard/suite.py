@@ -356,7 +356,12 @@ def members_markdown(suite: Suite, frame: pd.DataFrame, stacked: pd.DataFrame, c
     matrices = [("total_cost_mean", "Mean total J (incl. penalty); the lowest of each member in bold")]
     gap = gap_column(list(stacked.columns))
     if gap is not None:  # the column table's gap to the best-known solution (issue 14)
-        matrices.append((gap, f"`{gap}`: gap to the best-known solution"))
+        matrices.append(
+            (
+                gap,
+                "Gap (J − J*)/J* of the mean total J to the best-known total J* (docs/best-known.md), in %; blank without a record",
+            )
+        )
     parts = [
         f"# Leaderboard: {suite.name} per member",
         "",
@@ -371,7 +376,11 @@ def members_markdown(suite: Suite, frame: pd.DataFrame, stacked: pd.DataFrame, c
         for member, values in matrix.iterrows():
             cells = []
             for value in values:
-                text = format_number(value)
+                text = (
+                    format_number(value)
+                    if column == "total_cost_mean" or not math.isfinite(value)
+                    else f"{100 * value:.1f}%"
+                )
                 bold = best is not None and math.isfinite(value) and value == best[member]
                 cells.append(f"**{text}**" if bold else text)
             rows.append([str(member), *cells])
