@@ -131,3 +131,11 @@ def test_mechanism_share_row_reads_the_traces():
     )  # median of 20 and 40, quartiles
     assert row["eq. 33 tests/run"] == "1.00" and row["evals used"] == "81%"
     assert module.quartiles([]) == "-"
+
+
+def test_bench_suite_quick_run_reports_every_figure(capsys):
+    results = load("bench_suite").main(["--quick"])
+    out = capsys.readouterr().out
+    assert "suite uavpen-v1, 3 members" in out and "run --suite --policies greedy --seeds 1" in out
+    assert set(results) == {"verify_warm_s", "verify_cold_s", "run_greedy_s"}
+    assert all(value > 0 for value in results.values())

@@ -385,6 +385,7 @@ STATISTICS: tuple[Column, ...] = (
     _statistic("policy", Board("policy", None, section="outcomes", aggregate="statistic", csv=("policy", "policy_hash")),
                "the policy's name, or name@hash8 when one name has several configurations (the reference in bold)"),
     _statistic("episodes", Board("episodes", "episodes that finished (any outcome except a harness error); all statistics use only these", section="outcomes", aggregate="statistic")),
+    _statistic("members", Board("members", "frozen-suite tables only (docs/suite.md §5): members with a finished episode of the policy; its means cover these", section="outcomes", aggregate="statistic", recorded_only=True)),
     _statistic("errors", Board("errors", "episodes whose planner raised (stored with `error`; excluded from every statistic)", section="outcomes", aggregate="statistic")),
     _statistic("success_rate", Board("success [95% CI]", "share of episodes that reached the goal, with the Wilson 95 % interval", name="success", section="outcomes", aggregate="statistic",
                                           csv=("successes", "success_rate", "success_rate_ci_low", "success_rate_ci_high"))),

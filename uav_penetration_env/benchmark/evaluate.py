@@ -20,7 +20,7 @@ import importlib
 import json
 import time
 import traceback
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -256,6 +256,8 @@ def evaluate(
     progress: bool = True,
     command: str | None = None,
     stop_after: int | None = None,
+    include: Callable[[str, Any, Scenario, int], bool] | None = None,
+    run_settings: Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Score every policy on every scenario and seed; one row per episode (api.md).
 
@@ -273,6 +275,9 @@ def evaluate(
         command: the command line recorded in the run's provenance.
         stop_after: testing hook: raise ``KeyboardInterrupt`` after this many episodes were stored,
             as a user's Ctrl-C would.
+        include: ``(policy name, policy, scenario, seed) -> bool``: fly only the episodes it accepts
+            (default: every policy x scenario x seed); a suite's seed rule (docs/suite.md §4).
+        run_settings: extra entries of the run's settings record (e.g. ``{"suite": "uavpen-v1"}``).
 
     Returns:
         One row per requested episode (stored ones included when a store is given).
@@ -296,6 +301,8 @@ def evaluate(
     for scenario in scenario_list:
         for seed in seed_list:
             for name, policy in policies.items():
+                if include is not None and not include(name, policy, scenario, seed):
+                    continue
                 extra = {
                     k: getattr(policy, k)
                     for k in ("horizon", "max_evals")
@@ -323,6 +330,7 @@ def evaluate(
                     "seeds": seed_list,
                     "n_jobs": n_jobs,
                     "backend": backend,
+                    **dict(run_settings or {}),
                 },
             )
         for scenario in {s.hash: s for s in scenario_list}.values():

@@ -14,7 +14,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.optimize import Bounds
@@ -70,6 +70,7 @@ class GreedyPolicy:
     would reach it in one step, limited by the pitch bounds.
     """
 
+    deterministic: ClassVar[bool] = True  # is_deterministic: its actions are a function of the state
     clearance_m: float = 100.0
     lookahead_steps: int = 2
     model: PenetrationModel | None = field(default=None, repr=False)
@@ -86,6 +87,21 @@ class GreedyPolicy:
         return greedy_action(
             self.model, np.asarray(info["state"], dtype=np.float64), self.clearance_m, self.lookahead_steps
         )
+
+
+def is_deterministic(policy: Any) -> bool:
+    """Whether a policy's actions are a function of the observed state alone (no random draws).
+
+    A policy says so with a ``deterministic = True`` attribute (the greedy floor) or a
+    ``"deterministic": True`` entry of its ``config()`` (the SB3 agents, which act with
+    ``predict(deterministic=True)``); anything else counts as stochastic. On a scenario without
+    start jitter or terrain redraws, every seed of a deterministic policy replicates one episode,
+    so the suite runs give it one seed (docs/suite.md §4).
+    """
+    if getattr(policy, "deterministic", False) is True:
+        return True
+    config = policy.config() if callable(getattr(policy, "config", None)) else {}
+    return isinstance(config, Mapping) and config.get("deterministic") is True
 
 
 def greedy_action(

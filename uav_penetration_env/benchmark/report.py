@@ -327,6 +327,51 @@ def _fixed_target(context: ReportContext) -> str:
     return "".join(parts)
 
 
+@register_section("suite", "Frozen suite")
+def _frozen_suite(context: ReportContext) -> str:
+    """Each frozen suite the store's runs were made for: mean total J per member group (docs/suite.md §5)."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_number
+    from uav_penetration_env.benchmark.leaderboard.suite import (
+        group_overview,
+        recorded_suites,
+        suite_episodes,
+    )
+    from uav_penetration_env.suites import SuiteError, load_suite
+
+    parts = []
+    for name in recorded_suites(context.runs):
+        try:
+            suite = load_suite(name)
+        except SuiteError:
+            continue
+        frame = suite_episodes(context.store.episodes(), suite)
+        if frame.empty:
+            continue
+        overview = group_overview(frame, suite)
+        shown = pd.DataFrame(
+            {"policy": overview.index, "members": overview["members"].astype(int)}
+            | {column: [format_number(v) for v in overview[column]] for column in overview.columns[1:]}
+        )
+        links = [
+            f'<a href="{html.escape(os.path.relpath(path.with_suffix(".md"), context.out_dir))}">{html.escape(path.stem)}</a>'
+            for path in context.tables
+            if path.stem == suite.name or path.stem.startswith(f"{suite.name}-")
+        ]
+        parts.append(
+            f"<h3>{html.escape(suite.name)}</h3><p>{len(set(frame['member']))} of {len(suite.members)} members "
+            "have episodes. Mean total J (incl. penalty) per member group, each member weighing the same (a "
+            "policy's episodes on a member are averaged first); lower is better. Full statistics: "
+            f"{', '.join(links) or 'uav-bench leaderboard'}.</p>{_html_table(shown)}"
+        )
+    if not parts:
+        # Always present, so a reader of any report learns the suite exists (and the page layout is fixed).
+        return (
+            "<p>No run of this store was a frozen-suite run (<code>uav-bench run --suite uavpen-v1</code>; "
+            "<code>uav-bench suite list</code>; docs/suite.md).</p>"
+        )
+    return "".join(parts)
+
+
 @register_section("tracks-3d", "Tracks over the terrain (3-D, interactive)")
 def _tracks_3d(context: ReportContext) -> str | None:
     episodes = context.episodes[~context.episodes["is_error"]]

@@ -150,8 +150,10 @@ def print_summary(
         if path.suffix != ".csv":
             continue
         frame = pd.read_csv(path)
-        if frame.empty or "policy" not in frame:
-            continue  # the RL table (<stem>-rl.csv) is no policy leaderboard: listed, not summarised
+        if frame.empty or "policy" not in frame or "member" in frame:
+            # the RL table (<stem>-rl.csv) and a table stacking several members' leaderboards
+            # (leaderboard.suite) are listed, not summarised
+            continue
         console.print(summary_table(frame, f"{path.stem} (lower total J is better)", reference))
     # Paths are printed whole, never wrapped, so they can be copied (a long path may pass the width).
     lines = [f"full table: {path}" for path in tables]

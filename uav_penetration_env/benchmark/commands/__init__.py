@@ -26,6 +26,7 @@ BUILTIN_COMMANDS = (
     "scenario",
     "windows",
     "best_known",
+    "suite",
 )
 
 

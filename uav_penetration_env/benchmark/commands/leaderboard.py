@@ -53,6 +53,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         store = existing_store(args.store if args.store is not None else DEFAULT_STORE)
 
+    from uav_penetration_env.suites import suite_names
+
+    if args.suite in suite_names():
+        # A pooled table under a frozen suite's name would contradict the suite's own tables.
+        raise CLIError(
+            f"--suite {args.suite}: names a frozen suite, whose member-weighted tables are written without "
+            "--suite when the store holds a `run --suite` (docs/suite.md §5); give the pooled table another name"
+        )
+
     check_writable_folder(Path(args.out), "--out")
     written = write_leaderboards(
         store, Path(args.out), reference=args.reference, command=command_line(args), suite=args.suite

@@ -57,10 +57,14 @@ RUN_DEFAULTS: dict[str, Any] = {
     "terminal_cost": MPC_DEFAULTS.terminal_cost,
     "difficulty": 0.5,
     "import": [],
+    "suite": None,
+    "members": [],
     "report": True,
     "progress": True,
 }
-LIST_SETTINGS = ("policies", "scenarios", "import")
+LIST_SETTINGS = ("policies", "scenarios", "import", "members")
+# Settings that would change a frozen suite's members (their hashes): refused with --suite.
+SUITE_CONFLICTS = ("scenarios", "profile", "weights", "difficulty")
 CONFIG_KEYS = [key for key in RUN_DEFAULTS if key not in ("report", "progress")]
 
 
@@ -106,6 +110,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
     parser.add_argument(
+        "--suite",
+        help="run every member of a frozen suite (uavpen-v1; `uav-bench suite list`), each checked against "
+        "its fingerprint; seeds per member by the suite rule unless --seeds (docs/suite.md)",
+    )
+    parser.add_argument(
+        "--members",
+        nargs="+",
+        help="with --suite: only the members matching these shell patterns (uavpen-v1/d0.25/*)",
+    )
+    parser.add_argument(
         "--import", dest="import", action="append", help="a plug-in module to import (repeatable)"
     )
     parser.add_argument(
@@ -149,15 +163,23 @@ def load_config(path: str | None) -> dict[str, Any]:
 
 
 def run_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """Flags override the config file, which overrides :data:`RUN_DEFAULTS`."""
+    """Flags override the config file, which overrides :data:`RUN_DEFAULTS`.
+
+    ``settings["explicit"]`` holds the keys set by a flag or the config file (a suite run needs
+    to know whether ``--seeds`` was given).
+    """
     settings = dict(RUN_DEFAULTS)
-    settings.update(load_config(args.config))
+    config = load_config(args.config)
+    settings.update(config)
+    explicit = set(config)
     for key in RUN_DEFAULTS:
         value = getattr(args, key, None)
         if value is not None and value != []:
             settings[key] = value
+            explicit.add(key)
     for key in LIST_SETTINGS:
         settings[key] = split_list(settings[key])
+    settings["explicit"] = explicit
     return settings
 
 
@@ -194,7 +216,7 @@ def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
         if not ok:
             raise CLIError(f"{flag}: got {value!r}, expected {expected}")
         checked[key] = converted
-    for key in ("backend", "store", "out", "seeds", "profile", "scheduler"):
+    for key in ("backend", "store", "out", "seeds", "profile", "scheduler", "suite"):
         value = settings[key]
         if value is not None and not isinstance(value, (str, int, float)):
             raise CLIError(f"--{key}: got {value!r}, expected a single value")
@@ -230,6 +252,54 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     return policies
 
 
+def suite_plan(settings: dict[str, Any], policies: dict[str, Any]) -> tuple[list[Any], list[int], Any]:
+    """The members of ``--suite`` (each verified against its fingerprint), the seeds and the seed rule.
+
+    Without ``--seeds`` each (policy, member) flies :func:`~uav_penetration_env.suites.default_seeds`
+    (5 seeds for a stochastic policy on a fixed member, else 1); an explicit ``--seeds`` applies to
+    every member and policy.
+
+    Returns:
+        The scenarios, the union of the seeds, and the ``include`` rule for :func:`evaluate`.
+
+    Raises:
+        CLIError: a flag that would change the members, an unknown suite or member pattern, or a
+            member whose fingerprint differs (naming the member, the field and both values).
+    """
+    from uav_penetration_env.benchmark.policies import is_deterministic
+    from uav_penetration_env.benchmark.progress import ProgressBar
+    from uav_penetration_env.suites import SuiteError, build_member, default_seeds, load_suite
+
+    for key in SUITE_CONFLICTS:
+        if key in settings["explicit"]:
+            raise CLIError(
+                f"--{key}: not with --suite (a frozen suite's members are fixed; use --members to select some)"
+            )
+    try:
+        suite = load_suite(settings["suite"])
+        members = suite.select(settings["members"])
+        scenarios = []
+        with ProgressBar(
+            len(members), f"verify {suite.name}", unit="member", enabled=bool(settings["progress"])
+        ) as bar:
+            for member in members:
+                scenarios.append(build_member(suite, member))
+                bar.update(1)
+    except SuiteError as error:
+        raise CLIError(f"--suite: {error}") from None
+    if "seeds" in settings["explicit"]:
+        return scenarios, parse_seeds(settings["seeds"]), lambda name, policy, scenario, seed: True
+    member_of = {member.fingerprint.scenario_hash: member for member in members}
+    deterministic = {name: is_deterministic(policy) for name, policy in policies.items()}
+
+    def include(name: str, policy: Any, scenario: Any, seed: int) -> bool:
+        return seed in default_seeds(member_of[scenario.hash], scenario, deterministic[name])
+
+    from uav_penetration_env.suites import FIXED_MEMBER_SEEDS
+
+    return scenarios, list(range(FIXED_MEMBER_SEEDS)), include
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
@@ -244,12 +314,20 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
     seeds = parse_seeds(settings["seeds"])
     policies = make_policies(settings)
-    scenarios = resolve_scenarios(
-        settings["scenarios"],
-        settings["profile"],
-        parse_weights(settings["weights"]),
-        float(settings["difficulty"]),
-    )
+    include = None
+    suite_settings: dict[str, Any] = {}
+    if settings["suite"] is not None:
+        scenarios, seeds, include = suite_plan(settings, policies)
+        suite_settings = {"suite": settings["suite"], "members": settings["members"]}
+    else:
+        if settings["members"]:
+            raise CLIError("--members: only with --suite (it selects suite members)")
+        scenarios = resolve_scenarios(
+            settings["scenarios"],
+            settings["profile"],
+            parse_weights(settings["weights"]),
+            float(settings["difficulty"]),
+        )
     if not scenarios:
         raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
     store_path = Path(settings["store"])
@@ -266,10 +344,27 @@ def run(args: argparse.Namespace) -> int:
     except StoreError as error:
         raise store_error(error) from None
     jobs = settings["jobs"]
-    episodes = len(policies) * len(scenarios) * len(seeds)
-    print(
-        f"uav-bench run: {len(policies)} policies x {len(scenarios)} scenarios x {len(seeds)} seeds = {episodes} episodes -> {store_path}"
-    )
+    if include is None:
+        episodes = len(policies) * len(scenarios) * len(seeds)
+        print(
+            f"uav-bench run: {len(policies)} policies x {len(scenarios)} scenarios x {len(seeds)} seeds = {episodes} episodes -> {store_path}"
+        )
+    else:
+        episodes = sum(
+            include(name, policy, scenario, seed)
+            for name, policy in policies.items()
+            for scenario in scenarios
+            for seed in seeds
+        )
+        rule = (
+            "--seeds " + str(settings["seeds"])
+            if "seeds" in settings["explicit"]
+            else "the suite's seed rule"
+        )
+        print(
+            f"uav-bench run: suite {settings['suite']}: {len(policies)} policies x {len(scenarios)} members "
+            f"({rule}) = {episodes} episodes -> {store_path}"
+        )
     command = command_line(args)
     try:
         frame = evaluate(
@@ -283,6 +378,8 @@ def run(args: argparse.Namespace) -> int:
             imports=tuple(settings["import"]),
             progress=bool(settings["progress"]),
             command=command,
+            include=include,
+            run_settings=suite_settings,
         )
     except KeyboardInterrupt:
         done = len(store.done_keys())
@@ -302,7 +399,9 @@ def run(args: argparse.Namespace) -> int:
             f"first error ({first['policy']}, seed {first['seed']}): {first['error'].splitlines()[0]}",
             file=sys.stderr,
         )
-    if settings["report"]:
+    if settings["report"] and settings["suite"] is not None:
+        suite_report(store_path, out, command, settings["suite"])
+    elif settings["report"]:
         report(store_path, out, command)
     return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
 
@@ -314,6 +413,28 @@ def report(store: Path, out: Path, command: str) -> None:
     written = write_results(store, out, command=command, formats=("png", "pdf"))
     print()
     print_written(written, out)
+
+
+def suite_report(store: Path, out: Path, command: str, suite: str) -> None:
+    """After ``run --suite``: write the leaderboards and summarise the suite's own tables.
+
+    DECISION (docs/suite.md §5): a suite run writes the tables only. The figures and the HTML page
+    draw every scenario's terrain (63 members: many minutes and a page of some 200 MB); ``uav-bench
+    report`` writes them when wanted.
+    """
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.benchmark.summary import print_summary
+    from uav_penetration_env.suites import load_suite
+
+    name = load_suite(suite).name
+    tables = write_leaderboards(store, out, command=command)
+    own = [path for path in tables if path.stem == name or path.stem.startswith(f"{name}-")]
+    print()
+    print_summary(own)
+    print(
+        f"per-scenario tables: {len(tables) - len(own)} files in {out}; figures and the HTML report: "
+        f"uav-bench report --store {store} --out {out}"
+    )
 
 
 COMMAND = Command(

@@ -52,6 +52,7 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
     provenance_lines,
     statistics_paragraph,
 )
+from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables, table_writers
 from uav_penetration_env.benchmark.leaderboard.rl import compute_points, rl_markdown, rl_table
 from uav_penetration_env.benchmark.leaderboard.table import (
     ALPHA,
@@ -62,6 +63,9 @@ from uav_penetration_env.benchmark.leaderboard.table import (
 )
 from uav_penetration_env.benchmark.rows import ResultTables, store_tables
 
+# Imported for its registration (@register_tables("suite")): the frozen suites' tables.
+from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # noqa: F401  # isort: skip
+
 __all__ = [
     "ALPHA",
     "CONFIDENCE",
@@ -69,6 +73,7 @@ __all__ = [
     "NUMERIC_EPISODE_COLUMNS",
     "STATISTIC_CELLS",
     "ScenarioGroup",
+    "TableContext",
     "aggregate",
     "cell",
     "compact_names",
@@ -86,6 +91,7 @@ __all__ = [
     "policy_labels",
     "prepare_episodes",
     "provenance_lines",
+    "register_tables",
     "resolve_reference",
     "rl_markdown",
     "rl_table",
@@ -93,6 +99,7 @@ __all__ = [
     "scenario_groups",
     "statistics_paragraph",
     "suite_group",
+    "table_writers",
     "write_leaderboards",
 ]
 
@@ -127,7 +134,9 @@ def write_leaderboards(
 
     Returns:
         The written paths, Markdown then CSV per group (then the RL CSV, when written), groups
-        sorted by (name, hash). The fixed-target tables of window runs are written by
+        sorted by (name, hash), then the files of the registered table writers (:mod:`.registry`;
+        a frozen suite's tables, :mod:`.suite`), unless ``suite``. The fixed-target tables of
+        window runs are written by
         :func:`~.fixedtarget.write_fixed_target`.
 
     Raises:
@@ -145,9 +154,8 @@ def write_leaderboards(
         tables = store_tables(store_path)
     episodes, runs = tables.episodes, tables.runs
     if command is None:
-        command = (
-            f"write_leaderboards({str(store_path) if not isinstance(store_path, ResultTables) else 'rows'!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"
-        )
+        source = "rows" if isinstance(store_path, ResultTables) else str(store_path)
+        command = f"write_leaderboards({source!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"
     date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
@@ -171,4 +179,11 @@ def write_leaderboards(
             with atomic_path(rl_csv) as temporary:
                 rl.to_csv(temporary, index=False, lineterminator="\n")
             written.append(rl_csv)
+    if suite is None and not episodes.empty:
+        # The registered tables (registry.register_tables), e.g. a frozen suite's (leaderboard.suite).
+        context = TableContext(
+            store_path, out_dir, episodes, runs, reference, seed, command, n_resamples, date
+        )
+        for writer in table_writers().values():
+            written += writer(context)
     return written

@@ -55,6 +55,7 @@ def _share(value: Any) -> str:
 STATISTIC_CELLS: dict[str, Any] = {
     "policy": lambda r, reference: f"**{r.policy}**" if r.policy == reference else str(r.policy),
     "episodes": lambda r, reference: f"{int(r.episodes)}",
+    "members": lambda r, reference: f"{int(r.members)}",  # frozen-suite tables only (leaderboard.suite)
     "errors": lambda r, reference: f"{int(r.errors)}",
     "success_rate": _success_cell,
     "outcome_counts": lambda r, reference: f"{int(r.collided)}/{int(r.out_of_area)}/{int(r.truncated)}",
