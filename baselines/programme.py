@@ -242,6 +242,102 @@ def run_programme(
     return 0
 
 
+STUDY_FILES = ("*.yaml", "*.trials.csv", "*.summary.md")  # beside each study's SQLite storage
+MODEL_SUFFIXES = (".zip", ".json", ".vecnormalize.pkl", ".evaluations.csv")
+
+
+def _copy_sqlite(source: Path, target: Path) -> None:
+    """A consistent copy of an SQLite file that may be written meanwhile (SQLite's online backup)."""
+    import sqlite3
+
+    from uav_penetration_env.atomic import atomic_path
+
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(target) as temporary:
+        src, dst = sqlite3.connect(source), sqlite3.connect(temporary)
+        try:
+            src.backup(dst)
+        finally:
+            dst.close()
+            src.close()
+
+
+def _copy_file(source: Path, target: Path) -> None:
+    from uav_penetration_env.atomic import atomic_path
+
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(target) as temporary:
+        shutil.copyfile(source, temporary)
+
+
+def snapshot(root: Path, destination: Path, *, replay_buffers: bool = False) -> list[Path]:
+    """Copy what resuming the programme needs from ``root`` to ``destination`` (to be committed).
+
+    Per study: its SQLite storage (a consistent online backup, so a running study may be
+    snapshotted), best YAML, trial table and summary; the trials' models are left out (evidence,
+    not needed to resume). Per model: a finished model's files; an unfinished one's last
+    checkpoint (``resume.json`` and the files it names); an unfinished SAC/TD3 run only with
+    ``replay_buffers`` (its buffer is tens of MB and it cannot resume without it, so without the
+    flag such a run starts over).
+
+    DECISION (docs/rl.md §3): the programme's state travels between sessions as committed files,
+    because a session can end at any time and only what is committed survives it.
+
+    Returns:
+        The files written.
+    """
+    root, destination = Path(root), Path(destination)
+    written: list[Path] = []
+    for study in sorted((root / "tune").glob("*/study.sqlite")):
+        relative = study.parent.relative_to(root)
+        _copy_sqlite(study, destination / relative / study.name)
+        written.append(destination / relative / study.name)
+        for pattern in STUDY_FILES:
+            for path in sorted(study.parent.glob(pattern)):
+                _copy_file(path, destination / relative / path.name)
+                written.append(destination / relative / path.name)
+    for model in sorted((root / "models").glob("*.zip")):
+        relative = model.parent.relative_to(root)
+        stem = model.name[: -len(".zip")]
+        for suffix in MODEL_SUFFIXES:
+            path = model.parent / f"{stem}{suffix}"
+            if path.is_file():
+                _copy_file(path, destination / relative / path.name)
+                written.append(destination / relative / path.name)
+    for state in sorted((root / "models").glob("*.checkpoints/resume.json")):
+        data = json.loads(state.read_text())
+        if data.get("finished") or (data.get("replay_buffer") and not replay_buffers):
+            continue  # an off-policy checkpoint without its buffer cannot resume: the run starts over
+        names = [state.name, data["model"]]
+        model_stem = data["model"][: -len(".zip")]
+        names += [f"{model_stem}{suffix}" for suffix in MODEL_SUFFIXES[1:]]
+        if replay_buffers and data.get("replay_buffer"):
+            names.append(data["replay_buffer"])
+        relative = state.parent.relative_to(root)
+        for name in names:
+            path = state.parent / name
+            if path.is_file():
+                _copy_file(path, destination / relative / name)
+                written.append(destination / relative / name)
+    return written
+
+
+def restore(source: Path, root: Path) -> list[Path]:
+    """Copy a :func:`snapshot` back under ``root``, never over a file that is already there.
+
+    Returns:
+        The files copied.
+    """
+    source, root = Path(source), Path(root)
+    copied = []
+    for path in sorted(p for p in source.rglob("*") if p.is_file()):
+        target = root / path.relative_to(source)
+        if not target.exists():
+            _copy_file(path, target)
+            copied.append(target)
+    return copied
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m baselines.programme``: run (or continue) the programme."""
     parser = argparse.ArgumentParser(
@@ -257,7 +353,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=int,
         help=f"steps of each SAC/TD3 run (default: ~{OFF_POLICY_CPU_MINUTES:g} CPU-minutes from the study)",
     )
+    parser.add_argument(
+        "--snapshot",
+        metavar="DEST",
+        help="copy the studies and models (no replay buffers) to DEST, to commit them; run nothing",
+    )
+    parser.add_argument(
+        "--restore", metavar="SRC", help="copy a snapshot back under --root (missing files only); run nothing"
+    )
     args = parser.parse_args(argv)
+    if args.snapshot or args.restore:
+        copied = (
+            snapshot(Path(args.root), Path(args.snapshot))
+            if args.snapshot
+            else restore(Path(args.restore), Path(args.root))
+        )
+        print(f"{len(copied)} files copied to {args.snapshot or args.root}")
+        return 0
     try:
         return run_programme(
             Path(args.root), only=args.only, dry_run=args.dry_run, off_policy_steps=args.off_policy_steps

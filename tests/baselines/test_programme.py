@@ -137,3 +137,58 @@ def test_main_dry_run(tmp_path, capsys):
         f"--out {tmp_path}/tune/td3-paper"
     ]
     assert not any(tmp_path.iterdir())
+
+
+def test_snapshot_keeps_what_resuming_needs_and_restore_never_overwrites(tmp_path):
+    import sqlite3
+
+    from baselines.programme import restore, snapshot
+
+    root, saved = tmp_path / "rl", tmp_path / "saved"
+    study = root / "tune" / "ppo-paper"
+    (study / "trials").mkdir(parents=True)
+    with sqlite3.connect(study / "study.sqlite") as db:
+        db.execute("CREATE TABLE trials (number INTEGER, value REAL)")
+        db.executemany("INSERT INTO trials VALUES (?, ?)", [(0, 21.5), (1, 19.25)])
+    for name in ("ppo-paper.yaml", "ppo-paper.trials.csv", "ppo-paper.summary.md", "trials/trial-0000.zip"):
+        (study / name).write_text(name)
+    models = root / "models"
+    (models / "ppo-paper-s1.checkpoints").mkdir(parents=True)
+    for suffix in (".zip", ".json", ".vecnormalize.pkl", ".evaluations.csv"):
+        (models / f"ppo-paper-s0{suffix}").write_text(suffix)  # a finished model
+    checkpoint = models / "ppo-paper-s1.checkpoints"
+    for name in ("s1-300steps.zip", "s1-300steps.json", "s1-300steps.vecnormalize.pkl", "s1-300steps.replay.npz",
+                 "s1-200steps.zip"):  # fmt: skip
+        (checkpoint / name).write_text(name)
+    (checkpoint / "resume.json").write_text(
+        json.dumps({"finished": False, "model": "s1-300steps.zip", "replay_buffer": "s1-300steps.replay.npz"})
+    )
+
+    written = {p.relative_to(saved).as_posix() for p in snapshot(root, saved)}
+    assert "tune/ppo-paper/study.sqlite" in written and "tune/ppo-paper/ppo-paper.yaml" in written
+    assert not any("trials/" in p for p in written)  # trial models are evidence, not resume state
+    assert {
+        f"models/ppo-paper-s0{s}" for s in (".zip", ".json", ".vecnormalize.pkl", ".evaluations.csv")
+    } <= written
+    # An off-policy checkpoint cannot resume without its replay buffer (tens of MB): left out.
+    assert not any("s1-" in p or "ppo-paper-s1.checkpoints" in p for p in written)
+    with_buffers = {
+        p.relative_to(tmp_path / "b").as_posix() for p in snapshot(root, tmp_path / "b", replay_buffers=True)
+    }
+    assert "models/ppo-paper-s1.checkpoints/resume.json" in with_buffers
+    assert "models/ppo-paper-s1.checkpoints/s1-300steps.replay.npz" in with_buffers
+    assert "models/ppo-paper-s1.checkpoints/s1-300steps.vecnormalize.pkl" in with_buffers
+    assert "models/ppo-paper-s1.checkpoints/s1-200steps.zip" not in with_buffers  # only the last checkpoint
+    with sqlite3.connect(saved / "tune" / "ppo-paper" / "study.sqlite") as db:
+        assert db.execute("SELECT number, value FROM trials ORDER BY number").fetchall() == [
+            (0, 21.5),
+            (1, 19.25),
+        ]
+
+    fresh = tmp_path / "fresh"
+    (fresh / "tune" / "ppo-paper").mkdir(parents=True)
+    (fresh / "tune" / "ppo-paper" / "ppo-paper.yaml").write_text("newer")
+    copied = {p.relative_to(fresh).as_posix() for p in restore(saved, fresh)}
+    assert copied == written - {"tune/ppo-paper/ppo-paper.yaml"}
+    assert (fresh / "tune" / "ppo-paper" / "ppo-paper.yaml").read_text() == "newer"
+    assert main(["--root", str(fresh), "--restore", str(saved)]) == 0  # nothing left to copy, still fine
