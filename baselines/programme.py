@@ -314,6 +314,11 @@ def snapshot(root: Path, destination: Path, *, replay_buffers: bool = False) -> 
         if replay_buffers and data.get("replay_buffer"):
             names.append(data["replay_buffer"])
         relative = state.parent.relative_to(root)
+        target_folder = destination / relative
+        if target_folder.is_dir():  # an older snapshot's checkpoint is superseded by this one
+            for stale in target_folder.iterdir():
+                if stale.is_file() and stale.name not in names:
+                    stale.unlink()
         for name in names:
             path = state.parent / name
             if path.is_file():

@@ -179,6 +179,14 @@ def test_snapshot_keeps_what_resuming_needs_and_restore_never_overwrites(tmp_pat
     assert "models/ppo-paper-s1.checkpoints/s1-300steps.replay.npz" in with_buffers
     assert "models/ppo-paper-s1.checkpoints/s1-300steps.vecnormalize.pkl" in with_buffers
     assert "models/ppo-paper-s1.checkpoints/s1-200steps.zip" not in with_buffers  # only the last checkpoint
+    # A later snapshot replaces the earlier checkpoint instead of piling checkpoints up.
+    (checkpoint / "s1-400steps.zip").write_text("s1-400steps.zip")
+    (checkpoint / "resume.json").write_text(
+        json.dumps({"finished": False, "model": "s1-400steps.zip", "replay_buffer": "s1-300steps.replay.npz"})
+    )
+    snapshot(root, tmp_path / "b", replay_buffers=True)
+    kept = sorted(p.name for p in (tmp_path / "b" / "models" / "ppo-paper-s1.checkpoints").iterdir())
+    assert kept == ["resume.json", "s1-300steps.replay.npz", "s1-400steps.zip"]
     with sqlite3.connect(saved / "tune" / "ppo-paper" / "study.sqlite") as db:
         assert db.execute("SELECT number, value FROM trials ORDER BY number").fetchall() == [
             (0, 21.5),
