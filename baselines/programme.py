@@ -137,6 +137,13 @@ def model_done(model: Path, timesteps: int) -> bool:
     return not data.get("interrupted") and int(data.get("timesteps_done", 0)) >= timesteps
 
 
+def step_names() -> list[str]:
+    """The name of every step of the programme, in order (they do not depend on its state)."""
+    return [f"tune/{a}-{r}" for a, r, _ in STUDIES] + [
+        f"train/{a}-{r}-s{seed}" for a, r, seeds, _ in RUNS for seed in seeds
+    ]
+
+
 def tuning_steps(root: Path) -> list[Step]:
     """The tuning studies, each done when its YAML records its trials."""
     steps = []
@@ -160,7 +167,7 @@ def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step
         ready = progress is not None and progress[0] >= trials_wanted[(algo, regime)]
         total = timesteps
         if total is None and ready:
-            total = off_policy_steps or off_policy_timesteps(progress[1])
+            total = off_policy_steps if off_policy_steps is not None else off_policy_timesteps(progress[1])
         for seed in seeds:
             name = f"train/{algo}-{regime}-s{seed}"
             model = root / "models" / f"{algo}-{regime}-s{seed}.zip"
@@ -358,15 +365,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=int,
         help=f"steps of each SAC/TD3 run (default: ~{OFF_POLICY_CPU_MINUTES:g} CPU-minutes from the study)",
     )
-    parser.add_argument(
+    carry = parser.add_mutually_exclusive_group()
+    carry.add_argument(
         "--snapshot",
         metavar="DEST",
         help="copy the studies and models (no replay buffers) to DEST, to commit them; run nothing",
     )
-    parser.add_argument(
+    carry.add_argument(
         "--restore", metavar="SRC", help="copy a snapshot back under --root (missing files only); run nothing"
     )
     args = parser.parse_args(argv)
+    if args.off_policy_steps is not None and args.off_policy_steps < 1:
+        parser.error(f"--off-policy-steps: got {args.off_policy_steps}, expected an integer >= 1")
+    if args.restore and not Path(args.restore).is_dir():
+        parser.error(f"--restore {args.restore}: not found; expected a folder written by --snapshot")
+    names = step_names()
+    unmatched = [p for p in args.only if not any(fnmatch.fnmatchcase(name, p) for name in names)]
+    if unmatched:
+        parser.error(f"--only {' '.join(unmatched)}: matches no step; expected patterns such as 'tune/ppo-*'")
     if args.snapshot or args.restore:
         copied = (
             snapshot(Path(args.root), Path(args.snapshot))

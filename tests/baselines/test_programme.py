@@ -200,3 +200,18 @@ def test_snapshot_keeps_what_resuming_needs_and_restore_never_overwrites(tmp_pat
     assert copied == written - {"tune/ppo-paper/ppo-paper.yaml"}
     assert (fresh / "tune" / "ppo-paper" / "ppo-paper.yaml").read_text() == "newer"
     assert main(["--root", str(fresh), "--restore", str(saved)]) == 0  # nothing left to copy, still fine
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["--only", "nomatch/*", "--dry-run"], "matches no step"),
+        (["--restore", "missing-folder"], "not found"),
+        (["--off-policy-steps", "0", "--dry-run"], "expected an integer >= 1"),
+        (["--snapshot", "a", "--restore", "b"], "not allowed with"),
+    ],
+)
+def test_bad_programme_flags_are_refused_in_one_line(tmp_path, capsys, argv, expected):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--root", str(tmp_path), *argv])
+    assert exit_info.value.code == 2 and expected in capsys.readouterr().err

@@ -93,3 +93,8 @@ def test_missing_rows_and_two_sources_are_refused_in_one_line(exported, tmp_path
     assert run_cli("leaderboard", "--rows", folder / "csv" / "published", "--store", store,
                    "--out", tmp_path / "o") == 2  # fmt: skip
     assert "not both" in capsys.readouterr().err
+    mixed = tmp_path / "mixed"
+    for fmt in ("parquet", "csv"):
+        assert run_cli("export", "--format", fmt, "--store", store, "--out", mixed / "x") == 0
+    with pytest.raises(RowsError, match=r"both x-episodes\.parquet and x-episodes\.csv exist"):
+        read_rows(mixed / "x")

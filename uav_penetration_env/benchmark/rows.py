@@ -100,16 +100,21 @@ def _read_csv(path: Path, table: str) -> pd.DataFrame:
 def read_rows(stem: str | Path) -> ResultTables:
     """The row tables exported under ``stem`` (``<stem>-episodes.parquet`` or ``.csv``, ...).
 
-    ``episodes`` and ``runs`` are required; ``window_runs`` is optional (empty when absent).
-    Parquet is preferred where both formats exist.
+    ``episodes`` and ``runs`` are required; ``window_runs`` is optional (empty when absent; an
+    export always writes it, so a stale one cannot join newer tables).
 
     Raises:
-        RowsError: no ``<stem>-episodes`` or ``<stem>-runs`` file in either format, or a file
-            that cannot be read as a table.
+        RowsError: no ``<stem>-episodes`` or ``<stem>-runs`` file in either format, a table in
+            both formats, or a file that cannot be read as a table.
     """
     frames: dict[str, pd.DataFrame] = {}
     for table in ROW_TABLES:
         found = [row_path(stem, table, ext) for ext in ROW_FORMATS if row_path(stem, table, ext).is_file()]
+        if len(found) > 1:  # two exports under one stem: which one is meant cannot be guessed
+            raise RowsError(
+                f"--rows {stem}: both {found[0].name} and {found[1].name} exist; expected one format per "
+                "stem (remove the older export or export to another stem)"
+            )
         if not found:
             if table == "window_runs":
                 frames[table] = pd.DataFrame()

@@ -52,8 +52,6 @@ def run(args: argparse.Namespace) -> int:
             "steps": store.steps(),
         }
     for name, frame in tables.items():
-        if name == "window_runs" and frame.empty:
-            continue  # a store without window runs (most): --rows treats the file as optional
         path = row_path(out, name, args.format)
         write_table(frame, path, args.format)
         print(path)
