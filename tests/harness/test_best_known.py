@@ -383,3 +383,10 @@ def test_track_figures_draw_the_best_known_track(tmp_path, store, monkeypatch):
     np.testing.assert_allclose(line.get_xdata(), replay.positions[:, 0] / 1000.0)
     assert len(line.get_xdata()) == record.steps + 1
     record_module._cached.cache_clear()
+
+
+def test_cli_verify_refuses_a_records_folder_that_does_not_exist(tmp_path, capsys):
+    missing = tmp_path / "no-such-records"
+    assert main(["best-known", "verify", "--records", str(missing)]) == 2
+    assert f"--records {missing}: not found" in capsys.readouterr().err
+    assert not missing.exists()  # a typo must not look like an empty, clean verification

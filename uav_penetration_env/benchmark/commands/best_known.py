@@ -236,8 +236,10 @@ def _update(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to compute, verify or update."""
+    if args.records is not None and args.action == "verify" and not Path(args.records).is_dir():
+        raise CLIError(f"--records {args.records}: not found; expected a folder of best-known records")
     if args.records is not None:
-        Path(args.records).mkdir(parents=True, exist_ok=True)
+        Path(args.records).mkdir(parents=True, exist_ok=True)  # compute and update write there
     if args.action == "compute":
         if not args.scenarios:
             raise CLIError("--scenarios: missing, expected the scenarios to compute records for (e.g. paper)")
