@@ -61,7 +61,7 @@ def test_the_summary_fits_100_columns_with_25_long_names(tmp_path, gap):
     assert max(len(line) for line in lines) <= MAX_WIDTH
     for name in POLICIES:  # long names fold inside their cell: their start is on one line
         assert name[:20] in text
-    assert ("gap to best" in text) == gap
+    assert ("gap to J*" in text) == gap
     assert "Δ vs ihpso (p)" in text and "reference" in text
     assert "p<0.001" in text  # the second row: p = 0.0001
     assert f"full table: {tmp_path / 'paper.csv'}" in text and f"report: {tmp_path / 'index.html'}" in text
@@ -70,7 +70,7 @@ def test_the_summary_fits_100_columns_with_25_long_names(tmp_path, gap):
 def test_summary_cells_say_what_the_csv_says():
     frame = leaderboard_frame(["ihpso", "greedy"], gap=True)
     header, rows = summary_rows(frame)
-    assert header == ["policy", "success", "total J [95% CI]", "IQM", "gap to best", "rank", "Δ vs ihpso (p)"]
+    assert header == ["policy", "success", "total J [95% CI]", "IQM", "gap to J*", "rank", "Δ vs ihpso (p)"]
     assert rows[0] == ["ihpso", "100%", "10 [9.43, 133]", "9.75", "0.0%", "1", "reference"]
     # greedy: mean 11.2345, CI [10.67, 134.7], delta 1.2345 at p = 0.0001 (set), gap 50 %
     assert rows[1] == ["greedy", "0%", "11.2 [10.7, 135]", "11", "50.0%", "2", "1.23 (p<0.001)"]

@@ -68,7 +68,7 @@ def summary_rows(frame: pd.DataFrame, reference: str | None = None) -> tuple[lis
     gap = gap_column(list(frame.columns))
     header = ["policy", "success", "total J [95% CI]", "IQM"]
     if gap is not None:
-        header.append("gap to best")
+        header.append("gap to J*")  # the best-known total, as the Markdown names it
     header += ["rank", f"Δ vs {reference} (p)" if reference else "Δ vs reference (p)"]
     rows = []
     for record in frame.to_dict("records"):
