@@ -109,32 +109,39 @@ def _progress(enabled: bool, total_seconds: float | None):
     return bar, report
 
 
-def _compute(args: argparse.Namespace, scenarios: list[tuple[str, Any]]) -> int:
+def _search(args: argparse.Namespace, spec: str, scenario: Any, store: Path | None) -> Any:
+    """One offline search of ``scenario`` under the flags' budget, with its progress bar."""
     from uav_penetration_env.benchmark.bestknown.compute import compute_record
     from uav_penetration_env.benchmark.bestknown.planner import SearchSettings
+
+    seconds, evals = _budget(args, spec)
+    settings = SearchSettings(seconds=seconds, max_evals=evals, seed=args.seed)
+    bar, report = _progress(args.progress, seconds)
+    try:
+        return compute_record(
+            scenario,
+            settings,
+            store=store,
+            track_seeds=args.track_seeds,
+            work=args.work,
+            folder=args.records,
+            progress=report,
+        )
+    finally:
+        bar.close()
+
+
+def _compute(args: argparse.Namespace, scenarios: list[tuple[str, Any]]) -> int:
     from uav_penetration_env.scenario import ScenarioError
 
     store = None if args.store is None else existing_store(args.store)
     for spec, scenario in scenarios:
-        seconds, evals = _budget(args, spec)
-        settings = SearchSettings(seconds=seconds, max_evals=evals, seed=args.seed)
-        bar, report = _progress(args.progress, seconds)
         try:
-            outcome = compute_record(
-                scenario,
-                settings,
-                store=store,
-                track_seeds=args.track_seeds,
-                work=args.work,
-                folder=args.records,
-                progress=report,
-            )
+            outcome = _search(args, spec, scenario, store)
         except ScenarioError as error:
             raise CLIError(f"--scenarios {spec}: {error}") from None
         except ValueError as error:
             raise CLIError(str(error)) from None
-        finally:
-            bar.close()
         print(outcome.message(scenario.name))
         record = outcome.record
         if record is not None and record.unseeded_total is not None:
@@ -190,8 +197,7 @@ def _verify(args: argparse.Namespace) -> int:
 
 
 def _update(args: argparse.Namespace) -> int:
-    from uav_penetration_env.benchmark.bestknown.compute import compute_record, update_from_store
-    from uav_penetration_env.benchmark.bestknown.planner import SearchSettings
+    from uav_penetration_env.benchmark.bestknown.compute import update_from_store
     from uav_penetration_env.benchmark.store import ResultsStore
     from uav_penetration_env.scenario import ScenarioError, load_scenario
 
@@ -213,21 +219,7 @@ def _update(args: argparse.Namespace) -> int:
             outcome = update_from_store(scenario, store, folder=args.records)
             print(outcome.message(scenario.name))
             if args.seconds is not None or args.evals is not None:
-                seconds, evals = _budget(args, spec)
-                settings = SearchSettings(seconds=seconds, max_evals=evals, seed=args.seed)
-                bar, report = _progress(args.progress, seconds)
-                try:
-                    outcome = compute_record(
-                        scenario,
-                        settings,
-                        store=store,
-                        track_seeds=args.track_seeds,
-                        work=args.work,
-                        folder=args.records,
-                        progress=report,
-                    )
-                finally:
-                    bar.close()
+                outcome = _search(args, spec, scenario, store)
                 print(outcome.message(scenario.name))
         except ScenarioError as error:
             print(f"{scenario.name}: skipped: {error}")
