@@ -54,6 +54,10 @@ RUNS = (
     ("td3", "paper", range(3), None),
 )
 OFF_POLICY_CPU_MINUTES = 20.0
+# Algorithms whose study is confirmed at the full budget (docs/rl.md §3.1): a PPO trial sees 150 000
+# of a run's 2 M steps (7.5 %), too little to see where a set ends; a SAC/TD3 trial sees about 40 %.
+CONFIRMED = ("ppo",)
+ZOO = "zoo"  # the label part of runs trained with the untuned set, baselines/hyperparams/ALGO.yaml
 EVAL_FREQ = {"ppo": 50_000, "sac": 20_000, "td3": 20_000}
 CHECKPOINT_FREQ = {"ppo": 100_000, "sac": 50_000, "td3": 50_000}
 # Learning-curve episodes (seeds 20000+): the paper start is fixed, so one deterministic episode
@@ -74,12 +78,14 @@ class Step:
         argv: the ``uav-bench`` arguments (``None``: cannot be built yet; ``why`` says why).
         done: whether the step's result is already there.
         why: what the state is (done, waiting for a study, ...).
+        skipped: a run of the set the full-budget confirmation did not choose (never runs).
     """
 
     name: str
     argv: list[str] | None
     done: bool
     why: str = ""
+    skipped: bool = False
 
 
 def study_dir(root: Path, algo: str, regime: str) -> Path:
@@ -139,9 +145,12 @@ def model_done(model: Path, timesteps: int) -> bool:
 
 def step_names() -> list[str]:
     """The name of every step of the programme, in order (they do not depend on its state)."""
-    return [f"tune/{a}-{r}" for a, r, _ in STUDIES] + [
-        f"train/{a}-{r}-s{seed}" for a, r, seeds, _ in RUNS for seed in seeds
-    ]
+    names = [f"tune/{a}-{r}" for a, r, _ in STUDIES]
+    for algo, regime, seeds, _ in RUNS:
+        names += [f"train/{algo}-{regime}-s{seed}" for seed in seeds]
+        if algo in CONFIRMED:
+            names += [f"train/{algo}-{regime}-{ZOO}-s{seed}" for seed in seeds]
+    return names
 
 
 def tuning_steps(root: Path) -> list[Step]:
@@ -157,8 +166,60 @@ def tuning_steps(root: Path) -> list[Step]:
     return steps
 
 
+def final_cost(model: Path) -> float:
+    """The final evaluation's mean cost (total J + failure penalty) recorded in a finished run's sidecar.
+
+    Raises:
+        ValueError: a sidecar without ``final_evaluation.mean_cost``.
+    """
+    sidecar = model.with_suffix(".json")
+    final = (json.loads(sidecar.read_text()).get("final_evaluation") or {}).get("mean_cost")
+    if final is None:
+        raise ValueError(f"{sidecar}: no final_evaluation.mean_cost; expected the sidecar of a finished run")
+    return float(final)
+
+
+def selection_file(root: Path, algo: str, regime: str) -> Path:
+    """Where the full-budget confirmation of ``algo`` on ``regime`` records its choice."""
+    return study_dir(root, algo, regime) / "selection.yaml"
+
+
+def confirm_selection(root: Path, algo: str, regime: str, timesteps: int) -> str | None:
+    """Which set trains the remaining seeds: ``"study"``, ``ZOO``, or ``None`` while a candidate runs.
+
+    DECISION (docs/rl.md §3.1): a short-budget study ranks settings by how fast they learn, not
+    where they end (on the paper scenario its best set plateaued at J ~ 20.6 and then collapsed,
+    where the untuned set kept improving to ~17). So seed 0 of both sets, the study's best and the
+    untuned zoo-derived set, trains the full budget, and the set with the lower final cost (ties:
+    the study's) trains seeds 1-4. Both seed-0 runs stay in the results under their own labels
+    (``ppo-R-s0``, ``ppo-R-zoo-s0``). The choice is written once to ``selection.yaml`` beside the
+    study, with both costs.
+    """
+    study_run = root / "models" / f"{algo}-{regime}-s0.zip"
+    zoo_run = root / "models" / f"{algo}-{regime}-{ZOO}-s0.zip"
+    if not (model_done(study_run, timesteps) and model_done(zoo_run, timesteps)):
+        return None
+    costs = {"study": final_cost(study_run), ZOO: final_cost(zoo_run)}
+    chosen = "study" if costs["study"] <= costs[ZOO] else ZOO
+    record = selection_file(root, algo, regime)
+    if not record.is_file():
+        from uav_penetration_env.atomic import write_text_atomic
+
+        body = {
+            "rule": "seed 0 of both sets trained the full budget; the lower final cost (total J + "
+            "failure penalty of the final evaluation) trains the remaining seeds; ties: the study's set",
+            "timesteps": timesteps,
+            "final_cost": {"study": costs["study"], ZOO: costs[ZOO]},
+            "runs": {"study": str(study_run), ZOO: str(zoo_run)},
+            "chosen": chosen,
+            "hyperparams": str(study_yaml(root, algo, regime)) if chosen == "study" else f"baselines/hyperparams/{algo}.yaml",
+        }
+        write_text_atomic(record, yaml.safe_dump(body, sort_keys=False))
+    return chosen
+
+
 def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step]:
-    """The training runs; a run whose study has not finished has no command yet."""
+    """The training runs; a run whose study (or, for PPO, whose confirmation) has not finished has no command yet."""
     trials_wanted = {(a, r): n for a, r, n in STUDIES}
     steps = []
     for algo, regime, seeds, timesteps in RUNS:
@@ -168,18 +229,33 @@ def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step
         total = timesteps
         if total is None and ready:
             total = off_policy_steps if off_policy_steps is not None else off_policy_timesteps(progress[1])
+        confirmed = algo in CONFIRMED and total is not None
+        chosen = confirm_selection(root, algo, regime, total) if confirmed else None
+        sets = [("", hyperparams, ready)] + ([(f"-{ZOO}", None, True)] if algo in CONFIRMED else [])
         for seed in seeds:
-            name = f"train/{algo}-{regime}-s{seed}"
-            model = root / "models" / f"{algo}-{regime}-s{seed}.zip"
-            if not ready or total is None:
-                steps.append(Step(name, None, False, f"waits for tune/{algo}-{regime}"))
-                continue
-            argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total),
-                    "--seed", str(seed), "--hyperparams", str(hyperparams), "--out", str(model),
-                    "--eval-freq", str(EVAL_FREQ[algo]), "--eval-episodes", str(EVAL_EPISODES[regime]),
-                    "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
-            done = model_done(model, total)
-            steps.append(Step(name, argv, done, f"{total} steps" + (", done" if done else "")))
+            for part, params, params_ready in sets:
+                label = f"{algo}-{regime}{part}-s{seed}"
+                name = f"train/{label}"
+                model = root / "models" / f"{label}.zip"
+                if not params_ready or total is None:
+                    steps.append(Step(name, None, False, f"waits for tune/{algo}-{regime}"))
+                    continue
+                if algo in CONFIRMED and seed != min(seeds):
+                    if chosen is None:
+                        steps.append(Step(name, None, False, f"waits for the confirmation (train/{algo}-{regime}-s0 "
+                                          f"and train/{algo}-{regime}-{ZOO}-s0)"))  # fmt: skip
+                        continue
+                    if (chosen == ZOO) != (part == f"-{ZOO}"):
+                        steps.append(Step(name, None, False, f"not chosen ({selection_file(root, algo, regime)})",
+                                          skipped=True))  # fmt: skip
+                        continue
+                argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total),
+                        "--seed", str(seed), *(["--hyperparams", str(params)] if params else []),
+                        "--out", str(model), "--eval-freq", str(EVAL_FREQ[algo]),
+                        "--eval-episodes", str(EVAL_EPISODES[regime]),
+                        "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
+                done = model_done(model, total)
+                steps.append(Step(name, argv, done, f"{total} steps" + (", done" if done else "")))
     return steps
 
 
@@ -231,21 +307,37 @@ def run_programme(
         return not only or any(fnmatch.fnmatchcase(step.name, pattern) for pattern in only)
 
     for phase in (lambda: tuning_steps(root), lambda: training_steps(root, off_policy_steps)):
-        for step in filter(selected, phase()):
-            command = "uav-bench " + shlex.join(step.argv) if step.argv else "-"
-            if step.done:
-                print(f"[done] {step.name} ({step.why})", flush=True)
-                continue
-            if step.argv is None:
-                print(f"[wait] {step.name}: {step.why}", flush=True)
-                continue
-            print(f"[{'plan' if dry_run else 'run'}] {step.name} ({step.why}): {command}", flush=True)
-            if dry_run:
-                continue
-            status = runner(step.argv)
-            if status != 0:
-                print(f"programme stopped at {step.name} (exit status {status}); run it again to continue")
-                return status
+        # The steps are listed again after every run: a finished run can make a waiting one ready
+        # (the PPO confirmation chooses the set of the remaining seeds).
+        reported: set[str] = set()
+        waiting: set[str] = set()
+        ran = True
+        while ran:
+            ran = False
+            for step in filter(selected, phase()):
+                if step.name in reported:
+                    continue
+                command = "uav-bench " + shlex.join(step.argv) if step.argv else "-"
+                if step.done or step.skipped:
+                    state = f"[done] {step.name} ({step.why})" if step.done else f"[skip] {step.name}: {step.why}"
+                    print(state, flush=True)
+                    reported.add(step.name)
+                    continue
+                if step.argv is None:
+                    if step.name not in waiting:
+                        print(f"[wait] {step.name}: {step.why}", flush=True)
+                        waiting.add(step.name)
+                    continue
+                print(f"[{'plan' if dry_run else 'run'}] {step.name} ({step.why}): {command}", flush=True)
+                reported.add(step.name)
+                if dry_run:
+                    continue
+                status = runner(step.argv)
+                if status != 0:
+                    print(f"programme stopped at {step.name} (exit status {status}); run it again to continue")
+                    return status
+                ran = True
+                break
     return 0
 
 

@@ -9,7 +9,6 @@ import pytest
 import yaml
 
 from baselines.programme import (
-    RUNS,
     STUDIES,
     main,
     off_policy_timesteps,
@@ -31,8 +30,9 @@ def finish_study(root, algo, regime, **changes):
 class FakeUavBench:
     """Records each command and leaves behind what the real one would (a study's YAML, a model's sidecar)."""
 
-    def __init__(self, root, fail_at=None):
+    def __init__(self, root, fail_at=None, zoo_cost=17.0, study_cost=20.0):
         self.root, self.fail_at, self.calls = root, fail_at, []
+        self.zoo_cost, self.study_cost = zoo_cost, study_cost
 
     def __call__(self, argv):
         self.calls.append(list(argv))
@@ -48,9 +48,15 @@ class FakeUavBench:
             model = self.root / "models" / flags["--out"].rpartition("/")[2]
             model.parent.mkdir(parents=True, exist_ok=True)
             model.write_bytes(b"zip")
-            sidecar = {"timesteps_done": int(flags["--timesteps"]), "interrupted": False}
+            cost = self.zoo_cost if "-zoo-" in model.name else self.study_cost
+            sidecar = {"timesteps_done": int(flags["--timesteps"]), "interrupted": False,
+                       "final_evaluation": {"mean_cost": cost}}  # fmt: skip
             model.with_suffix(".json").write_text(json.dumps(sidecar))
         return 0
+
+
+def run_names(calls):
+    return [c[c.index("--out") + 1].rpartition("/")[2][: -len(".zip")] for c in calls if c[0] == "train"]
 
 
 def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path, capsys):
@@ -58,17 +64,23 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     assert run_programme(tmp_path, runner=fake) == 0
     names = [f"{c[0]} {c[2]} {c[4]}" for c in fake.calls]
     assert names[:5] == [f"tune {a} {r}" for a, r, _ in STUDIES]
-    assert len(fake.calls) == 5 + sum(len(seeds) for _, _, seeds, _ in RUNS) == 5 + 5 + 5 + 3 + 3 + 3
+    # PPO per regime: seed 0 of both sets (the confirmation), then seeds 1-4 of the chosen (zoo) set
+    ppo_paper = ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-zoo-s{seed}" for seed in range(1, 5)]
+    assert run_names(fake.calls)[:6] == ppo_paper
+    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3
     printed = capsys.readouterr().out
     assert (
         "[run] tune/ppo-paper (0/30 trials): uav-bench tune --algo ppo --regime paper --trials 30" in printed
     )
 
-    ppo = fake.calls[5]
+    ppo, zoo = fake.calls[5], fake.calls[6]
     assert ppo[:4] == ["train", "--algo", "ppo", "--scenario"] and "--resume" in ppo
     flags = dict(zip(ppo[1::2], ppo[2::2], strict=False))
     assert flags["--timesteps"] == "2000000" and flags["--seed"] == "0"
     assert flags["--hyperparams"] == str(study_yaml(tmp_path, "ppo", "paper"))
+    assert "--hyperparams" not in zoo  # the untuned set, baselines/hyperparams/ppo.yaml
+    selection = yaml.safe_load((tmp_path / "tune" / "ppo-paper" / "selection.yaml").read_text())
+    assert selection["chosen"] == "zoo" and selection["final_cost"] == {"study": 20.0, "zoo": 17.0}
     sac_random = next(
         c for c in fake.calls if c[:3] == ["train", "--algo", "sac"] and "UAVPenetrationRandom-v0" in c
     )
@@ -77,17 +89,27 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     again = FakeUavBench(tmp_path)
     assert run_programme(tmp_path, runner=again) == 0
     assert again.calls == []
-    assert capsys.readouterr().out.count("[done]") == 5 + 19
+    printed = capsys.readouterr().out
+    assert printed.count("[done]") == 5 + 21 and printed.count("[skip]") == 8
+    assert "[skip] train/ppo-random-s4: not chosen" in printed
+
+
+def test_the_study_set_trains_the_remaining_seeds_when_it_wins_the_confirmation(tmp_path):
+    fake = FakeUavBench(tmp_path, zoo_cost=21.0, study_cost=16.0)
+    assert run_programme(tmp_path, runner=fake, only=["tune/ppo-paper", "train/ppo-paper-*"]) == 0
+    assert run_names(fake.calls) == ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-s{s}" for s in range(1, 5)]
+    trained = [c for c in fake.calls if c[0] == "train"]
+    assert [("--hyperparams" in c) for c in trained] == [True, False, True, True, True, True]
 
 
 def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
-    first = FakeUavBench(tmp_path, fail_at=7)  # interrupted in the second training run
+    first = FakeUavBench(tmp_path, fail_at=8)  # interrupted in the third training run (zoo seed 1)
     assert run_programme(tmp_path, runner=first) == 130
-    assert "programme stopped at train/ppo-paper-s1 (exit status 130)" in capsys.readouterr().out
+    assert "programme stopped at train/ppo-paper-zoo-s1 (exit status 130)" in capsys.readouterr().out
     rest = FakeUavBench(tmp_path)
     assert run_programme(tmp_path, runner=rest) == 0
-    assert rest.calls[0][rest.calls[0].index("--seed") + 1] == "1"  # the cut run first, nothing before it
-    assert len(rest.calls) == 19 - 1
+    assert run_names(rest.calls)[0] == "ppo-paper-zoo-s1"  # the cut run first, nothing before it
+    assert len(rest.calls) == 26 - 7
 
 
 def test_an_unfinished_study_runs_again_and_holds_back_its_training(tmp_path, capsys):
