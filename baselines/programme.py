@@ -212,7 +212,9 @@ def confirm_selection(root: Path, algo: str, regime: str, timesteps: int) -> str
             "final_cost": {"study": costs["study"], ZOO: costs[ZOO]},
             "runs": {"study": str(study_run), ZOO: str(zoo_run)},
             "chosen": chosen,
-            "hyperparams": str(study_yaml(root, algo, regime)) if chosen == "study" else f"baselines/hyperparams/{algo}.yaml",
+            "hyperparams": str(study_yaml(root, algo, regime))
+            if chosen == "study"
+            else f"baselines/hyperparams/{algo}.yaml",
         }
         write_text_atomic(record, yaml.safe_dump(body, sort_keys=False))
     return chosen
@@ -319,7 +321,9 @@ def run_programme(
                     continue
                 command = "uav-bench " + shlex.join(step.argv) if step.argv else "-"
                 if step.done or step.skipped:
-                    state = f"[done] {step.name} ({step.why})" if step.done else f"[skip] {step.name}: {step.why}"
+                    state = (
+                        f"[done] {step.name} ({step.why})" if step.done else f"[skip] {step.name}: {step.why}"
+                    )
                     print(state, flush=True)
                     reported.add(step.name)
                     continue
@@ -334,7 +338,9 @@ def run_programme(
                     continue
                 status = runner(step.argv)
                 if status != 0:
-                    print(f"programme stopped at {step.name} (exit status {status}); run it again to continue")
+                    print(
+                        f"programme stopped at {step.name} (exit status {status}); run it again to continue"
+                    )
                     return status
                 ran = True
                 break

@@ -729,6 +729,11 @@ register_optimizer("ihpso-noterm")(partial(IHPSO, terminate=False))
 register_optimizer("ihpso-noswitch")(partial(IHPSO, switch=False))
 register_optimizer("ihpso-noreverse")(partial(IHPSO, reverse_switch=False))
 register_optimizer("ihpso-literal")(partial(IHPSO, constriction=1.0, stage2_sign=-1))
+# The tolerance of "slope = 0" (eq. 29), varied around the default 1e-4 (D15) for the table of its
+# effect (optimizers.md §5.6); none of them was used to choose the default.
+SLOPE_RTOL_VARIANTS = {"ihpso-rtol1e-6": 1e-6, "ihpso-rtol1e-5": 1e-5, "ihpso-rtol1e-3": 1e-3, "ihpso-rtol1e-2": 1e-2}
+for _name, _rtol in SLOPE_RTOL_VARIANTS.items():
+    register_optimizer(_name)(partial(IHPSO, slope_rtol=_rtol))
 IHPSO_2022V0 = {"linkage": "average", "grouping_cut": "equal", "spread": "sum", "level": "mean", "slope_rtol": 1e-9}
 """The readings before issue 11 (optimizers.md §5.5): ``ihpso-2022v0`` reproduces the old ``ihpso`` exactly."""
 register_optimizer("ihpso-2022v0")(partial(IHPSO, **IHPSO_2022V0))

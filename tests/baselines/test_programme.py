@@ -97,7 +97,9 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
 def test_the_study_set_trains_the_remaining_seeds_when_it_wins_the_confirmation(tmp_path):
     fake = FakeUavBench(tmp_path, zoo_cost=21.0, study_cost=16.0)
     assert run_programme(tmp_path, runner=fake, only=["tune/ppo-paper", "train/ppo-paper-*"]) == 0
-    assert run_names(fake.calls) == ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-s{s}" for s in range(1, 5)]
+    assert run_names(fake.calls) == ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [
+        f"ppo-paper-s{s}" for s in range(1, 5)
+    ]
     trained = [c for c in fake.calls if c[0] == "train"]
     assert [("--hyperparams" in c) for c in trained] == [True, False, True, True, True, True]
 

@@ -31,7 +31,7 @@ SECTION_10 = {
     "ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "pso-ldw", "cem", "de", "cmaes",
     "cmaes-default", "ihpso-scheme1", "ihpso-scheme2", "ihpso-scheme3", "ihpso-random", "ihpso-noterm",
     "ihpso-literal", "hpso-literal", "ps2o-noext", "mcpso-com", "ihpso-noswitch", "ihpso-noreverse",
-    "ihpso-2022v0",
+    "ihpso-2022v0", "ihpso-rtol1e-6", "ihpso-rtol1e-5", "ihpso-rtol1e-3", "ihpso-rtol1e-2",
 }
 
 
@@ -61,6 +61,8 @@ def test_every_section_10_configuration_is_registered():
         ("ihpso-noreverse", IHPSO(reverse_switch=False)),
         ("ihpso-2022v0", IHPSO(linkage="average", grouping_cut="equal", spread="sum", level="mean",
                                slope_rtol=1e-9)),
+        ("ihpso-rtol1e-6", IHPSO(slope_rtol=1e-6)),
+        ("ihpso-rtol1e-2", IHPSO(slope_rtol=1e-2)),
         ("hpso-literal", HPSO(constriction=1.0, stage2_sign=-1)),
         ("ps2o-noext", PS2O(extinction_patience=None)),
         ("mcpso", MCPSO(version="col")),

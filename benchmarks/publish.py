@@ -1,0 +1,318 @@
+"""Regenerate the published leaderboard v2 (issue 16): every command, resumable, with its compute.
+
+```bash
+python benchmarks/publish.py --dry-run              # every command and whether it is done
+nice -n 10 python benchmarks/publish.py             # run what is not done (results under results/v2)
+python benchmarks/publish.py --compute              # wall and CPU time per part, all attempts summed
+python benchmarks/publish.py --install              # copy results/v2/out into leaderboards/
+```
+
+The parts, in order (each a list of ``uav-bench`` commands, printed exactly as run; README
+"The published leaderboard" lists them):
+
+1. ``paper``: the paper scenario in both weightings, 20 paired seeds, 10 000 evaluations per
+   planning step: the six paper planners, the references, the IHPSO ablations and the floors;
+2. ``windows``: IHPSO, HPSO and IHPSO's variants rerun on MPC window states of the greedy episode
+   (the fixed-target and fixed-budget study of issue 11, with the tolerance variants);
+3. ``suite``: the frozen suite ``uavpen-v1`` (its own seed rule) for the paper planners, ``cmaes``
+   and the floors;
+4. ``agents``: every finished agent of the RL programme (``leaderboards/rl/models``) on the paper
+   scenario, the Random-regime agents on the suite, and the agent-warm-started IHPSO; it waits
+   until the programme (``python -m baselines.programme``) has finished;
+5. ``best-known``: best-known records updated from the store (tracked files change: commit them);
+6. ``tables``: leaderboards, figures and the HTML report from the store into ``results/v2/out``,
+   the episode, run, window-run and step rows exported as Parquet, and the tables rebuilt from the
+   rows alone, which must equal the store's byte for byte apart from the date line.
+
+DECISION (provenance): a command runs only on a clean working tree (tracked files as committed),
+so every run's provenance names a clean commit; between the ``best-known`` and ``tables`` parts
+the updated records must be committed. One store holds everything (``results/v2/leaderboard.sqlite``):
+the suite's paper members reuse the paper part's episodes (same policy, scenario and seed), and one
+report covers every table.
+
+DECISION (compute): each attempt of a command appends a line to ``results/v2/compute.jsonl``
+(part, command, wall seconds, CPU seconds of its process tree, exit status, commit); a command is
+done when one attempt exited 0. ``uav-bench run`` and ``windows`` skip what the store holds, so a
+cut attempt resumes; its CPU time still counts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import resource
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+ROOT = Path("results/v2")
+STORE = ROOT / "leaderboard.sqlite"
+OUT = ROOT / "out"
+ROWS = OUT / "rows" / "leaderboard"
+CHECK = ROOT / "from-rows"
+MODELS = Path("leaderboards/rl/models")
+RL_ROOT = Path("results/rl")
+
+PAPER_PLANNERS = ["ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism"]
+REFERENCES = ["pso", "cem", "de", "cmaes"]
+IHPSO_VARIANTS = ["ihpso-noswitch", "ihpso-noreverse", "ihpso-noterm", "ihpso-random", "ihpso-scheme1",
+                  "ihpso-scheme2", "ihpso-scheme3", "ihpso-2022v0", "ihpso-eq37"]  # fmt: skip
+FLOORS = ["greedy", "random"]
+WINDOW_OPTIMIZERS = ["ihpso", "hpso", "ihpso-noswitch", "ihpso-noreverse", "ihpso-noterm", "ihpso-2022v0",
+                     "ihpso-rtol1e-6", "ihpso-rtol1e-5", "ihpso-rtol1e-3", "ihpso-rtol1e-2"]  # fmt: skip
+# Every third step of the greedy episode of the paper scenario (47 steps): 15 window states.
+WINDOW_STEPS = ",".join(str(step) for step in range(2, 47, 3))
+COMMON = ["--store", str(STORE), "--no-report", "--no-progress"]
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the regeneration: its commands, or why it cannot run yet."""
+
+    name: str
+    commands: list[list[str]]
+    waits: str = ""
+
+
+def agent_models(models: Path = MODELS) -> list[Path]:
+    """The finished agents committed by the RL programme, in name order (checkpoints left out)."""
+    finished = []
+    for model in sorted(Path(models).glob("*.zip")):
+        sidecar = model.with_suffix(".json")
+        if sidecar.is_file() and not json.loads(sidecar.read_text()).get("interrupted"):
+            finished.append(model)
+    return finished
+
+
+def programme_unfinished(root: Path = RL_ROOT) -> list[str]:
+    """Steps of the RL programme not done yet (``[]``: finished), read from its results folder."""
+    from baselines.programme import training_steps, tuning_steps
+
+    steps = tuning_steps(root) + training_steps(root)
+    return [step.name for step in steps if not (step.done or step.skipped)]
+
+
+def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] = programme_unfinished) -> list[Part]:
+    """The regeneration's parts, in order, with their commands."""
+    paper = Part("paper", [["run", "--scenarios", "paper", "paper-w2", "--policies", *PAPER_PLANNERS, *REFERENCES,
+                            *IHPSO_VARIANTS, *FLOORS, "--seeds", "20", "--max-evals", "10000", *COMMON]])  # fmt: skip
+    windows = Part("windows", [["windows", "--store", str(STORE), "--from-policy", "greedy", "--scenario", "paper",
+                                "--steps", WINDOW_STEPS, "--optimizers", *WINDOW_OPTIMIZERS, "--seeds", "20"]])  # fmt: skip
+    suite = Part(
+        "suite", [["run", "--suite", "uavpen-v1", "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS, *COMMON]]
+    )
+    waiting = unfinished()
+    agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
+    if waiting:
+        agent_part = Part(
+            "agents", [], f"the RL programme has {len(waiting)} unfinished steps ({waiting[0]}, ...)"
+        )
+    else:
+        random_agents = [a for a in agents if "-random-" in a]
+        paper_ppo = [a for a in agents if "/ppo-paper-" in a and "-zoo-" in a] or [
+            a for a in agents if "/ppo-paper-" in a
+        ]
+        hybrids = [f"ihpso+{agent}" for agent in paper_ppo]
+        commands = [
+            ["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON]
+        ]
+        if random_agents:
+            commands.append(["run", "--suite", "uavpen-v1", "--policies", *random_agents, *COMMON])
+        commands.append(["run", "--scenarios", "paper", "--policies", *hybrids, "--seeds", "20", "--max-evals",
+                         "10000", *COMMON])  # fmt: skip
+        agent_part = Part("agents", commands)
+    best_known = Part("best-known", [["best-known", "update", "--store", str(STORE), "--no-progress"]])
+    tables = Part("tables", [
+        ["leaderboard", "--store", str(STORE), "--out", str(OUT)],
+        ["plot", "--store", str(STORE), "--out", str(OUT)],
+        ["plot", "--models", str(models), "--out", str(OUT)],
+        ["report", "--store", str(STORE), "--out", str(OUT)],
+        ["export", "--format", "parquet", "--store", str(STORE), "--out", str(ROWS)],
+        ["leaderboard", "--rows", str(ROWS), "--out", str(CHECK)],
+    ])  # fmt: skip
+    return [paper, windows, suite, agent_part, best_known, tables]
+
+
+def command_key(argv: Sequence[str]) -> str:
+    return shlex.join(["uav-bench", *argv])
+
+
+def read_log(log: Path) -> list[dict]:
+    """The attempts recorded so far (an unreadable line is reported, not skipped silently)."""
+    if not log.is_file():
+        return []
+    attempts = []
+    for number, line in enumerate(log.read_text().splitlines(), 1):
+        try:
+            attempts.append(json.loads(line))
+        except json.JSONDecodeError as error:
+            raise SystemExit(
+                f"{log}:{number}: not a JSON line ({error}); expected one attempt per line"
+            ) from None
+    return attempts
+
+
+def done_commands(attempts: list[dict]) -> set[str]:
+    return {a["command"] for a in attempts if a.get("status") == 0}
+
+
+def dirty_files(repo: Path = REPO) -> list[str]:
+    """Tracked files that differ from the commit (untracked files do not count, as in provenance)."""
+    out = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=repo,
+                         capture_output=True, text=True, check=True).stdout  # fmt: skip
+    return [line[3:] for line in out.splitlines() if line.strip()]
+
+
+def commit(repo: Path = REPO) -> str:
+    return subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=repo, capture_output=True, text=True, check=True
+    ).stdout.strip()
+
+
+def uav_bench() -> list[str]:
+    script = Path(sys.executable).with_name("uav-bench")
+    return [str(script)] if script.is_file() else [sys.executable, "-m", "uav_penetration_env.benchmark.cli"]
+
+
+def run_attempt(part: str, argv: list[str], log: Path) -> int:
+    """Run one command, append its attempt (wall and CPU seconds, status) to ``log``; its status."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
+    clock = time.perf_counter()
+    process = subprocess.Popen([*uav_bench(), *argv])
+    try:
+        status = process.wait()
+    except KeyboardInterrupt:
+        status = process.wait()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    attempt = {"part": part, "command": command_key(argv), "started": started,
+               "wall_s": round(time.perf_counter() - clock, 1), "cpu_s": round(cpu, 1), "status": status,
+               "commit": commit()}  # fmt: skip
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with log.open("a") as handle:  # one short line per attempt: an append is atomic enough here
+        handle.write(json.dumps(attempt) + "\n")
+    return status
+
+
+def date_free(text: str) -> str:
+    """A generated file without its date line (the one line allowed to differ between rebuilds)."""
+    return "\n".join(line for line in text.splitlines() if not line.startswith(("- Date:", "Date:")))
+
+
+def compare_rebuild(out: Path = OUT, check: Path = CHECK) -> list[str]:
+    """Tables rebuilt from rows that differ from the store's (apart from the date line); ``[]``: equal."""
+    rebuilt = sorted(p for p in check.iterdir() if p.suffix in (".md", ".csv"))
+    if not rebuilt:
+        return [f"{check}: no tables rebuilt from the rows"]
+    differing = []
+    for path in rebuilt:
+        original = out / path.name
+        if not original.is_file() or date_free(original.read_text()) != date_free(path.read_text()):
+            differing.append(path.name)
+    return differing
+
+
+def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
+    """Replace the generated files of ``leaderboards/`` by those of ``out`` (``rl/`` is left alone)."""
+    if not (out / "index.html").is_file():
+        raise SystemExit(f"{out}: no index.html; run the tables part first")
+    for stale in target.iterdir():
+        if stale.is_file() and stale.suffix in (".md", ".csv", ".png", ".pdf", ".html", ".parquet"):
+            stale.unlink()
+    for folder in ("models", "rows"):  # v1's agents and any older rows; rl/ (the programme's state) stays
+        if (target / folder).is_dir():
+            shutil.rmtree(target / folder)
+    copied = []
+    for path in sorted(p for p in out.rglob("*") if p.is_file()):
+        destination = target / path.relative_to(out)
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, destination)
+        copied.append(destination)
+    return copied
+
+
+def compute_table(attempts: list[dict]) -> str:
+    """Per part: attempts, wall and CPU time (all attempts, interrupted ones included)."""
+    lines = ["| part | attempts | wall [h] | CPU [h] |", "|---|---:|---:|---:|"]
+    order = [p.name for p in parts(unfinished=lambda: ["-"])]
+    total_wall = total_cpu = 0.0
+    for name in order:
+        rows = [a for a in attempts if a["part"] == name]
+        if not rows:
+            continue
+        wall, cpu = sum(a["wall_s"] for a in rows), sum(a["cpu_s"] for a in rows)
+        total_wall, total_cpu = total_wall + wall, total_cpu + cpu
+        lines.append(f"| {name} | {len(rows)} | {wall / 3600:.2f} | {cpu / 3600:.2f} |")
+    lines.append(f"| total | | {total_wall / 3600:.2f} | {total_cpu / 3600:.2f} |")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python benchmarks/publish.py", description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", default=(), metavar="PART", help="run only these parts")
+    parser.add_argument(
+        "--dry-run", action="store_true", help="print every command and its state; run nothing"
+    )
+    parser.add_argument("--compute", action="store_true", help="print the compute table; run nothing")
+    parser.add_argument("--install", action="store_true", help="copy results/v2/out into leaderboards/")
+    args = parser.parse_args(argv)
+    log = ROOT / "compute.jsonl"
+    attempts = read_log(log)
+    if args.compute:
+        print(compute_table(attempts))
+        return 0
+    if args.install:
+        print(f"{len(install())} files copied into leaderboards/")
+        return 0
+    plan = parts()
+    names = [p.name for p in plan]
+    unknown = [name for name in args.only if name not in names]
+    if unknown:
+        parser.error(f"--only {' '.join(unknown)}: unknown part; expected some of {', '.join(names)}")
+    done = done_commands(attempts)
+    for part in plan:
+        if args.only and part.name not in args.only:
+            continue
+        if part.waits:
+            print(f"[wait] {part.name}: {part.waits}", flush=True)
+            if not args.dry_run:
+                return 0  # later parts need this one
+            continue
+        for command in part.commands:
+            key = command_key(command)
+            if key in done:
+                print(f"[done] {part.name}: {key}", flush=True)
+                continue
+            print(f"[{'plan' if args.dry_run else 'run'}] {part.name}: {key}", flush=True)
+            if args.dry_run:
+                continue
+            dirty = dirty_files()
+            if dirty:
+                print(f"refused: tracked files differ from the commit ({', '.join(dirty[:5])}); commit them first, "
+                      "so the provenance names a clean commit", file=sys.stderr)  # fmt: skip
+                return 1
+            status = run_attempt(part.name, command, log)
+            if status != 0:
+                print(
+                    f"stopped at {part.name} (exit status {status}); run again to continue", file=sys.stderr
+                )
+                return status
+        if part.name == "tables" and not args.dry_run:
+            differing = compare_rebuild()
+            if differing:
+                print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
+                return 1
+            print("tables rebuilt from the rows equal the store's (apart from the date line)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
