@@ -99,8 +99,8 @@ def programme_unfinished(root: Path = RL_ROOT) -> list[str]:
     return [step.name for step in steps if not (step.done or step.skipped)]
 
 
-def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] = programme_unfinished) -> list[Part]:
-    """The regeneration's parts, in order, with their commands."""
+def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] | None = None) -> list[Part]:
+    """The regeneration's parts, in order, with their commands (``unfinished``: the RL programme's open steps)."""
     paper = Part("paper", [["run", "--scenarios", "paper", "paper-w2", "--policies", *PAPER_PLANNERS, *REFERENCES,
                             *IHPSO_VARIANTS, *FLOORS, "--seeds", "20", "--max-evals", "10000", *COMMON]])  # fmt: skip
     windows = Part("windows", [["windows", "--store", str(STORE), "--from-policy", "greedy", "--scenario", "paper",
@@ -108,7 +108,7 @@ def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] = programme
     suite = Part(
         "suite", [["run", "--suite", "uavpen-v1", "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS, *COMMON]]
     )
-    waiting = unfinished()
+    waiting = (unfinished or programme_unfinished)()
     agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
     if waiting:
         agent_part = Part(

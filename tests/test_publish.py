@@ -1,0 +1,107 @@
+"""The publication driver (benchmarks/publish.py): its commands, the clean-tree guard, the rebuild check."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.test_benchmark_scripts import load
+
+publish = load("publish")
+
+
+def fake_agent(folder, name, interrupted=False):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{name}.zip").write_bytes(b"zip")
+    (folder / f"{name}.json").write_text(json.dumps({"interrupted": interrupted}))
+
+
+def test_agents_wait_for_the_rl_programme(tmp_path):
+    plan = publish.parts(tmp_path, unfinished=lambda: ["train/sac-paper-s2"])
+    assert [p.name for p in plan] == ["paper", "windows", "suite", "agents", "best-known", "tables"]
+    agents = plan[3]
+    assert agents.commands == [] and "1 unfinished steps (train/sac-paper-s2" in agents.waits
+
+
+def test_agent_commands_cover_every_finished_agent(tmp_path):
+    for name in (
+        "ppo-paper-s0",
+        "ppo-paper-zoo-s0",
+        "ppo-paper-zoo-s1",
+        "ppo-random-zoo-s0",
+        "sac-random-s0",
+    ):
+        fake_agent(tmp_path, name)
+    fake_agent(tmp_path, "td3-paper-s0", interrupted=True)  # a run cut short is not published
+    paper, random_suite, hybrid = publish.parts(tmp_path, unfinished=list)[3].commands
+    agents = [f"sb3:{(tmp_path / n).as_posix()}.zip" for n in
+              ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "ppo-random-zoo-s0", "sac-random-s0")]  # fmt: skip
+    assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == agents
+    assert random_suite[:3] == ["run", "--suite", "uavpen-v1"] and random_suite[4:6] == agents[3:]
+    # the chosen (zoo) PPO paper agents warm-start IHPSO
+    assert hybrid[hybrid.index("--policies") + 1 : hybrid.index("--seeds")] == [
+        f"ihpso+{a}" for a in agents[1:3]
+    ]
+
+
+def test_every_command_parses_with_the_real_cli(tmp_path):
+    from uav_penetration_env.benchmark.cli import build_parser
+
+    fake_agent(tmp_path, "ppo-paper-zoo-s0")
+    parser = build_parser()
+    parser.exit_on_error = False
+    for part in publish.parts(tmp_path, unfinished=list):
+        for command in part.commands:
+            parser.parse_args(command)
+
+
+def test_the_rebuild_check_ignores_only_the_date_line(tmp_path):
+    out, check = tmp_path / "out", tmp_path / "check"
+    out.mkdir(), check.mkdir()
+    table = "# Leaderboard\n\n- Commits: `abc`\n- Date: {}\n\n| a |\n| 1 |\n"
+    (out / "paper.md").write_text(table.format("2026-11-29T19:00:00+00:00"))
+    (check / "paper.md").write_text(table.format("2026-11-30T08:00:00+00:00"))
+    (out / "paper.csv").write_text("a\n1\n")
+    (check / "paper.csv").write_text("a\n1\n")
+    assert publish.compare_rebuild(out, check) == []
+    (check / "paper.csv").write_text("a\n2\n")
+    assert publish.compare_rebuild(out, check) == ["paper.csv"]
+    (check / "suite.md").write_text("only rebuilt\n")
+    assert publish.compare_rebuild(out, check) == ["paper.csv", "suite.md"]
+
+
+def test_nothing_runs_on_a_dirty_tree(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(publish, "ROOT", tmp_path)
+    monkeypatch.setattr(publish, "dirty_files", lambda: ["optimizers/ihpso.py"])
+    monkeypatch.setattr(publish, "programme_unfinished", lambda: ["tune/ppo-random"])
+    ran = []
+    monkeypatch.setattr(publish, "run_attempt", lambda *args: ran.append(args) or 0)
+    assert publish.main(["--only", "paper"]) == 1
+    assert (
+        ran == []
+        and "refused: tracked files differ from the commit (optimizers/ihpso.py)" in capsys.readouterr().err
+    )
+
+
+def test_done_commands_are_skipped_and_compute_sums_every_attempt(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(publish, "ROOT", tmp_path)
+    monkeypatch.setattr(publish, "programme_unfinished", lambda: ["tune/ppo-random"])
+    paper = publish.command_key(publish.parts(unfinished=list)[0].commands[0])
+    attempts = [
+        {"part": "paper", "command": paper, "wall_s": 3600.0, "cpu_s": 5400.0, "status": 130},
+        {"part": "paper", "command": paper, "wall_s": 1800.0, "cpu_s": 3600.0, "status": 0},
+    ]
+    (tmp_path / "compute.jsonl").write_text("".join(json.dumps(a) + "\n" for a in attempts))
+    assert publish.main(["--dry-run", "--only", "paper"]) == 0
+    assert capsys.readouterr().out.startswith("[done] paper: uav-bench run --scenarios paper paper-w2")
+    assert publish.main(["--compute"]) == 0
+    table = capsys.readouterr().out
+    assert "| paper | 2 | 1.50 | 2.50 |" in table and "| total | | 1.50 | 2.50 |" in table
+
+
+def test_a_damaged_compute_log_is_named(tmp_path):
+    log = tmp_path / "compute.jsonl"
+    log.write_text('{"part": "paper"}\nnot json\n')
+    with pytest.raises(SystemExit, match=r"compute\.jsonl:2: not a JSON line"):
+        publish.read_log(log)
