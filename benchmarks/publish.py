@@ -20,9 +20,12 @@ The parts, in order (each a list of ``uav-bench`` commands, printed exactly as r
    scenario, the Random-regime agents on the suite, and the agent-warm-started IHPSO; it waits
    until the programme (``python -m baselines.programme``) has finished;
 5. ``best-known``: best-known records updated from the store (tracked files change: commit them);
-6. ``tables``: leaderboards, figures and the HTML report from the store into ``results/v2/out``,
-   the episode, run, window-run and step rows exported as Parquet, and the tables rebuilt from the
-   rows alone, which must equal the store's byte for byte apart from the date line.
+6. ``tables``: the learning curves, the figures (per-scenario figures and 3-D views only for
+   scenarios flown with at least 2 seeds: the suite's 60 procedural members, one seed each, are
+   summarised by the suite tables), the leaderboards and the HTML report from the store into
+   ``results/v2/out``, the episode, run, window-run and step rows exported as Parquet, and the
+   tables rebuilt from the rows alone, which must equal the store's byte for byte apart from the
+   date line.
 
 DECISION (provenance): a command runs only on a clean working tree (tracked files as committed),
 so every run's provenance names a clean commit; between the ``best-known`` and ``tables`` parts
@@ -129,14 +132,17 @@ def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] | None = No
                          "10000", *COMMON])  # fmt: skip
         agent_part = Part("agents", commands)
     best_known = Part("best-known", [["best-known", "update", "--store", str(STORE), "--no-progress"]])
-    tables = Part("tables", [
-        ["leaderboard", "--store", str(STORE), "--out", str(OUT)],
-        ["plot", "--store", str(STORE), "--out", str(OUT)],
-        ["plot", "--models", str(models), "--out", str(OUT)],
-        ["report", "--store", str(STORE), "--out", str(OUT)],
-        ["export", "--format", "parquet", "--store", str(STORE), "--out", str(ROWS)],
-        ["leaderboard", "--rows", str(ROWS), "--out", str(CHECK)],
-    ])  # fmt: skip
+    tables = Part(
+        "tables",
+        [
+            ["plot", "--models", str(models), "--out", str(OUT)],
+            ["plot", "--store", str(STORE), "--out", str(OUT), "--min-seeds", "2"],
+            ["report", "--store", str(STORE), "--out", str(OUT), "--min-seeds", "2",
+             "--figures", str(OUT / "learning-curves.png")],
+            ["export", "--format", "parquet", "--store", str(STORE), "--out", str(ROWS)],
+            ["leaderboard", "--rows", str(ROWS), "--out", str(CHECK)],
+        ],
+    )  # fmt: skip
     return [paper, windows, suite, agent_part, best_known, tables]
 
 

@@ -23,7 +23,6 @@ Both are tested with the two-sided Wilcoxon signed-rank test (:mod:`~uav_penetra
 from __future__ import annotations
 
 import datetime as dt
-
 import json
 import math
 from collections.abc import Sequence
@@ -455,6 +454,7 @@ def write_fixed_target(
     """
     from uav_penetration_env.atomic import atomic_path, write_text_atomic
     from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
+
     out_dir = Path(out_dir)
     tables = store_path if isinstance(store_path, ResultTables) else store_tables(store_path)
     rows, episodes = tables.window_runs, tables.episodes
@@ -469,7 +469,9 @@ def write_fixed_target(
     out_dir.mkdir(parents=True, exist_ok=True)
     date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     for stem, group in by_stem:
-        markdown, table = fixed_target_markdown(group, reference, str(group["scenario"].iloc[0]), command, date)
+        markdown, table = fixed_target_markdown(
+            group, reference, str(group["scenario"].iloc[0]), command, date
+        )
         path = write_text_atomic(out_dir / f"{stem}-fixed-target.md", markdown)
         csv = out_dir / f"{stem}-fixed-target.csv"
         with atomic_path(csv) as temporary:  # whole or not at all (api.md §4.7)

@@ -27,6 +27,7 @@ from uav_penetration_env.benchmark.store import ResultsStore
 
 SectionRenderer = Callable[["ReportContext"], "str | None"]
 
+MAX_3D_VIEWS = 6  # interactive 3-D views per page (each embeds a terrain surface)
 MAX_SURFACE_NODES = 120  # terrain surface nodes per axis in the 3-D view (keeps the page small)
 
 
@@ -75,6 +76,7 @@ class ReportContext:
     tables: Sequence[Path] = ()
     figures: Sequence[Path] = ()
     reference: str = "ihpso"
+    min_seeds: int = 1
     _store: ResultsStore | None = field(default=None, repr=False)
 
     @property
@@ -198,6 +200,7 @@ def write_report(
     tables: Sequence[str | Path] = (),
     figures: Sequence[str | Path] = (),
     reference: str = "ihpso",
+    min_seeds: int = 1,
 ) -> Path:
     """Write ``out_dir/index.html`` for a results store, atomically.
 
@@ -207,6 +210,8 @@ def write_report(
         tables: leaderboard CSV files to show (the Markdown twins are linked, not shown).
         figures: PNG figures to embed (other formats are ignored).
         reference: the optimiser the fixed-target section pairs the others with.
+        min_seeds: 3-D views only for scenarios flown with at least this many seeds (at most
+            ``MAX_3D_VIEWS`` of them, those with the most episodes first).
 
     Returns:
         The path of ``index.html``.
@@ -223,6 +228,7 @@ def write_report(
         tables=[Path(t) for t in tables if str(t).endswith(".csv")],
         figures=[Path(f) for f in figures if str(f).endswith(".png")],
         reference=reference,
+        min_seeds=min_seeds,
     )
     try:
         page = render_report(context)
@@ -377,8 +383,14 @@ def _tracks_3d(context: ReportContext) -> str | None:
     episodes = context.episodes[~context.episodes["is_error"]]
     if episodes.empty:
         return None
+    # DECISION (api.md §4.6): at most MAX_3D_VIEWS views, for the scenarios flown with at least
+    # min_seeds seeds, those with the most episodes first (each view embeds a terrain surface).
+    sizes = episodes.groupby("scenario_hash", sort=True).agg(seeds=("seed", "nunique"), n=("seed", "size"))
+    eligible = sizes[sizes["seeds"] >= context.min_seeds].sort_values("n", ascending=False, kind="stable")
+    shown = list(eligible.index[:MAX_3D_VIEWS])
     parts = []
-    for scenario_hash, group in episodes.groupby("scenario_hash", sort=True):
+    for scenario_hash in sorted(shown):
+        group = episodes[episodes["scenario_hash"] == scenario_hash]
         name, yaml_text = context.scenarios.get(scenario_hash, (str(group["scenario"].iloc[0]), ""))
         seed = int(group.groupby("seed")["policy"].nunique().idxmax())
         chosen = group[group["seed"] == seed]
@@ -388,6 +400,13 @@ def _tracks_3d(context: ReportContext) -> str | None:
         figure = tracks_figure(yaml_text, chosen, steps, title=f"{name}: seed {seed}")
         parts.append(
             figure.to_html(include_plotlyjs=False, full_html=False, div_id=f"tracks-{scenario_hash}")
+        )
+    left_out = len(sizes) - len(shown)
+    if parts and left_out:
+        parts.append(
+            f"<p>{len(shown)} of {len(sizes)} scenarios shown (at most {MAX_3D_VIEWS}, flown with at least "
+            f"{context.min_seeds} seeds, most episodes first); every track is exported by "
+            "<code>uav-bench export --tracks</code>.</p>"
         )
     return "".join(parts) or None
 

@@ -15,6 +15,7 @@ from uav_penetration_env.benchmark.commands.common import (
     add_store_argument,
     check_writable_folder,
     existing_store,
+    int_at_least,
 )
 
 
@@ -28,12 +29,23 @@ def add_altitude_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_min_seeds_argument(parser: argparse.ArgumentParser) -> None:
+    """``--min-seeds N``: per-scenario figures only for scenarios flown with N seeds or more (plot, report)."""
+    parser.add_argument(
+        "--min-seeds",
+        type=int_at_least(1),
+        default=1,
+        help="draw per-scenario figures only for scenarios flown with at least N seeds (default: 1, all)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench plot``."""
     add_store_argument(parser)
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument("--suite", help="aggregate figures over all the store's scenarios, named SUITE")
     add_altitude_argument(parser)
+    add_min_seeds_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,7 +54,9 @@ def run(args: argparse.Namespace) -> int:
     check_writable_folder(Path(args.out), "--out")
     from uav_penetration_env.benchmark.figures import write_figures
 
-    for path in write_figures(store, Path(args.out), suite=args.suite, altitude=args.altitude):
+    for path in write_figures(
+        store, Path(args.out), suite=args.suite, altitude=args.altitude, min_seeds=args.min_seeds
+    ):
         print(path)
     return 0
 

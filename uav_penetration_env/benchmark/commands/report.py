@@ -17,13 +17,14 @@ from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
+    CLIError,
     Command,
     add_store_argument,
     check_writable_folder,
     command_line,
     existing_store,
 )
-from uav_penetration_env.benchmark.commands.plot import add_altitude_argument
+from uav_penetration_env.benchmark.commands.plot import add_altitude_argument, add_min_seeds_argument
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,8 @@ def write_results(
     reference: str = "ihpso",
     formats: Sequence[str] = ("png",),
     altitude: float | None = None,
+    min_seeds: int = 1,
+    extra_figures: Sequence[Path] = (),
 ) -> Written:
     """Write the leaderboards, the figures and ``out/index.html`` of ``store``.
 
@@ -55,6 +58,9 @@ def write_results(
         formats: figure file types (the page embeds the PNGs).
         altitude: the radar-coverage altitude of the track figures [m] (default: the MPC
             planners' median).
+        min_seeds: per-scenario figures and 3-D views only for scenarios flown with at least this
+            many seeds (``write_figures``).
+        extra_figures: PNG files drawn elsewhere (e.g. learning curves, ``plot --models``) to embed too.
 
     Returns:
         The written paths.
@@ -67,8 +73,15 @@ def write_results(
     tables = write_leaderboards(store, out, reference=reference, command=command)
     # Window runs (uav-bench windows): the fixed-target pages beside the leaderboards (api.md §4.8).
     fixed_target = write_fixed_target(store, out, reference=reference, command=command)
-    figures = write_figures(store, out, formats=formats, altitude=altitude)
-    page = write_report(store, out, tables=tables, figures=figures, reference=reference)
+    figures = write_figures(store, out, formats=formats, altitude=altitude, min_seeds=min_seeds)
+    page = write_report(
+        store,
+        out,
+        tables=tables,
+        figures=[*figures, *extra_figures],
+        reference=reference,
+        min_seeds=min_seeds,
+    )
     return Written(tables=tables, figures=figures, report=page, fixed_target=fixed_target)
 
 
@@ -96,15 +109,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
     )
     add_altitude_argument(parser)
+    add_min_seeds_argument(parser)
+    parser.add_argument(
+        "--figures",
+        nargs="+",
+        default=(),
+        metavar="PNG",
+        help="more PNG figures to embed (e.g. the learning curves of `uav-bench plot --models`)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """Write the tables, figures and page; print the summary and where they are."""
     store = existing_store(args.store)
+    extra = [Path(f) for f in args.figures]
+    for path in extra:
+        if path.suffix != ".png" or not path.is_file():
+            raise CLIError(
+                f"--figures {path}: not a PNG file; expected figures such as those `uav-bench plot` writes"
+            )
     out = Path(args.out)
     check_writable_folder(out, "--out")
     written = write_results(
-        store, out, command=command_line(args), reference=args.reference, altitude=args.altitude
+        store,
+        out,
+        command=command_line(args),
+        reference=args.reference,
+        altitude=args.altitude,
+        min_seeds=args.min_seeds,
+        extra_figures=extra,
     )
     print_written(written, out)
     return 0

@@ -164,6 +164,7 @@ def write_figures(
     formats: Sequence[str] = ("png", "pdf"),
     suite: str | None = None,
     altitude: float | None = None,
+    min_seeds: int = 1,
 ) -> list[Path]:
     """Write every figure of every scenario group of a results store, in each of ``formats``.
 
@@ -178,6 +179,10 @@ def write_figures(
         suite: draw one group over all scenarios, named ``suite``.
         altitude: the altitude of the radar coverage in the track figures [m above datum]
             (default: the median altitude of the MPC planners' tracks, named in the title).
+        min_seeds: draw only the scenario groups flown with at least this many seeds (not with
+            ``suite``). DECISION (api.md §4.6): a suite's procedural members are flown at one seed
+            each; their figures (a box of one point, bands over one run) show nothing the suite
+            tables do not, and 60 of them would bury the rest, so the published report uses 2.
 
     Returns:
         The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
@@ -191,6 +196,8 @@ def write_figures(
     unknown = [f for f in formats if f not in ("png", "pdf", "svg")]
     if unknown:
         raise ValueError(f"formats: got {unknown}, expected png, pdf or svg")
+    if isinstance(min_seeds, bool) or not isinstance(min_seeds, int) or min_seeds < 1:
+        raise ValueError(f"min_seeds: got {min_seeds!r}, expected an integer >= 1")
     store_path, out_dir = Path(store_path), Path(out_dir)
     if not store_path.is_file():
         raise FileNotFoundError(
@@ -206,6 +213,7 @@ def write_figures(
             groups, names = [suite_group(episodes, suite)], [f for f in FIGURES if f not in SCENARIO_FIGURES]
         else:
             groups, names = scenario_groups(episodes), list(FIGURES)
+            groups = [g for g in groups if g.episodes["seed"].nunique() >= min_seeds]
         for group in groups:
             rows = store.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
             starts, steps = rows[rows["step"] == 0], rows[rows["step"] > 0]

@@ -1,0 +1,68 @@
+"""Which scenarios get per-scenario figures and 3-D views (``--min-seeds``, ``MAX_3D_VIEWS``), and
+extra figures embedded in the report (``--figures``): a full-suite store must give a readable page."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import tiny_scenario
+
+from uav_penetration_env.benchmark import cli, report
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    """Two scenarios: ``tiny`` flown with 3 seeds, ``tiny-b`` with 1 (as a suite's procedural member)."""
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.policies import make_policy
+
+    path = tmp_path_factory.mktemp("selection") / "run.sqlite"
+    many = tiny_scenario(time={"max_steps": 8})
+    one = tiny_scenario(name="tiny-b", time={"max_steps": 8}, goal={"x_km": 3.0})
+    evaluate({"greedy": make_policy("greedy")}, [many], range(3), store=path, progress=False)
+    evaluate({"greedy": make_policy("greedy")}, [one], range(1), store=path, progress=False)
+    return path
+
+
+def test_min_seeds_leaves_out_the_single_seed_scenario(store, tmp_path):
+    from uav_penetration_env.benchmark.figures import write_figures
+
+    everything = [p.name for p in write_figures(store, tmp_path / "all", formats=("png",))]
+    assert any(n.startswith("tiny-b-") for n in everything) and any(
+        n.startswith("tiny-t") for n in everything
+    )
+    selected = write_figures(store, tmp_path / "two", formats=("png",), min_seeds=2)
+    assert selected and not any(p.name.startswith("tiny-b-") for p in selected)
+    with pytest.raises(ValueError, match="min_seeds: got 0, expected an integer >= 1"):
+        write_figures(store, tmp_path / "zero", min_seeds=0)
+
+
+def test_the_page_caps_its_3d_views(store, tmp_path, monkeypatch):
+    page = report.write_report(store, tmp_path / "a").read_text()
+    assert page.count('class="plotly-graph-div"') == 2 and "scenarios shown" not in page
+    page = report.write_report(store, tmp_path / "b", min_seeds=2).read_text()
+    assert page.count('class="plotly-graph-div"') == 1
+    assert "1 of 2 scenarios shown (at most 6, flown with at least 2 seeds" in page
+    monkeypatch.setattr(report, "MAX_3D_VIEWS", 1)
+    page = report.write_report(store, tmp_path / "c").read_text()
+    assert page.count('class="plotly-graph-div"') == 1  # the scenario with the most episodes
+    assert "tiny: seed" in page and "tiny-b: seed" not in page
+
+
+def test_report_embeds_extra_figures_and_refuses_a_non_png(store, tmp_path, capsys):
+    figure = tmp_path / "learning-curves.png"
+    figure.write_bytes(b"\x89PNG\r\n\x1a\n")  # embedded as it is: the page does not decode it
+    (tmp_path / "x").write_bytes(b"")
+    out = tmp_path / "out"
+    assert (
+        cli.main(
+            ["report", "--store", str(store), "--out", str(out), "--min-seeds", "2", "--figures", str(figure)]
+        )
+        == 0
+    )
+    page = (out / "index.html").read_text()
+    assert "<figcaption>learning-curves.png</figcaption>" in page
+    assert not any(p.name.startswith("tiny-b-") for p in out.iterdir())
+    assert (
+        cli.main(["report", "--store", str(store), "--out", str(out), "--figures", str(tmp_path / "x")]) == 2
+    )
+    assert "--figures" in capsys.readouterr().err
