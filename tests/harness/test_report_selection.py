@@ -1,5 +1,6 @@
-"""Which scenarios get per-scenario figures and 3-D views (``--min-seeds``, ``MAX_3D_VIEWS``), and
-extra figures embedded in the report (``--figures``): a full-suite store must give a readable page."""
+"""Output commands on a store of several scenarios: which scenarios get figures and 3-D views
+(``--min-seeds``, ``MAX_3D_VIEWS``: a full-suite store must give a readable page), extra figures
+(``--figures``), an explicit ``--reference`` that must exist, ``export`` into a folder."""
 
 from __future__ import annotations
 
@@ -66,3 +67,29 @@ def test_report_embeds_extra_figures_and_refuses_a_non_png(store, tmp_path, caps
         cli.main(["report", "--store", str(store), "--out", str(out), "--figures", str(tmp_path / "x")]) == 2
     )
     assert "--figures" in capsys.readouterr().err
+
+
+def test_an_explicit_reference_must_be_stored_and_the_default_may_be_absent(store, tmp_path, capsys):
+    for command in ("leaderboard", "report"):
+        out = tmp_path / command
+        assert cli.main([command, "--store", str(store), "--out", str(out), "--reference", "grredy"]) == 2
+        assert (
+            "--reference grredy: no such policy in the results; did you mean 'greedy'?"
+            in capsys.readouterr().err
+        )
+    assert (
+        cli.main(["leaderboard", "--store", str(store), "--out", str(tmp_path / "default")]) == 0
+    )  # no ihpso
+
+
+def test_export_into_a_folder_names_the_files_after_the_store(store, tmp_path):
+    folder = tmp_path / "rows"
+    assert cli.main(["export", "--format", "csv", "--store", str(store), "--out", f"{folder}/"]) == 0
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "run-episodes.csv", "run-runs.csv", "run-steps.csv", "run-window_runs.csv"
+    ]  # fmt: skip
+
+
+def test_suite_list_refuses_a_name_it_would_ignore(capsys):
+    assert cli.main(["suite", "list", "uavpen-v1"]) == 2
+    assert "list takes no suite name; use `uav-bench suite show uavpen-v1`" in capsys.readouterr().err

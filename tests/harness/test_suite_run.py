@@ -9,6 +9,7 @@ import sqlite3
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import tiny_scenario
 
 from uav_penetration_env import catalogue
 from uav_penetration_env.benchmark import cli
@@ -260,3 +261,19 @@ def test_gap_columns_are_member_weighted(monkeypatch):
         "b", "within_10pct"
     ] == pytest.approx(0.5)
     assert table.loc["a", "within_1pct"] == pytest.approx(0.2)  # cost 1 and cost 2 (gap 0) on A
+
+
+def test_a_suite_that_cannot_be_loaded_is_named_not_silently_dropped(tmp_path):
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+    from uav_penetration_env.benchmark.policies import make_policy
+
+    store = tmp_path / "run.sqlite"
+    evaluate({"greedy": make_policy("greedy")}, [tiny_scenario(time={"max_steps": 5})], range(1), store=store,
+             progress=False)  # fmt: skip
+    missing = tmp_path / "moved-suite.yaml"
+    with sqlite3.connect(store) as connection:  # as a `run --suite FILE` whose file has since moved
+        connection.execute("UPDATE runs SET settings = ?", (json.dumps({"suite": str(missing)}),))
+    with pytest.warns(UserWarning, match=f"suite {missing} .*member-weighted tables are left out"):
+        written = write_leaderboards(store, tmp_path / "out", command="test")
+    assert [p.name for p in written] == ["tiny.md", "tiny.csv"]  # the other tables are still written

@@ -237,3 +237,19 @@ def check_writable_folder(path: Path, flag: str, value: str | Path | None = None
 def command_line(args: argparse.Namespace) -> str:
     """The command as typed (``uav-bench run --seeds 3``), for provenance in tables and files."""
     return " ".join(["uav-bench", *map(shlex.quote, getattr(args, "argv", []))])
+
+
+def check_reference(reference: str, policies: Sequence[str]) -> None:
+    """Refuse a ``--reference`` that names no stored policy (the tables would silently pick another).
+
+    Raises:
+        CLIError: ``policies`` is not empty and ``reference`` is not among them.
+    """
+    from uav_penetration_env.suggest import did_you_mean
+
+    known = sorted({str(p) for p in policies})
+    if known and reference not in known:
+        raise CLIError(
+            f"--reference {reference}: no such policy in the results; {did_you_mean(reference, known)}"
+            f"expected one of {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}"
+        )

@@ -26,7 +26,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench export``."""
     parser.add_argument("--format", choices=["csv", "parquet"], required=True)
     add_store_argument(parser)
-    parser.add_argument("--out", help="output stem (default: the store path without suffix)")
+    parser.add_argument(
+        "--out",
+        help="output stem, e.g. rows/paper (default: the store path without suffix); a folder (DIR/) "
+        "holds files named after the store",
+    )
     parser.add_argument(
         "--tracks",
         action="store_true",
@@ -41,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
 
     store_path = existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_suffix("")
+    if args.out and (args.out.endswith(("/", "\\")) or out.is_dir()):
+        out = out / store_path.stem  # a folder: the rows go inside it, named after the store
     check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
     with ResultsStore(store_path, create=False) as store:
         if args.tracks:

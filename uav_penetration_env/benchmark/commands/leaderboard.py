@@ -15,6 +15,7 @@ from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
     add_store_argument,
+    check_reference,
     check_writable_folder,
     command_line,
     existing_store,
@@ -31,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument(
-        "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
+        "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"
     )
     parser.add_argument(
         "--suite", help="one table over all the store's scenarios, named SUITE (blocks = scenario x seed)"
@@ -53,6 +54,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         store = existing_store(args.store if args.store is not None else DEFAULT_STORE)
 
+    from uav_penetration_env.benchmark.rows import ResultTables, store_tables
+
+    tables = store if isinstance(store, ResultTables) else store_tables(store)
+    if args.reference is not None:  # an explicit name must exist; the default may be absent
+        check_reference(args.reference, tables.episodes["policy"].dropna().unique())
+    store = tables  # read once: the tables below are computed from these rows
     from uav_penetration_env.suites import suite_names
 
     if args.suite in suite_names():
@@ -64,7 +71,11 @@ def run(args: argparse.Namespace) -> int:
 
     check_writable_folder(Path(args.out), "--out")
     written = write_leaderboards(
-        store, Path(args.out), reference=args.reference, command=command_line(args), suite=args.suite
+        store,
+        Path(args.out),
+        reference=args.reference or "ihpso",
+        command=command_line(args),
+        suite=args.suite,
     )
     from uav_penetration_env.benchmark.fixedtarget import write_fixed_target
     from uav_penetration_env.benchmark.summary import print_summary
@@ -73,7 +84,9 @@ def run(args: argparse.Namespace) -> int:
     fixed = (
         []
         if args.suite
-        else write_fixed_target(store, Path(args.out), reference=args.reference, command=command_line(args))
+        else write_fixed_target(
+            store, Path(args.out), reference=args.reference or "ihpso", command=command_line(args)
+        )
     )
     print_summary(written)  # the reference of each table is read from it (a label may differ)
     for path in fixed:

@@ -20,6 +20,7 @@ from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
     add_store_argument,
+    check_reference,
     check_writable_folder,
     command_line,
     existing_store,
@@ -106,7 +107,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", default=str(DEFAULT_OUT), help=f"folder of index.html and its files (default: {DEFAULT_OUT})"
     )
     parser.add_argument(
-        "--reference", default="ihpso", help="policy the paired tests compare against (default: ihpso)"
+        "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"
     )
     add_altitude_argument(parser)
     add_min_seeds_argument(parser)
@@ -122,6 +123,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Write the tables, figures and page; print the summary and where they are."""
     store = existing_store(args.store)
+    from uav_penetration_env.benchmark.rows import store_tables
+
+    if args.reference is not None:  # an explicit name must exist; the default may be absent
+        check_reference(args.reference, store_tables(store).episodes["policy"].dropna().unique())
     extra = [Path(f) for f in args.figures]
     for path in extra:
         if path.suffix != ".png" or not path.is_file():
@@ -134,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         store,
         out,
         command=command_line(args),
-        reference=args.reference,
+        reference=args.reference or "ihpso",
         altitude=args.altitude,
         min_seeds=args.min_seeds,
         extra_figures=extra,

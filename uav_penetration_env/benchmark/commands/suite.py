@@ -47,6 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the action; suite problems become one-line errors."""
+    if args.action == "list" and args.name is not None:
+        raise CLIError(
+            f"suite list {args.name}: list takes no suite name; use `uav-bench suite show {args.name}`"
+        )
     try:
         return ACTIONS[args.action](args)
     except SuiteError as error:

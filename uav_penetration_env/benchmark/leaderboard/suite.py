@@ -24,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -459,6 +460,13 @@ def _suite_tables(context: TableContext) -> list[Path]:
     for name in recorded_suites(context.runs):
         try:
             written += write_suite_tables(context, name)
-        except SuiteError:
-            continue  # a suite this package does not ship (a store from a newer version): no table
+        except SuiteError as error:
+            # A suite this package does not ship (a store from a newer version, or a custom suite file
+            # that has moved): the other tables are still written, and the reader is told why this is not.
+            warnings.warn(
+                f"suite {name} (recorded by a `run --suite` of this store): its member-weighted tables "
+                f"are left out, because the suite cannot be loaded ({error})",
+                UserWarning,
+                stacklevel=2,
+            )
     return written
