@@ -27,13 +27,13 @@ The parts, in order (each a list of ``uav-bench`` commands, printed exactly as r
    tables rebuilt from the rows alone, which must equal the store's byte for byte apart from the
    date line.
 
-DECISION (provenance): a command runs only on a clean working tree (tracked files as committed),
+DECISION (docs/publishing.md §2, clean tree): a command runs only on a clean working tree (tracked files as committed),
 so every run's provenance names a clean commit; between the ``best-known`` and ``tables`` parts
 the updated records must be committed. One store holds everything (``results/v2/leaderboard.sqlite``):
 the suite's paper members reuse the paper part's episodes (same policy, scenario and seed), and one
 report covers every table.
 
-DECISION (compute): each attempt of a command appends a line to ``results/v2/compute.jsonl``
+DECISION (docs/publishing.md §2, compute log): each attempt of a command appends a line to ``results/v2/compute.jsonl``
 (part, command, wall seconds, CPU seconds of its process tree, exit status, commit); a command is
 done when one attempt exited 0. ``uav-bench run`` and ``windows`` skip what the store holds, so a
 cut attempt resumes; its CPU time still counts.

@@ -138,3 +138,16 @@ def test_write_leaderboards_adds_the_rl_section_and_csv(tmp_path, capsys):
     print_summary(written)  # the RL CSV is listed, not summarised as a policy leaderboard
     printed = capsys.readouterr().out
     assert "full table: " in printed and printed.count("(lower total J is better)") == 1
+
+
+def test_the_gap_to_the_best_known_is_the_mean_of_the_rows_episode_gaps(monkeypatch):
+    from uav_penetration_env.benchmark import bestknown
+
+    monkeypatch.setattr(bestknown, "best_known_total", lambda h: 16.0 if h == "h" else None)
+    table = rl_table(pd.DataFrame(episode_rows()), n_resamples=200).set_index("group")
+    # ppo episodes 20, 20, 22, 24, 18, 18, 30, 30 against J* = 16: mean cost 22.75 -> (22.75 - 16) / 16
+    assert table.loc["sb3:ppo-paper", "gap"] == pytest.approx(6.75 / 16)
+    assert table.loc["greedy", "gap"] == pytest.approx(5.0 / 16)
+    assert "42.19%" in rl_markdown(table.reset_index())  # 6.75 / 16 = 42.1875 %
+    monkeypatch.setattr(bestknown, "best_known_total", lambda h: None)  # no record: no gap
+    assert np.isnan(rl_table(pd.DataFrame(episode_rows()), n_resamples=200)["gap"]).all()

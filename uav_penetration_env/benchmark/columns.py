@@ -506,6 +506,8 @@ RL_GROUP: tuple[Column, ...] = (
     _rl("poi_planner", Board("P(< {planner}) [95% CI]", _POI.format(versus="the best swarm planner (the paper planner with the lowest mean total J in the group)"),
                              csv=("best_planner", "poi_planner", "poi_planner_ci_low", "poi_planner_ci_high")),
         "probability of improvement over the best swarm planner, with its interval"),
+    _rl("gap", Board("gap to J*", "mean relative gap (J − J*)/J* of the row's finished episodes to the best-known total J* of their own scenario, in % (episodes of scenarios without a record left out; docs/best-known.md)", digits=3),
+        "mean relative gap of the row's episodes to the best-known total J* of their scenarios"),
     _rl("decision_seconds", Board("decision [s/step]", "mean wall-clock seconds per action (network inference for agents, planning for MPC; machine-dependent)", digits=3),
         "mean wall-clock seconds per action over the row's episodes"),
     _rl("train_timesteps", Board("train steps", _TRAINING, style="count"), "mean environment steps the group's agents trained for"),

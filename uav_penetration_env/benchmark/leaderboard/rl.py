@@ -38,6 +38,7 @@ from uav_penetration_env.benchmark.leaderboard.formatting import (
     markdown_table,
 )
 from uav_penetration_env.benchmark.leaderboard.groups import prepare_episodes
+from uav_penetration_env.benchmark.leaderboard.table import relative_gaps
 
 TRAINING_SEED = re.compile(r"-s\d+$")
 SWARM_FAMILY = "paper planners (MPC)"
@@ -223,6 +224,9 @@ def rl_table(episodes: pd.DataFrame, *, seed: int = 0, n_resamples: int = 10_000
                 )
             )
             row.update({key: poi.value, f"{key}_ci_low": poi.low, f"{key}_ci_high": poi.high})
+        gaps = relative_gaps(valid).to_numpy(dtype=np.float64) if len(valid) else np.array([])
+        gaps = gaps[np.isfinite(gaps)]
+        row["gap"] = float(gaps.mean()) if len(gaps) else np.nan
         row["decision_seconds"] = float(valid["planning_seconds"].mean()) if len(valid) else np.nan
         for budget in ("train_timesteps", "train_seconds"):
             values = valid[budget].dropna() if budget in valid else pd.Series(dtype=float)
@@ -246,6 +250,8 @@ def _cell(name: str, r: Any) -> str:
         return format_interval(r[name], r[f"{name}_ci_low"], r[f"{name}_ci_high"])
     if name.startswith("poi_"):
         return format_interval(r[name], r[f"{name}_ci_low"], r[f"{name}_ci_high"], 3)
+    if name == "gap":
+        return f"{100.0 * r[name]:.2f}%" if np.isfinite(r[name]) else ""
     if name == "train_timesteps":
         return f"{int(r[name]):,}" if np.isfinite(r[name]) else ""
     return format_number(r[name], 3 if name == "decision_seconds" else 4)
