@@ -139,3 +139,26 @@ def test_bench_suite_quick_run_reports_every_figure(capsys):
     assert "suite uavpen-v1, 3 members" in out and "run --suite --policies greedy --seeds 1" in out
     assert set(results) == {"verify_warm_s", "verify_cold_s", "run_greedy_s"}
     assert all(value > 0 for value in results.values())
+
+
+def test_rl_corridor_reads_altitudes_from_the_stored_steps(tmp_path):
+    from conftest import tiny_scenario
+
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.policies import make_policy
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    store = tmp_path / "run.sqlite"
+    evaluate({"greedy": make_policy("greedy")}, [tiny_scenario(time={"max_steps": 6})], range(1), store=store,
+             progress=False)  # fmt: skip
+    table = load("rl_corridor").corridor_table(store, scenario="tiny", seed=0)
+    with ResultsStore(store, create=False) as opened:
+        steps = opened.steps(opened.episodes()["episode_id"].astype(int).tolist())
+    row = table.iloc[0]
+    assert row["policy"] == "greedy" and row["steps"] == len(steps)
+    assert row["AGL median [m]"] == pytest.approx(float(steps["altitude_agl"].median()))
+    assert row["detected steps"] == f"{int(steps['detected'].sum())}/{len(steps)}"
+    with pytest.raises(
+        ValueError, match="--scenario paper --seed 0: no finished episode; stored scenarios: tiny"
+    ):
+        load("rl_corridor").corridor_table(store, scenario="paper", seed=0)
