@@ -184,7 +184,9 @@ def selection_file(root: Path, algo: str, regime: str) -> Path:
     return study_dir(root, algo, regime) / "selection.yaml"
 
 
-def confirm_selection(root: Path, algo: str, regime: str, timesteps: int) -> str | None:
+def confirm_selection(
+    root: Path, algo: str, regime: str, timesteps: int, *, write: bool = True
+) -> str | None:
     """Which set trains the remaining seeds: ``"study"``, ``ZOO``, or ``None`` while a candidate runs.
 
     DECISION (docs/rl.md §3.1): a short-budget study ranks settings by how fast they learn, not
@@ -193,16 +195,26 @@ def confirm_selection(root: Path, algo: str, regime: str, timesteps: int) -> str
     untuned zoo-derived set, trains the full budget, and the set with the lower final cost (ties:
     the study's) trains seeds 1-4. Both seed-0 runs stay in the results under their own labels
     (``ppo-R-s0``, ``ppo-R-zoo-s0``). The choice is written once to ``selection.yaml`` beside the
-    study, with both costs.
+    study, with both costs, and read back from it from then on (``write=False``: never written,
+    for a dry run or a reader of a committed snapshot).
+
+    Raises:
+        ValueError: both runs finished but a sidecar lacks its final evaluation (names the file),
+            or a ``selection.yaml`` whose ``chosen`` is neither ``study`` nor ``zoo``.
     """
+    record = selection_file(root, algo, regime)
+    if record.is_file():
+        chosen = (yaml.safe_load(record.read_text()) or {}).get("chosen")
+        if chosen not in ("study", ZOO):
+            raise ValueError(f"{record}: chosen is {chosen!r}; expected 'study' or '{ZOO}'")
+        return str(chosen)
     study_run = root / "models" / f"{algo}-{regime}-s0.zip"
     zoo_run = root / "models" / f"{algo}-{regime}-{ZOO}-s0.zip"
     if not (model_done(study_run, timesteps) and model_done(zoo_run, timesteps)):
         return None
     costs = {"study": final_cost(study_run), ZOO: final_cost(zoo_run)}
     chosen = "study" if costs["study"] <= costs[ZOO] else ZOO
-    record = selection_file(root, algo, regime)
-    if not record.is_file():
+    if write:
         from uav_penetration_env.atomic import write_text_atomic
 
         body = {
@@ -220,8 +232,11 @@ def confirm_selection(root: Path, algo: str, regime: str, timesteps: int) -> str
     return chosen
 
 
-def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step]:
-    """The training runs; a run whose study (or, for PPO, whose confirmation) has not finished has no command yet."""
+def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bool = True) -> list[Step]:
+    """The training runs; a run whose study (or, for PPO, whose confirmation) has not finished has no command yet.
+
+    ``write=False`` never writes the confirmation's ``selection.yaml`` (:func:`confirm_selection`).
+    """
     trials_wanted = {(a, r): n for a, r, n in STUDIES}
     steps = []
     for algo, regime, seeds, timesteps in RUNS:
@@ -232,7 +247,11 @@ def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step
         if total is None and ready:
             total = off_policy_steps if off_policy_steps is not None else off_policy_timesteps(progress[1])
         confirmed = algo in CONFIRMED and total is not None
-        chosen = confirm_selection(root, algo, regime, total) if confirmed else None
+        blocked = ""
+        try:
+            chosen = confirm_selection(root, algo, regime, total, write=write) if confirmed else None
+        except ValueError as error:  # a finished run without its final evaluation: say so, do not crash
+            chosen, blocked = None, str(error)
         sets = [("", hyperparams, ready)] + ([(f"-{ZOO}", None, True)] if algo in CONFIRMED else [])
         for seed in seeds:
             for part, params, params_ready in sets:
@@ -244,8 +263,12 @@ def training_steps(root: Path, off_policy_steps: int | None = None) -> list[Step
                     continue
                 if algo in CONFIRMED and seed != min(seeds):
                     if chosen is None:
-                        steps.append(Step(name, None, False, f"waits for the confirmation (train/{algo}-{regime}-s0 "
-                                          f"and train/{algo}-{regime}-{ZOO}-s0)"))  # fmt: skip
+                        why = (
+                            f"the confirmation cannot choose: {blocked}"
+                            if blocked
+                            else f"waits for the confirmation (train/{algo}-{regime}-s0 and train/{algo}-{regime}-{ZOO}-s0)"
+                        )
+                        steps.append(Step(name, None, False, why))  # fmt: skip
                         continue
                     if (chosen == ZOO) != (part == f"-{ZOO}"):
                         steps.append(Step(name, None, False, f"not chosen ({selection_file(root, algo, regime)})",
@@ -308,7 +331,10 @@ def run_programme(
     def selected(step: Step) -> bool:
         return not only or any(fnmatch.fnmatchcase(step.name, pattern) for pattern in only)
 
-    for phase in (lambda: tuning_steps(root), lambda: training_steps(root, off_policy_steps)):
+    for phase in (
+        lambda: tuning_steps(root),
+        lambda: training_steps(root, off_policy_steps, write=not dry_run),
+    ):
         # The steps are listed again after every run: a finished run can make a waiting one ready
         # (the PPO confirmation chooses the set of the remaining seeds).
         reported: set[str] = set()

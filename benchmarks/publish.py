@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import resource
 import shlex
 import shutil
@@ -61,7 +62,8 @@ OUT = ROOT / "out"
 ROWS = OUT / "rows" / "leaderboard"
 CHECK = ROOT / "from-rows"
 MODELS = Path("leaderboards/rl/models")
-RL_ROOT = Path("results/rl")
+RL_ROOT = Path("leaderboards/rl")  # the RL programme's committed snapshot (docs/rl.md §3)
+WAITING = 3  # exit status while a part waits for the RL programme (not done, not failed)
 
 PAPER_PLANNERS = ["ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism"]
 REFERENCES = ["pso", "cem", "de", "cmaes"]
@@ -85,24 +87,44 @@ class Part:
 
 
 def agent_models(models: Path = MODELS) -> list[Path]:
-    """The finished agents committed by the RL programme, in name order (checkpoints left out)."""
+    """The finished agents committed by the RL programme, in name order (checkpoints left out).
+
+    ``models`` is relative to the repository (as the commands name it); the result is too.
+    """
     finished = []
-    for model in sorted(Path(models).glob("*.zip")):
+    for model in sorted((REPO / models).glob("*.zip")):
         sidecar = model.with_suffix(".json")
         if sidecar.is_file() and not json.loads(sidecar.read_text()).get("interrupted"):
-            finished.append(model)
+            finished.append(Path(models) / model.name)
     return finished
 
 
 def programme_unfinished(root: Path = RL_ROOT) -> list[str]:
-    """Steps of the RL programme not done yet (``[]``: finished), read from its results folder."""
+    """Steps of the RL programme not done yet (``[]``: finished), read from its committed snapshot."""
     from baselines.programme import training_steps, tuning_steps
 
-    steps = tuning_steps(root) + training_steps(root)
+    steps = tuning_steps(REPO / root) + training_steps(REPO / root, write=False)
     return [step.name for step in steps if not (step.done or step.skipped)]
 
 
-def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] | None = None) -> list[Part]:
+def chosen_paper_ppo(agents: Sequence[str], rl_root: Path = RL_ROOT) -> list[str]:
+    """The PPO paper agents of the set the confirmation chose (docs/rl.md §3.1): they warm-start IHPSO.
+
+    Without a ``selection.yaml`` (a programme without the confirmation), every PPO paper agent.
+    """
+    import yaml
+
+    record = REPO / rl_root / "tune" / "ppo-paper" / "selection.yaml"
+    chosen = (yaml.safe_load(record.read_text()) or {}).get("chosen") if record.is_file() else None
+    paper = [a for a in agents if "/ppo-paper-" in a]
+    if chosen is None:
+        return paper
+    return [a for a in paper if ("/ppo-paper-zoo-s" in a) == (chosen == "zoo")]
+
+
+def parts(
+    models: Path = MODELS, unfinished: Callable[[], list[str]] | None = None, rl_root: Path = RL_ROOT
+) -> list[Part]:
     """The regeneration's parts, in order, with their commands (``unfinished``: the RL programme's open steps)."""
     paper = Part("paper", [["run", "--scenarios", "paper", "paper-w2", "--policies", *PAPER_PLANNERS, *REFERENCES,
                             *IHPSO_VARIANTS, *FLOORS, "--seeds", "20", "--max-evals", "10000", *COMMON]])  # fmt: skip
@@ -119,17 +141,15 @@ def parts(models: Path = MODELS, unfinished: Callable[[], list[str]] | None = No
         )
     else:
         random_agents = [a for a in agents if "-random-" in a]
-        paper_ppo = [a for a in agents if "/ppo-paper-" in a and "-zoo-" in a] or [
-            a for a in agents if "/ppo-paper-" in a
-        ]
-        hybrids = [f"ihpso+{agent}" for agent in paper_ppo]
+        hybrids = [f"ihpso+{agent}" for agent in chosen_paper_ppo(agents, rl_root)]
         commands = [
             ["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON]
         ]
         if random_agents:
             commands.append(["run", "--suite", "uavpen-v1", "--policies", *random_agents, *COMMON])
-        commands.append(["run", "--scenarios", "paper", "--policies", *hybrids, "--seeds", "20", "--max-evals",
-                         "10000", *COMMON])  # fmt: skip
+        if hybrids:
+            commands.append(["run", "--scenarios", "paper", "--policies", *hybrids, "--seeds", "20",
+                             "--max-evals", "10000", *COMMON])  # fmt: skip
         agent_part = Part("agents", commands)
     best_known = Part("best-known", [["best-known", "update", "--store", str(STORE), "--no-progress"]])
     tables = Part(
@@ -187,25 +207,50 @@ def uav_bench() -> list[str]:
     return [str(script)] if script.is_file() else [sys.executable, "-m", "uav_penetration_env.benchmark.cli"]
 
 
+def child_environment(repo: Path = REPO) -> dict[str, str]:
+    """The environment of every command: this tree first on ``PYTHONPATH``.
+
+    So the commands import the code whose commit is checked and recorded, not an editable install
+    of another checkout.
+    """
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(repo), env.get("PYTHONPATH", "")) if p)
+    return env
+
+
+def imported_from(repo: Path = REPO) -> Path:
+    """Where the commands import the package from (checked against ``repo`` before anything runs)."""
+    out = subprocess.run([sys.executable, "-c", "import uav_penetration_env as p; print(p.__file__)"],
+                         cwd=repo, env=child_environment(repo), capture_output=True, text=True, check=True).stdout  # fmt: skip
+    return Path(out.strip()).resolve().parent
+
+
 def run_attempt(part: str, argv: list[str], log: Path) -> int:
-    """Run one command, append its attempt (wall and CPU seconds, status) to ``log``; its status."""
+    """Run one command in the repository, append its attempt (wall and CPU seconds, status) to ``log``."""
+    revision = commit()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     clock = time.perf_counter()
-    process = subprocess.Popen([*uav_bench(), *argv])
+    process = subprocess.Popen([*uav_bench(), *argv], cwd=REPO, env=child_environment())
     try:
         status = process.wait()
     except KeyboardInterrupt:
         status = process.wait()
+    if status < 0:  # killed by a signal: report it as a shell does (130 for Ctrl-C)
+        status = 128 - status
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     attempt = {"part": part, "command": command_key(argv), "started": started,
                "wall_s": round(time.perf_counter() - clock, 1), "cpu_s": round(cpu, 1), "status": status,
-               "commit": commit()}  # fmt: skip
+               "commit": revision}  # fmt: skip
+    append_attempt(log, attempt)
+    return status
+
+
+def append_attempt(log: Path, attempt: dict) -> None:
     log.parent.mkdir(parents=True, exist_ok=True)
     with log.open("a") as handle:  # one short line per attempt: an append is atomic enough here
         handle.write(json.dumps(attempt) + "\n")
-    return status
 
 
 def date_free(text: str) -> str:
@@ -214,20 +259,40 @@ def date_free(text: str) -> str:
 
 
 def compare_rebuild(out: Path = OUT, check: Path = CHECK) -> list[str]:
-    """Tables rebuilt from rows that differ from the store's (apart from the date line); ``[]``: equal."""
-    rebuilt = sorted(p for p in check.iterdir() if p.suffix in (".md", ".csv"))
+    """Tables that differ between the store's output and the rebuild from rows; ``[]``: all equal.
+
+    Equal means byte for byte apart from the date line; a table on one side only differs.
+    """
+
+    def tables(folder: Path) -> set[str]:
+        return {p.name for p in folder.iterdir() if p.suffix in (".md", ".csv")} if folder.is_dir() else set()
+
+    written, rebuilt = tables(out), tables(check)
     if not rebuilt:
         return [f"{check}: no tables rebuilt from the rows"]
-    differing = []
-    for path in rebuilt:
-        original = out / path.name
-        if not original.is_file() or date_free(original.read_text()) != date_free(path.read_text()):
-            differing.append(path.name)
-    return differing
+    differing = sorted(written ^ rebuilt)
+    for name in sorted(written & rebuilt):
+        if date_free((out / name).read_text()) != date_free((check / name).read_text()):
+            differing.append(name)
+    return sorted(differing)
+
+
+REBUILD_CHECK = "rebuild check: tables from rows equal the store's"
+
+
+def rebuild_checked(attempts: list[dict]) -> bool:
+    """Whether the last thing the tables part recorded is a passed rebuild check."""
+    tables = [a for a in attempts if a.get("part") == "tables"]
+    return bool(tables) and tables[-1].get("command") == REBUILD_CHECK and tables[-1].get("status") == 0
 
 
 def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
-    """Replace the generated files of ``leaderboards/`` by those of ``out`` (``rl/`` is left alone)."""
+    """Replace the generated files of ``leaderboards/`` by those of ``out`` (``rl/`` is left alone).
+
+    Removed first: v1's generated files at the top of ``leaderboards/`` (tables, figures, the page,
+    its episode CSVs) and its ``models/`` and ``rows/`` folders, all replaced by v2's.
+    """
+    out, target = REPO / out, REPO / target
     if not (out / "index.html").is_file():
         raise SystemExit(f"{out}: no index.html; run the tables part first")
     for stale in target.iterdir():
@@ -268,14 +333,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--dry-run", action="store_true", help="print every command and its state; run nothing"
     )
     parser.add_argument("--compute", action="store_true", help="print the compute table; run nothing")
-    parser.add_argument("--install", action="store_true", help="copy results/v2/out into leaderboards/")
+    parser.add_argument(
+        "--install",
+        action="store_true",
+        help="copy results/v2/out into leaderboards/ (after a passed rebuild check)",
+    )
     args = parser.parse_args(argv)
-    log = ROOT / "compute.jsonl"
+    log = REPO / ROOT / "compute.jsonl"
     attempts = read_log(log)
     if args.compute:
         print(compute_table(attempts))
         return 0
     if args.install:
+        if not rebuild_checked(attempts):
+            print("refused: the tables part has not ended with a passed rebuild check; run it first",
+                  file=sys.stderr)  # fmt: skip
+            return 1
         print(f"{len(install())} files copied into leaderboards/")
         return 0
     plan = parts()
@@ -284,15 +357,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     if unknown:
         parser.error(f"--only {' '.join(unknown)}: unknown part; expected some of {', '.join(names)}")
     done = done_commands(attempts)
+    checked_imports = False
     for part in plan:
         if args.only and part.name not in args.only:
             continue
         if part.waits:
             print(f"[wait] {part.name}: {part.waits}", flush=True)
             if not args.dry_run:
-                return 0  # later parts need this one
+                return WAITING  # later parts need this one
             continue
-        for command in part.commands:
+        for index, command in enumerate(part.commands):
             key = command_key(command)
             if key in done:
                 print(f"[done] {part.name}: {key}", flush=True)
@@ -305,6 +379,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"refused: tracked files differ from the commit ({', '.join(dirty[:5])}); commit them first, "
                       "so the provenance names a clean commit", file=sys.stderr)  # fmt: skip
                 return 1
+            if not checked_imports:
+                package = imported_from()
+                if not package.is_relative_to(REPO.resolve()):
+                    print(
+                        f"refused: the commands would import {package}, not this tree ({REPO})",
+                        file=sys.stderr,
+                    )
+                    return 1
+                checked_imports = True
+            if part.name == "tables":  # no stale file may take part in the comparison
+                for folder, first in ((OUT, index == 0), (CHECK, command[0] == "leaderboard")):
+                    if first and (REPO / folder).is_dir():
+                        shutil.rmtree(REPO / folder)
             status = run_attempt(part.name, command, log)
             if status != 0:
                 print(
@@ -312,7 +399,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 )
                 return status
         if part.name == "tables" and not args.dry_run:
-            differing = compare_rebuild()
+            differing = compare_rebuild(REPO / OUT, REPO / CHECK)
+            append_attempt(log, {"part": "tables", "command": REBUILD_CHECK, "wall_s": 0.0, "cpu_s": 0.0,
+                                 "status": 1 if differing else 0, "commit": commit()})  # fmt: skip
             if differing:
                 print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
                 return 1

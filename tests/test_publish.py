@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import pytest
 
@@ -24,6 +25,38 @@ def test_agents_wait_for_the_rl_programme(tmp_path):
     assert agents.commands == [] and "1 unfinished steps (train/sac-paper-s2" in agents.waits
 
 
+def test_the_hybrids_use_the_set_the_confirmation_chose(tmp_path):
+    agents = [
+        f"sb3:m/{n}.zip" for n in ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "sac-paper-s0")
+    ]
+    assert publish.chosen_paper_ppo(agents, tmp_path) == agents[:3]  # no record: every PPO paper agent
+    record = tmp_path / "tune" / "ppo-paper" / "selection.yaml"
+    record.parent.mkdir(parents=True)
+    record.write_text("chosen: study\n")
+    assert publish.chosen_paper_ppo(agents, tmp_path) == agents[:1]
+    record.write_text("chosen: zoo\n")
+    assert publish.chosen_paper_ppo(agents, tmp_path) == agents[1:3]
+
+
+def test_commands_import_this_tree_and_a_wait_is_not_success(tmp_path, monkeypatch, capsys):
+    env = publish.child_environment(tmp_path)
+    assert env["PYTHONPATH"].split(os.pathsep)[0] == str(tmp_path)
+    monkeypatch.setattr(publish, "ROOT", tmp_path)
+    monkeypatch.setattr(publish, "programme_unfinished", lambda: ["tune/ppo-random"])
+    assert publish.main(["--only", "agents"]) == publish.WAITING == 3
+    assert "[wait] agents: the RL programme has 1 unfinished steps" in capsys.readouterr().out
+
+
+def test_install_needs_a_passed_rebuild_check(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(publish, "ROOT", tmp_path)
+    key = {"part": "tables", "wall_s": 1.0, "cpu_s": 1.0}
+    assert not publish.rebuild_checked([{**key, "command": "uav-bench report", "status": 0}])
+    assert not publish.rebuild_checked([{**key, "command": publish.REBUILD_CHECK, "status": 1}])
+    assert publish.rebuild_checked([{**key, "command": publish.REBUILD_CHECK, "status": 0}])
+    assert publish.main(["--install"]) == 1
+    assert "refused: the tables part has not ended with a passed rebuild check" in capsys.readouterr().err
+
+
 def test_agent_commands_cover_every_finished_agent(tmp_path):
     for name in (
         "ppo-paper-s0",
@@ -34,7 +67,12 @@ def test_agent_commands_cover_every_finished_agent(tmp_path):
     ):
         fake_agent(tmp_path, name)
     fake_agent(tmp_path, "td3-paper-s0", interrupted=True)  # a run cut short is not published
-    paper, random_suite, hybrid = publish.parts(tmp_path, unfinished=list)[3].commands
+    record = tmp_path / "rl" / "tune" / "ppo-paper" / "selection.yaml"
+    record.parent.mkdir(parents=True)
+    record.write_text("chosen: zoo\n")
+    paper, random_suite, hybrid = publish.parts(tmp_path, unfinished=list, rl_root=tmp_path / "rl")[
+        3
+    ].commands
     agents = [f"sb3:{(tmp_path / n).as_posix()}.zip" for n in
               ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "ppo-random-zoo-s0", "sac-random-s0")]  # fmt: skip
     assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == agents
@@ -69,6 +107,8 @@ def test_the_rebuild_check_ignores_only_the_date_line(tmp_path):
     assert publish.compare_rebuild(out, check) == ["paper.csv"]
     (check / "suite.md").write_text("only rebuilt\n")
     assert publish.compare_rebuild(out, check) == ["paper.csv", "suite.md"]
+    (out / "rl.md").write_text("only written from the store\n")  # a table the rows lost is a difference
+    assert publish.compare_rebuild(out, check) == ["paper.csv", "rl.md", "suite.md"]
 
 
 def test_nothing_runs_on_a_dirty_tree(tmp_path, monkeypatch, capsys):

@@ -239,3 +239,26 @@ def test_bad_programme_flags_are_refused_in_one_line(tmp_path, capsys, argv, exp
     with pytest.raises(SystemExit) as exit_info:
         main(["--root", str(tmp_path), *argv])
     assert exit_info.value.code == 2 and expected in capsys.readouterr().err
+
+
+def test_the_confirmation_is_read_back_never_written_by_a_dry_run_and_never_crashes(tmp_path, capsys):
+    finish_study(tmp_path, "ppo", "paper", trials_complete=30, trials_pruned=0)
+    models = tmp_path / "models"
+    models.mkdir()
+    for label, cost in (("ppo-paper-s0", 20.0), ("ppo-paper-zoo-s0", None)):
+        (models / f"{label}.zip").write_bytes(b"zip")
+        final = {} if cost is None else {"final_evaluation": {"mean_cost": cost}}
+        (models / f"{label}.json").write_text(json.dumps({"timesteps_done": 2_000_000, **final}))
+    assert run_programme(tmp_path, dry_run=True, only=["train/ppo-paper-*"]) == 0
+    assert "[wait] train/ppo-paper-s1: the confirmation cannot choose: " in capsys.readouterr().out
+    (models / "ppo-paper-zoo-s0.json").write_text(
+        json.dumps({"timesteps_done": 2_000_000, "final_evaluation": {"mean_cost": 17.0}})
+    )
+    assert run_programme(tmp_path, dry_run=True, only=["train/ppo-paper-*"]) == 0
+    assert not (tmp_path / "tune" / "ppo-paper" / "selection.yaml").exists()  # a dry run writes nothing
+    assert "[plan] train/ppo-paper-zoo-s1" in capsys.readouterr().out
+    # A recorded choice stands, whatever the sidecars say now.
+    (tmp_path / "tune" / "ppo-paper" / "selection.yaml").write_text(yaml.safe_dump({"chosen": "study"}))
+    assert run_programme(tmp_path, dry_run=True, only=["train/ppo-paper-*"]) == 0
+    printed = capsys.readouterr().out
+    assert "[plan] train/ppo-paper-s1" in printed and "[skip] train/ppo-paper-zoo-s1" in printed

@@ -93,3 +93,31 @@ def test_export_into_a_folder_names_the_files_after_the_store(store, tmp_path):
 def test_suite_list_refuses_a_name_it_would_ignore(capsys):
     assert cli.main(["suite", "list", "uavpen-v1"]) == 2
     assert "list takes no suite name; use `uav-bench suite show uavpen-v1`" in capsys.readouterr().err
+
+
+def test_plot_says_which_scenarios_min_seeds_left_out(store, tmp_path, capsys):
+    assert cli.main(["plot", "--store", str(store), "--out", str(tmp_path / "p"), "--min-seeds", "2"]) == 0
+    assert (
+        "no figures for 1 of 2 scenarios flown with fewer than 2 seeds (tiny-b; --min-seeds)"
+        in capsys.readouterr().out
+    )
+    assert cli.main(["plot", "--store", str(store), "--out", str(tmp_path / "q"), "--min-seeds", "2",
+                     "--suite", "all"]) == 2  # fmt: skip
+    assert "--min-seeds 2: selects per-scenario figures" in capsys.readouterr().err
+    page = report.write_report(store, tmp_path / "r", min_seeds=5).read_text()  # no scenario qualifies
+    assert 'class="plotly-graph-div"' not in page and "0 of 2 scenarios shown" in page
+
+
+def test_reference_names_include_labels_and_window_optimizers():
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.commands.common import reference_names
+
+    episodes = pd.DataFrame(
+        {"policy": ["pso", "pso", "greedy"], "policy_hash": ["aaaaaaaa11", "bbbbbbbb22", "c"]}
+    )
+    windows = pd.DataFrame({"optimizer": ["ihpso-rtol1e-6", "hpso"]})
+    names = reference_names(SimpleNamespace(episodes=episodes, window_runs=windows))
+    assert names == ["greedy", "hpso", "ihpso-rtol1e-6", "pso", "pso@aaaaaaaa", "pso@bbbbbbbb"]

@@ -402,7 +402,7 @@ def _tracks_3d(context: ReportContext) -> str | None:
             figure.to_html(include_plotlyjs=False, full_html=False, div_id=f"tracks-{scenario_hash}")
         )
     left_out = len(sizes) - len(shown)
-    if parts and left_out:
+    if left_out:
         parts.append(
             f"<p>{len(shown)} of {len(sizes)} scenarios shown (at most {MAX_3D_VIEWS}, flown with at least "
             f"{context.min_seeds} seeds, most episodes first); every track is exported by "

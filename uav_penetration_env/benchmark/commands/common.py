@@ -239,15 +239,32 @@ def command_line(args: argparse.Namespace) -> str:
     return " ".join(["uav-bench", *map(shlex.quote, getattr(args, "argv", []))])
 
 
-def check_reference(reference: str, policies: Sequence[str]) -> None:
-    """Refuse a ``--reference`` that names no stored policy (the tables would silently pick another).
+def reference_names(tables: Any) -> list[str]:
+    """Every name a ``--reference`` may give for these results.
+
+    Policy names, their table labels (``name@hash8`` where one name has several configurations)
+    and the window runs' optimisers.
+    """
+    from uav_penetration_env.benchmark.leaderboard.groups import policy_labels
+
+    episodes, windows = tables.episodes, tables.window_runs
+    names = set(episodes["policy"].dropna().astype(str)) if "policy" in episodes else set()
+    if len(episodes):
+        names |= set(policy_labels(episodes).astype(str))
+    if "optimizer" in windows:
+        names |= set(windows["optimizer"].dropna().astype(str))
+    return sorted(names)
+
+
+def check_reference(reference: str, known: Sequence[str]) -> None:
+    """Refuse a ``--reference`` that names nothing stored (the tables would silently pick another).
 
     Raises:
-        CLIError: ``policies`` is not empty and ``reference`` is not among them.
+        CLIError: ``known`` is not empty and ``reference`` is not in it.
     """
     from uav_penetration_env.suggest import did_you_mean
 
-    known = sorted({str(p) for p in policies})
+    known = sorted({str(p) for p in known})
     if known and reference not in known:
         raise CLIError(
             f"--reference {reference}: no such policy in the results; {did_you_mean(reference, known)}"

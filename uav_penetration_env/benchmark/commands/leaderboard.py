@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    reference_names,
 )
 
 
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
 
     tables = store if isinstance(store, ResultTables) else store_tables(store)
     if args.reference is not None:  # an explicit name must exist; the default may be absent
-        check_reference(args.reference, tables.episodes["policy"].dropna().unique())
+        check_reference(args.reference, reference_names(tables))
     store = tables  # read once: the tables below are computed from these rows
     from uav_penetration_env.suites import suite_names
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
+    CLIError,
     Command,
     add_store_argument,
     check_writable_folder,
@@ -49,8 +50,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Draw the store's figures and print their paths."""
+    """Draw the store's figures and print their paths (and the scenarios ``--min-seeds`` left out)."""
     store = existing_store(args.store)  # first: a bad store creates no output folder
+    if args.suite is not None and args.min_seeds != 1:
+        raise CLIError(
+            f"--min-seeds {args.min_seeds}: selects per-scenario figures, but with --suite every episode forms "
+            "one group; expected the default 1 with --suite"
+        )
     check_writable_folder(Path(args.out), "--out")
     from uav_penetration_env.benchmark.figures import write_figures
 
@@ -58,6 +64,17 @@ def run(args: argparse.Namespace) -> int:
         store, Path(args.out), suite=args.suite, altitude=args.altitude, min_seeds=args.min_seeds
     ):
         print(path)
+    if args.min_seeds > 1:
+        from uav_penetration_env.benchmark.rows import store_tables
+
+        episodes = store_tables(store).episodes
+        seeds = episodes.groupby("scenario")["seed"].nunique() if len(episodes) else []
+        few = sorted(name for name, n in dict(seeds).items() if n < args.min_seeds)
+        if few:
+            print(
+                f"no figures for {len(few)} of {len(seeds)} scenarios flown with fewer than {args.min_seeds} "
+                f"seeds ({', '.join(few[:3])}{', ...' if len(few) > 3 else ''}; --min-seeds)"
+            )
     return 0
 
 

@@ -24,6 +24,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    reference_names,
 )
 from uav_penetration_env.benchmark.commands.plot import add_altitude_argument, add_min_seeds_argument
 
@@ -126,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.rows import store_tables
 
     if args.reference is not None:  # an explicit name must exist; the default may be absent
-        check_reference(args.reference, store_tables(store).episodes["policy"].dropna().unique())
+        check_reference(args.reference, reference_names(store_tables(store)))
     extra = [Path(f) for f in args.figures]
     for path in extra:
         if path.suffix != ".png" or not path.is_file():
