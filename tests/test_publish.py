@@ -145,3 +145,19 @@ def test_a_damaged_compute_log_is_named(tmp_path):
     log.write_text('{"part": "paper"}\nnot json\n')
     with pytest.raises(SystemExit, match=r"compute\.jsonl:2: not a JSON line"):
         publish.read_log(log)
+
+
+def test_rl_compute_sums_trial_durations_and_training_wall_time(tmp_path):
+    study = tmp_path / "tune" / "ppo-paper"
+    study.mkdir(parents=True)
+    (study / "ppo-paper.trials.csv").write_text("number,state,duration_s\n0,COMPLETE,600\n1,PRUNED,300\n")
+    models = tmp_path / "models"
+    models.mkdir()
+    for name, seconds in (("ppo-paper-s0", 1800.0), ("ppo-paper-zoo-s0", 5400.0)):
+        (models / f"{name}.json").write_text(json.dumps({"wall_seconds": seconds}))
+    assert publish.rl_compute(tmp_path) == [
+        ("RL tuning (2 trials)", 2, 900.0),
+        ("RL training (2 runs)", 2, 7200.0),
+    ]
+    table = publish.compute_table([], rl_root=tmp_path)
+    assert "| RL tuning (2 trials) | | 0.25 |" in table and "| RL training (2 runs) | | 2.00 |" in table
