@@ -357,3 +357,20 @@ def test_few_policies_get_distinct_colours_and_one_panel(synthetic_store):
     styles = figures.policy_styles(["ihpso", "pso", "greedy", "random", "sb3:ppo"])
     assert len({s.colour for s in styles.values()}) == 5
     assert styles["greedy"].linestyle == styles["random"].linestyle != styles["ihpso"].linestyle
+
+
+def test_the_compute_axis_turns_logarithmic_only_for_a_wide_cost_range(many_store, tmp_path):
+    # many_store's costs: 5.0 + 0.1 index + seed, a span below 4x: linear.
+    axis = dict(drawn_figures(many_store))["compute-axis"].axes[0]
+    assert axis.get_yscale() == "linear" and axis.get_xscale() == "log"
+    wide = tmp_path / "wide.sqlite"
+    tiny = tiny_scenario()
+    with ResultsStore(wide) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        for index, (policy, cost) in enumerate((("ihpso", 13.0), ("random", 150.0))):
+            for seed in range(2):
+                episode = synthetic_episode(policy, seed, "tiny", tiny.hash, cost + seed)
+                store.write_episode(episode | {"policy_hash": f"h{index:015d}", "planning_seconds": 0.1},
+                                    synthetic_steps(seed, 4, history=False))  # fmt: skip
+    axis = dict(drawn_figures(wide))["compute-axis"].axes[0]
+    assert axis.get_yscale() == "log"  # 150 / 13 > 4
