@@ -260,8 +260,9 @@ def drawn_figures(path, altitude=None):
     model = figures.scenario_model(scenarios[group.scenario_hash][1])
     styles = figures.policy_styles(group.episodes["label"].unique())
     inp = figures.FigureInput(group, rows[rows["step"] > 0], rows[rows["step"] == 0], model, styles, altitude)
+    per_agent = figures.one_agent_per_group(inp)  # as write_figures draws them
     for name, spec in figures.FIGURES.items():
-        figure = spec.draw(inp)
+        figure = spec.draw(inp if spec.pools_training_seeds else per_agent)
         figure.canvas.draw()
         yield name, figure
 
@@ -374,3 +375,31 @@ def test_the_compute_axis_turns_logarithmic_only_for_a_wide_cost_range(many_stor
                                     synthetic_steps(seed, 4, history=False))  # fmt: skip
     axis = dict(drawn_figures(wide))["compute-axis"].axes[0]
     assert axis.get_yscale() == "log"  # 150 / 13 > 4
+
+
+def test_figures_draw_one_agent_per_rl_group_except_those_that_pool_training_seeds(tmp_path):
+    path = tmp_path / "seeds.sqlite"
+    tiny = tiny_scenario()
+    policies = [
+        "greedy",
+        "sb3:ppo-paper-s2",
+        "sb3:ppo-paper-s0",
+        "sb3:ppo-paper-s1",
+        "ihpso+sb3:ppo-paper-s3",
+    ]
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        for index, policy in enumerate(policies):
+            for seed in range(2):
+                store.write_episode(
+                    synthetic_episode(policy, seed, "tiny", tiny.hash, 5.0 + index + seed)
+                    | {"policy_hash": f"h{index:015d}", "planning_seconds": 0.01},
+                    synthetic_steps(seed, 4, history=False),
+                )
+    drawn = dict(drawn_figures(path))
+    for name in ("tracks-top", "j-per-point", "timeline"):
+        labels = {line.get_label().split(" (", 1)[0] for ax in drawn[name].axes for line in ax.get_lines()}
+        assert {"greedy", "sb3:ppo-paper-s0", "ihpso+sb3:ppo-paper-s3"} <= labels, name
+        assert not labels & {"sb3:ppo-paper-s1", "sb3:ppo-paper-s2"}, name
+    _, labels = drawn["compute-axis"].axes[0].get_legend_handles_labels()
+    assert "sb3:ppo-paper (3 training seeds)" in labels  # pooled over its training seeds

@@ -35,7 +35,7 @@ scenario) or, drawn from window runs, of :data:`WINDOW_FIGURES`; the modules hol
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +80,7 @@ from uav_penetration_env.benchmark.figures.tracks import (
     track_seed,
 )
 from uav_penetration_env.benchmark.leaderboard import scenario_groups, suite_group
+from uav_penetration_env.benchmark.leaderboard.rl import TRAINING_SEED
 from uav_penetration_env.benchmark.store import ResultsStore
 
 
@@ -90,10 +91,13 @@ class FigureSpec:
     Attributes:
         draw: ``(FigureInput) -> Figure``.
         per_scenario: drawn over one scenario's terrain (left out of a suite's figures).
+        pools_training_seeds: pools an RL group's training seeds itself (compute axis, RL profile);
+            every other figure draws one agent per RL group (:func:`one_agent_per_group`).
     """
 
     draw: Callable[[FigureInput], Any]
     per_scenario: bool = False
+    pools_training_seeds: bool = False
 
 
 # The figures, in file order: name -> how to draw it. A new figure is one entry here.
@@ -105,8 +109,8 @@ FIGURES: dict[str, FigureSpec] = {
     "performance-profile": FigureSpec(plot_performance_profile),
     "convergence": FigureSpec(plot_convergence),
     "timeline": FigureSpec(plot_timeline, per_scenario=True),
-    "compute-axis": FigureSpec(plot_compute_axis),
-    "rl-profile": FigureSpec(plot_rl_profile),
+    "compute-axis": FigureSpec(plot_compute_axis, pools_training_seeds=True),
+    "rl-profile": FigureSpec(plot_rl_profile, pools_training_seeds=True),
 }
 # Figures of the window runs (``uav-bench windows``, api.md §4.8), drawn after the others for a scenario
 # whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
@@ -133,6 +137,7 @@ __all__ = [
     "finished_steps",
     "mean_band",
     "new_figure",
+    "one_agent_per_group",
     "note_empty",
     "outside_legend",
     "performance_profile",
@@ -155,6 +160,43 @@ __all__ = [
     "track_seed",
     "write_figures",
 ]
+
+
+def one_agent_per_group(inp: FigureInput) -> FigureInput:
+    """The same input with one agent per RL group: the member with the lowest training seed.
+
+    DECISION (api.md §4.6): the figures that draw one line, box or track per policy show an RL group
+    (``sb3:ppo-paper-s0`` ... ``-s4``, hybrids alike) by its first training seed; five near-identical
+    lines per group would repeat colours and bury the rest. The group's spread over training seeds
+    is what the compute axis, the RL profile and the RL table show; every agent's episodes stay in
+    the tables and the exported rows.
+    """
+    labels = list(inp.group.episodes["label"].astype(str).unique())
+    first: dict[str, tuple[int, str]] = {}
+    for label in labels:
+        match = TRAINING_SEED.search(label)
+        if match is None or policy_family(label) != "RL agents":
+            continue
+        seed = int(match.group()[2:])
+        group = label[: match.start()]
+        if group not in first or seed < first[group][0]:
+            first[group] = (seed, label)
+    keep = {
+        label for label in labels if not (TRAINING_SEED.search(label) and policy_family(label) == "RL agents")
+    }
+    keep |= {label for _, label in first.values()}
+    if len(keep) == len(labels):
+        return inp
+    episodes = inp.group.episodes[inp.group.episodes["label"].astype(str).isin(keep)]
+    ids = set(episodes["episode_id"].astype(int))
+    return FigureInput(
+        replace(inp.group, episodes=episodes),
+        inp.steps[inp.steps["episode_id"].astype(int).isin(ids)],
+        inp.starts[inp.starts["episode_id"].astype(int).isin(ids)],
+        inp.model,
+        policy_styles(sorted(keep)),
+        inp.altitude,
+    )
 
 
 def write_figures(
@@ -224,8 +266,9 @@ def write_figures(
             )
             styles = policy_styles(group.episodes["label"].unique())
             inp = FigureInput(group, steps, starts, model, styles, altitude)
+            per_agent = one_agent_per_group(inp)
             for name in names:
-                figure = FIGURES[name].draw(inp)
+                figure = FIGURES[name].draw(inp if FIGURES[name].pools_training_seeds else per_agent)
                 written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
             runs = window_runs[window_runs["scenario_hash"].astype(str) == group.scenario_hash]
             if suite is None and not runs.empty:
