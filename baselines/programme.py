@@ -53,6 +53,12 @@ RUNS = (
     ("sac", "random", range(3), None),
     ("td3", "paper", range(3), None),
 )
+# Experiments on the high corridor (docs/rl.md §3.2): (algorithm, regime, name, overrides, seeds,
+# steps), trained after the runs above as ALGO-REGIME-NAME-sSEED with the overrides on the untuned set.
+EXPERIMENTS = (
+    ("ppo", "paper", "ent", "baselines/hyperparams/experiments/ppo-ent.yaml", range(2), 2_000_000),
+    ("ppo", "paper", "gamma", "baselines/hyperparams/experiments/ppo-gamma.yaml", range(2), 2_000_000),
+)
 OFF_POLICY_CPU_MINUTES = 20.0
 # Algorithms whose study is confirmed at the full budget (docs/rl.md §3.1): a PPO trial sees 150 000
 # of a run's 2 M steps (7.5 %), too little to see where a set ends; a SAC/TD3 trial sees about 40 %.
@@ -150,6 +156,7 @@ def step_names() -> list[str]:
         names += [f"train/{algo}-{regime}-s{seed}" for seed in seeds]
         if algo in CONFIRMED:
             names += [f"train/{algo}-{regime}-{ZOO}-s{seed}" for seed in seeds]
+    names += [f"train/{a}-{r}-{name}-s{seed}" for a, r, name, _, seeds, _ in EXPERIMENTS for seed in seeds]
     return names
 
 
@@ -281,6 +288,16 @@ def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bo
                         "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
                 done = model_done(model, total)
                 steps.append(Step(name, argv, done, f"{total} steps" + (", done" if done else "")))
+    for algo, regime, experiment, overrides, seeds, total in EXPERIMENTS:
+        for seed in seeds:
+            label = f"{algo}-{regime}-{experiment}-s{seed}"
+            model = root / "models" / f"{label}.zip"
+            argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total), "--seed", str(seed),
+                    "--hyperparams", overrides, "--out", str(model), "--eval-freq", str(EVAL_FREQ[algo]),
+                    "--eval-episodes", str(EVAL_EPISODES[regime]), "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]),
+                    "--resume", "--no-progress"]  # fmt: skip
+            done = model_done(model, total)
+            steps.append(Step(f"train/{label}", argv, done, f"{total} steps" + (", done" if done else "")))
     return steps
 
 

@@ -67,7 +67,15 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     # PPO per regime: seed 0 of both sets (the confirmation), then seeds 1-4 of the chosen (zoo) set
     ppo_paper = ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-zoo-s{seed}" for seed in range(1, 5)]
     assert run_names(fake.calls)[:6] == ppo_paper
-    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3
+    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3 + 4  # + the corridor experiments, 2 x 2 seeds
+    assert run_names(fake.calls)[-4:] == [
+        "ppo-paper-ent-s0",
+        "ppo-paper-ent-s1",
+        "ppo-paper-gamma-s0",
+        "ppo-paper-gamma-s1",
+    ]
+    ent = fake.calls[-4]
+    assert ent[ent.index("--hyperparams") + 1] == "baselines/hyperparams/experiments/ppo-ent.yaml"
     printed = capsys.readouterr().out
     assert (
         "[run] tune/ppo-paper (0/30 trials): uav-bench tune --algo ppo --regime paper --trials 30" in printed
@@ -90,18 +98,18 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     assert run_programme(tmp_path, runner=again) == 0
     assert again.calls == []
     printed = capsys.readouterr().out
-    assert printed.count("[done]") == 5 + 21 and printed.count("[skip]") == 8
+    assert printed.count("[done]") == 5 + 25 and printed.count("[skip]") == 8
     assert "[skip] train/ppo-random-s4: not chosen" in printed
 
 
 def test_the_study_set_trains_the_remaining_seeds_when_it_wins_the_confirmation(tmp_path):
     fake = FakeUavBench(tmp_path, zoo_cost=21.0, study_cost=16.0)
     assert run_programme(tmp_path, runner=fake, only=["tune/ppo-paper", "train/ppo-paper-*"]) == 0
-    assert run_names(fake.calls) == ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [
+    assert run_names(fake.calls)[:6] == ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [
         f"ppo-paper-s{s}" for s in range(1, 5)
     ]
     trained = [c for c in fake.calls if c[0] == "train"]
-    assert [("--hyperparams" in c) for c in trained] == [True, False, True, True, True, True]
+    assert [("--hyperparams" in c) for c in trained][:6] == [True, False, True, True, True, True]
 
 
 def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
@@ -111,7 +119,7 @@ def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
     rest = FakeUavBench(tmp_path)
     assert run_programme(tmp_path, runner=rest) == 0
     assert run_names(rest.calls)[0] == "ppo-paper-zoo-s1"  # the cut run first, nothing before it
-    assert len(rest.calls) == 26 - 7
+    assert len(rest.calls) == 30 - 7
 
 
 def test_an_unfinished_study_runs_again_and_holds_back_its_training(tmp_path, capsys):
