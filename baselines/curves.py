@@ -4,15 +4,17 @@
 
 Reads the ``<model>.evaluations.csv`` files and ``<model>.json`` sidecars that :func:`train_agent`
 writes (no torch needed) and draws one panel per training regime (the env id and scenario the
-agents trained on) with one line per algorithm: the mean over training seeds of the mean
-evaluation cost (-return = sum of J plus any failure penalty; lower is better) and the band
-between the best and worst seed.
+agents trained on) with one line per run group (the model name without its training-seed suffix
+``-sN``, e.g. ``ppo-paper-zoo``: one algorithm with one hyper-parameter set, as the RL table groups
+agents): the mean over training seeds of the mean evaluation cost (-return = sum of J plus any
+failure penalty; lower is better) and the band between the best and worst seed.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -21,12 +23,14 @@ import pandas as pd
 
 from uav_penetration_env.atomic import atomic_path
 
+TRAINING_SEED = re.compile(r"-s\d+$")  # as the RL table's groups (leaderboard/rl.py)
+
 
 def load_curves(models: str | Path) -> pd.DataFrame:
     """All evaluation rows of the models in a folder, with their algorithm, regime and seed.
 
     Returns:
-        Columns ``algorithm, regime, seed, model, timesteps, mean_cost, success_rate``.
+        Columns ``algorithm, group, regime, seed, model, timesteps, mean_cost, success_rate``.
     """
     rows = []
     for sidecar in sorted(Path(models).glob("*.json")):
@@ -41,10 +45,20 @@ def load_curves(models: str | Path) -> pd.DataFrame:
         frame["regime"] = regime_label(meta)
         frame["seed"] = int(meta.get("seed", 0))
         frame["model"] = sidecar.stem
+        frame["group"] = TRAINING_SEED.sub("", sidecar.stem)
         rows.append(frame)
     if not rows:
         return pd.DataFrame(
-            columns=["algorithm", "regime", "seed", "model", "timesteps", "mean_cost", "success_rate"]
+            columns=[
+                "algorithm",
+                "group",
+                "regime",
+                "seed",
+                "model",
+                "timesteps",
+                "mean_cost",
+                "success_rate",
+            ]
         )
     return pd.concat(rows, ignore_index=True)
 
@@ -106,9 +120,9 @@ def write_learning_curves(
     axes = figure.subplots(1, len(regimes), squeeze=False)[0]
     for ax, regime in zip(axes, regimes, strict=True):
         subset = curves[curves["regime"] == regime]
-        for algorithm, group in subset.groupby("algorithm", sort=True):
+        for name, group in subset.groupby("group", sort=True):
             steps, mean, low, high, seeds = _curve(group)
-            (line,) = ax.plot(steps, mean, label=f"{algorithm} (mean of {seeds} seeds)")
+            (line,) = ax.plot(steps, mean, label=f"{name} (mean of {seeds} seed{'s' if seeds > 1 else ''})")
             ax.fill_between(steps, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
         for name, value in (references or {}).items():
             if name.split(":", 1)[0] in regime:

@@ -93,3 +93,13 @@ def test_foreign_json_files_are_ignored(tmp_path, bad):
     (tmp_path / "x.json").write_text(bad)
     pd.DataFrame({"timesteps": [1], "mean_cost": [1.0]}).to_csv(tmp_path / "x.evaluations.csv", index=False)
     assert load_curves(tmp_path).empty
+
+
+def test_runs_group_by_name_without_the_training_seed(tmp_path):
+    write_model(tmp_path, "ppo-paper-s0", "ppo", "UAVPenetration-v0", 0, [30.0, 20.0])
+    write_model(tmp_path, "ppo-paper-zoo-s0", "ppo", "UAVPenetration-v0", 0, [25.0, 15.0])
+    write_model(tmp_path, "ppo-paper-zoo-s1", "ppo", "UAVPenetration-v0", 1, [35.0, 25.0])
+    curves = load_curves(tmp_path)
+    assert sorted(curves["group"].unique()) == ["ppo-paper", "ppo-paper-zoo"]  # two sets, not one "ppo"
+    _, mean, *_ = _curve(curves[curves["group"] == "ppo-paper-zoo"])
+    np.testing.assert_array_equal(mean, [30.0, 20.0])
