@@ -15,7 +15,8 @@ The parts, in order (each a list of ``uav-bench`` commands, printed exactly as r
 2. ``windows``: IHPSO, HPSO and IHPSO's variants rerun on MPC window states of the greedy episode
    (the fixed-target and fixed-budget study of issue 11, with the tolerance variants);
 3. ``suite``: the frozen suite ``uavpen-v1`` (its own seed rule) for the paper planners, ``cmaes``
-   and the floors;
+   and the floors; ``windows-suite``: IHPSO and HPSO on the window states of one procedural member
+   per difficulty;
 4. ``agents``: every finished agent of the RL programme (``leaderboards/rl/models``) on the paper
    scenario, the Random-regime agents on the suite, and the agent-warm-started IHPSO; it waits
    until the programme (``python -m baselines.programme``) has finished;
@@ -75,6 +76,7 @@ WINDOW_OPTIMIZERS = ["ihpso", "hpso", "ihpso-noswitch", "ihpso-noreverse", "ihps
 # Every third step of the greedy episode of the paper scenario (47 steps): 15 window states.
 WINDOW_STEPS = ",".join(str(step) for step in range(2, 47, 3))
 COMMON = ["--store", str(STORE), "--no-report", "--no-progress"]
+SUITE_WINDOW_MEMBERS = ("random-30000", "random-30100", "random-30200")  # difficulty 0.25, 0.50, 0.75
 # The greedy floor on the paper scenario, a line in the learning curves: the suite's frozen replay
 # J of uavpen-v1/paper (17.19829762, docs/suite.md), so the command does not depend on the store.
 GREEDY_LINE = "paper-2022-sec5:greedy=17.198"
@@ -136,6 +138,13 @@ def parts(
     suite = Part(
         "suite", [["run", "--suite", "uavpen-v1", "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS, *COMMON]]
     )
+    # The same windows study on the first procedural member of each difficulty (their greedy episodes
+    # fly 47 steps, as the paper scenario's): does the reverse switch act more on other landscapes?
+    windows_suite = Part("windows-suite", [
+        ["windows", "--store", str(STORE), "--from-policy", "greedy", "--scenario", member, "--steps", WINDOW_STEPS,
+         "--optimizers", "ihpso", "hpso", "--seeds", "20"]
+        for member in SUITE_WINDOW_MEMBERS
+    ])  # fmt: skip
     waiting = (unfinished or programme_unfinished)()
     agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
     if waiting:
@@ -166,7 +175,7 @@ def parts(
             ["leaderboard", "--rows", str(ROWS), "--out", str(CHECK)],
         ],
     )  # fmt: skip
-    return [paper, windows, suite, agent_part, best_known, tables]
+    return [paper, windows, suite, windows_suite, agent_part, best_known, tables]
 
 
 def command_key(argv: Sequence[str]) -> str:

@@ -20,8 +20,16 @@ def fake_agent(folder, name, interrupted=False):
 
 def test_agents_wait_for_the_rl_programme(tmp_path):
     plan = publish.parts(tmp_path, unfinished=lambda: ["train/sac-paper-s2"])
-    assert [p.name for p in plan] == ["paper", "windows", "suite", "agents", "best-known", "tables"]
-    agents = plan[3]
+    assert [p.name for p in plan] == [
+        "paper",
+        "windows",
+        "suite",
+        "windows-suite",
+        "agents",
+        "best-known",
+        "tables",
+    ]
+    agents = plan[4]
     assert agents.commands == [] and "1 unfinished steps (train/sac-paper-s2" in agents.waits
 
 
@@ -70,9 +78,8 @@ def test_agent_commands_cover_every_finished_agent(tmp_path):
     record = tmp_path / "rl" / "tune" / "ppo-paper" / "selection.yaml"
     record.parent.mkdir(parents=True)
     record.write_text("chosen: zoo\n")
-    paper, random_suite, hybrid = publish.parts(tmp_path, unfinished=list, rl_root=tmp_path / "rl")[
-        3
-    ].commands
+    plan = {part.name: part for part in publish.parts(tmp_path, unfinished=list, rl_root=tmp_path / "rl")}
+    paper, random_suite, hybrid = plan["agents"].commands
     agents = [f"sb3:{(tmp_path / n).as_posix()}.zip" for n in
               ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "ppo-random-zoo-s0", "sac-random-s0")]  # fmt: skip
     assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == agents
