@@ -239,6 +239,18 @@ def confirm_selection(
     return chosen
 
 
+def train_step(
+    name: str, algo: str, regime: str, seed: int, total: int, hyperparams: str | Path | None, model: Path
+) -> Step:
+    """One resumable ``uav-bench train`` run (``hyperparams`` None: the untuned set), done when its sidecar says so."""
+    argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total), "--seed", str(seed),
+            *(["--hyperparams", str(hyperparams)] if hyperparams else []), "--out", str(model),
+            "--eval-freq", str(EVAL_FREQ[algo]), "--eval-episodes", str(EVAL_EPISODES[regime]),
+            "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
+    done = model_done(model, total)
+    return Step(name, argv, done, f"{total} steps" + (", done" if done else ""))
+
+
 def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bool = True) -> list[Step]:
     """The training runs; a run whose study (or, for PPO, whose confirmation) has not finished has no command yet.
 
@@ -281,23 +293,12 @@ def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bo
                         steps.append(Step(name, None, False, f"not chosen ({selection_file(root, algo, regime)})",
                                           skipped=True))  # fmt: skip
                         continue
-                argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total),
-                        "--seed", str(seed), *(["--hyperparams", str(params)] if params else []),
-                        "--out", str(model), "--eval-freq", str(EVAL_FREQ[algo]),
-                        "--eval-episodes", str(EVAL_EPISODES[regime]),
-                        "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
-                done = model_done(model, total)
-                steps.append(Step(name, argv, done, f"{total} steps" + (", done" if done else "")))
+                steps.append(train_step(name, algo, regime, seed, total, params, model))
     for algo, regime, experiment, overrides, seeds, total in EXPERIMENTS:
         for seed in seeds:
             label = f"{algo}-{regime}-{experiment}-s{seed}"
             model = root / "models" / f"{label}.zip"
-            argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total), "--seed", str(seed),
-                    "--hyperparams", overrides, "--out", str(model), "--eval-freq", str(EVAL_FREQ[algo]),
-                    "--eval-episodes", str(EVAL_EPISODES[regime]), "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]),
-                    "--resume", "--no-progress"]  # fmt: skip
-            done = model_done(model, total)
-            steps.append(Step(f"train/{label}", argv, done, f"{total} steps" + (", done" if done else "")))
+            steps.append(train_step(f"train/{label}", algo, regime, seed, total, overrides, model))
     return steps
 
 

@@ -215,8 +215,9 @@ def commit(repo: Path = REPO) -> str:
 
 
 def uav_bench() -> list[str]:
-    script = Path(sys.executable).with_name("uav-bench")
-    return [str(script)] if script.is_file() else [sys.executable, "-m", "uav_penetration_env.benchmark.cli"]
+    from baselines.programme import uav_bench_command  # the same lookup as the RL programme's
+
+    return uav_bench_command()
 
 
 def child_environment(repo: Path = REPO) -> dict[str, str]:
