@@ -386,6 +386,19 @@ def _callbacks(run: _Run) -> list[Any]:
     return callbacks
 
 
+def _stdout_logger(verbose: int) -> Any:
+    """SB3's logger writing to stdout only (when ``verbose``), with no log folder.
+
+    Left to itself, ``learn()`` configures a logger whose folder defaults to a new, empty
+    ``/tmp/SB3-<date>`` directory per call, so a tuning study would leave hundreds of them.
+    """
+    import sys
+
+    from stable_baselines3.common.logger import HumanOutputFormat, Logger
+
+    return Logger(folder=None, output_formats=[HumanOutputFormat(sys.stdout)] if verbose else [])
+
+
 def run_training(plan: TrainingPlan) -> TrainResult:
     """Train as ``plan`` says and write the model with its sidecars (see :func:`train_agent`).
 
@@ -442,6 +455,7 @@ def run_training(plan: TrainingPlan) -> TrainResult:
             if state.replay_buffer is not None:
                 load_replay_buffer(run.model, state.replay_buffer)
             reset_seeds = train_env_seeds([plan.seed, state.timesteps], plan.n_envs, pool=run.random_id)
+        run.model.set_logger(_stdout_logger(plan.verbose))
         # The constructor seeded sub-env i with seed + i; the SeedSequence children replace that.
         run.env.seed(reset_seeds)
         if plan.eval_freq:

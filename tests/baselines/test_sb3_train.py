@@ -82,7 +82,9 @@ def test_final_evaluation_is_the_saved_model(tiny_ppo):
     assert total == pytest.approx(tiny_ppo.evaluations[-1]["mean_return"], rel=1e-6)
 
 
-def test_same_seed_gives_the_same_first_evaluation(tiny_ppo, tmp_path):
+def test_same_seed_gives_the_same_first_evaluation(tiny_ppo, tmp_path, monkeypatch):
+    # SB3 puts its default log folder (an empty one per learn() call) here; training must not.
+    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path / "sb3-log"))
     # The scenario as a mapping this time (the fixture passed a Scenario): the same env either way.
     again = train_agent(
         "ppo",
@@ -90,6 +92,7 @@ def test_same_seed_gives_the_same_first_evaluation(tiny_ppo, tmp_path):
         **tiny_run(total_timesteps=128, checkpoint_freq=0, scenario=tiny_scenario().to_dict()),
     )
     assert again.sidecar["scenario"] == tiny_ppo.sidecar["scenario"]
+    assert not (tmp_path / "sb3-log").exists()
     first, repeat = tiny_ppo.evaluations[0], again.evaluations[0]
     assert repeat["timesteps"] == first["timesteps"] == 128
     for key in EVALUATION_COLUMNS:
