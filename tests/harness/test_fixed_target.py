@@ -156,6 +156,20 @@ def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
     assert (table["successes"] <= table["runs"]).all() and (table["runs"] == 4).all()
     # At the loosest target (f* + 10 %|f*|) the run that found f* solved it, so some optimiser has a finite ERT.
     assert np.isfinite(table[table["precision"] == 0.1]["ert"]).any()
+    # The page's other two tables as rows: the paired comparisons (reference greedy is absent from the
+    # window runs, so the first optimiser, hpso, is the reference) and the state machines.
+    paired = pd.read_csv(out / "tiny-fixed-target-paired.csv")
+    assert set(paired["reference"]) == {"hpso"} and set(paired["other"]) == {"ihpso"}
+    assert sorted(paired["comparison"]) == ["fixed budget: J", "fixed target: evaluations"]
+    assert (paired["pairs"] == 4).all()
+    assert (paired["reference_better"] + paired["other_better"] <= paired["pairs"]).all()
+    traces = pd.read_csv(out / "tiny-fixed-target-traces.csv").set_index("optimizer")
+    with ResultsStore(store) as s:
+        rows = s.window_runs()
+    assert traces["runs"].to_dict() == {"hpso": 4, "ihpso": 4}
+    for name, group in rows.groupby("optimizer"):
+        assert traces.loc[name, "nfev_mean"] == pytest.approx(group["nfev"].astype(float).mean(), rel=1e-12)
+    assert np.isnan(traces.loc["hpso", "switches_mean"]) and np.isfinite(traces.loc["ihpso", "switches_mean"])
     assert run_cli("plot", "--store", store, "--out", out) == 0
     assert (out / "tiny-runtime-ecdf.png").is_file()
 

@@ -336,8 +336,13 @@ def fixed_target_frames(rows: pd.DataFrame, reference: str) -> tuple[str, dict[s
 
 def fixed_target_markdown(
     rows: pd.DataFrame, reference: str, name: str, command: str, date: str = ""
-) -> tuple[str, pd.DataFrame]:
-    """The Markdown page and the CSV table (ERT rows) of one scenario's window runs.
+) -> tuple[str, dict[str, pd.DataFrame]]:
+    """The Markdown page and the CSV tables of one scenario's window runs.
+
+    Returns:
+        (the page, {CSV file suffix: table}): ``""`` the ERT rows (:func:`ert_table`),
+        ``"-paired"`` the paired comparisons (:func:`paired_table`, empty without pairs) and
+        ``"-traces"`` the evaluations and state machines (:func:`trace_table`).
 
     The page's date line (``- Date: DATE, by `COMMAND```) is its only line that depends on when and
     from which source (store or exported rows) it was built.
@@ -432,13 +437,20 @@ def fixed_target_markdown(
     ]
     header = ["optimizer", "runs", "evals/run", "stopped early", "switches/run", "reverse/run", "median J"]
     lines += [markdown_table(header, body, ["l", "r", "r", "r", "r", "r", "r"]), ""]
-    return "\n".join(lines), table
+    return "\n".join(lines), {"": table, "-paired": paired, "-traces": traces}
 
 
 def write_fixed_target(
     store_path: str | Path | ResultTables, out_dir: str | Path, *, reference: str = "ihpso", command: str = ""
 ) -> list[Path]:
-    """Write ``<stem>-fixed-target.md`` and ``.csv`` per scenario whose window runs the store holds.
+    """Write a scenario's fixed-target page and its tables, per scenario whose window runs the store holds.
+
+    Per scenario: ``<stem>-fixed-target.md`` (the page), ``<stem>-fixed-target.csv`` (ERT per
+    optimiser and target precision, :func:`ert_table`), ``<stem>-fixed-target-paired.csv`` (the
+    paired fixed-budget and fixed-target comparisons, :func:`paired_table`; absent when no other
+    optimiser shares a (window, seed) with the reference) and ``<stem>-fixed-target-traces.csv``
+    (evaluations and state machines per optimiser, :func:`trace_table`), so every number on the page
+    is also a row a script can read.
 
     The stem is the scenario's leaderboard stem (:func:`~.leaderboard.scenario_groups`), or its
     sanitised name when the store has no episodes of that scenario hash.
@@ -450,7 +462,8 @@ def write_fixed_target(
         command: the command line recorded in the page.
 
     Returns:
-        The written paths (Markdown then CSV per scenario, sorted by stem); none without window runs.
+        The written paths (per scenario, sorted by stem: the Markdown, then the ERT, paired and
+        traces CSVs); none without window runs.
     """
     from uav_penetration_env.atomic import atomic_path, write_text_atomic
     from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
@@ -469,12 +482,15 @@ def write_fixed_target(
     out_dir.mkdir(parents=True, exist_ok=True)
     date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     for stem, group in by_stem:
-        markdown, table = fixed_target_markdown(
+        markdown, csv_tables = fixed_target_markdown(
             group, reference, str(group["scenario"].iloc[0]), command, date
         )
-        path = write_text_atomic(out_dir / f"{stem}-fixed-target.md", markdown)
-        csv = out_dir / f"{stem}-fixed-target.csv"
-        with atomic_path(csv) as temporary:  # whole or not at all (api.md §4.7)
-            table.to_csv(temporary, index=False, lineterminator="\n")
-        written += [path, csv]
+        written.append(write_text_atomic(out_dir / f"{stem}-fixed-target.md", markdown))
+        for suffix, frame in csv_tables.items():
+            if frame.empty:
+                continue
+            csv = out_dir / f"{stem}-fixed-target{suffix}.csv"
+            with atomic_path(csv) as temporary:  # whole or not at all (api.md §4.7)
+                frame.to_csv(temporary, index=False, lineterminator="\n")
+            written.append(csv)
     return written
