@@ -168,3 +168,26 @@ def test_rl_compute_sums_trial_durations_and_training_wall_time(tmp_path):
     ]
     table = publish.compute_table([], rl_root=tmp_path)
     assert "| RL tuning (2 trials) | | 0.25 |" in table and "| RL training (2 runs) | | 2.00 |" in table
+
+
+def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_path, monkeypatch):
+    monkeypatch.setattr(publish, "REPO", tmp_path)
+    out, target = tmp_path / publish.OUT, tmp_path / "leaderboards"
+    (out / "rows").mkdir(parents=True)
+    (out / "index.html").write_text("<html></html>")
+    (out / "paper-2022-sec5.md").write_text("v2")
+    (out / "rows" / "leaderboard-episodes.parquet").write_bytes(b"rows")
+    (target / "models").mkdir(parents=True)
+    (target / "rl").mkdir()
+    (target / "held-out-random-d0.5.md").write_text("v1")  # a v1 table v2 no longer writes
+    (target / "models" / "ppo-paper-s0.zip").write_bytes(b"v1 agent")
+    (target / "rl" / "state.json").write_text("{}")
+    log = tmp_path / publish.ROOT / "compute.jsonl"
+    log.write_text('{"part": "paper", "wall_s": 1.0, "cpu_s": 2.0}\n')
+    copied = publish.install()
+    assert sorted(p.relative_to(target).as_posix() for p in copied) == [
+        "compute.jsonl", "index.html", "paper-2022-sec5.md", "rows/leaderboard-episodes.parquet"
+    ]  # fmt: skip
+    assert not (target / "held-out-random-d0.5.md").exists() and not (target / "models").exists()
+    assert (target / "rl" / "state.json").is_file()  # the RL programme's snapshot stays
+    assert (target / "compute.jsonl").read_text() == log.read_text()

@@ -1,0 +1,311 @@
+"""Print the numbers the README's headline quotes, read from the published tables alone.
+
+The README's "The published leaderboard" section answers four questions from leaderboard v2 (issue
+16): does IHPSO beat the other PSO variants; with how many evaluations relative to HPSO (the paper's
+78 % claim); how far each family is from the best known; where RL stands against the swarm planners
+on cost and on decision time; plus what the frozen suite shows by difficulty, and what the
+regeneration cost. This script prints every one of those numbers from the CSV tables of a
+leaderboard folder (the published ``leaderboards/`` or the folder ``uav-bench leaderboard --rows``
+rebuilds from the committed rows), so the headline can be checked line by line against a rebuild.
+
+It reads, when present:
+
+- the scenario tables ``<stem>.csv`` (default stems: the paper scenario in both weightings, the
+  suite and its three difficulty levels; ``--tables`` to choose others);
+- their RL tables ``<stem>-rl.csv``;
+- every fixed-target study in the folder: ``<stem>-fixed-target.csv`` (ERT),
+  ``-fixed-target-paired.csv`` and ``-fixed-target-traces.csv``;
+- ``compute.jsonl``, the publication driver's log of every attempt (docs/publishing.md §2).
+
+Usage: ``python benchmarks/headline.py [DIR] [--tables STEM ...]`` (DIR defaults to leaderboards).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from anywhere: the package of this checkout
+    sys.path.insert(0, str(ROOT))
+
+from uav_penetration_env.benchmark.families import FAMILIES, PAPER_PLANNERS, policy_family  # noqa: E402
+
+TABLES = (
+    "paper-2022-sec5",
+    "paper-2022-sec5-w2",
+    "uavpen-v1",
+    "uavpen-v1-d0.25",
+    "uavpen-v1-d0.50",
+    "uavpen-v1-d0.75",
+)
+PSO_VARIANTS = (*PAPER_PLANNERS, "pso")
+REFERENCE = "ihpso"
+BASELINE = "hpso"  # the paper's claim: IHPSO needs 78 % of HPSO's iterations
+
+
+def number(value: float, digits: int = 3) -> str:
+    """``value`` with ``digits`` significant digits; ``-`` for a missing value."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    if abs(value) >= 10 ** digits:  # 10000 evaluations, not 1e+04
+        return f"{value:.0f}"
+    return f"{value:.{digits}g}"
+
+
+def pvalue(value: float) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return "<0.001" if value < 0.001 else f"{value:.2g}"
+
+
+def percent(value: float, digits: int = 3) -> str:
+    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{100 * value:.{digits}g}%"
+
+
+def markdown(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def partial(table: pd.DataFrame, name: str) -> str:
+    """``*`` when ``name`` finished fewer members of a suite table than the table's most (else ``""``).
+
+    Such a policy's means cover other members than the rest (a policy flown on the paper members
+    only, in the whole-suite table): the mark keeps it from being read as a suite-wide result.
+    """
+    if "members" not in table or name not in table.index:
+        return ""
+    return "*" if table.loc[name, "members"] < table["members"].max() else ""
+
+
+PARTIAL_NOTE = "`*`: the policy finished fewer of the suite's members than the table's others (its mean covers other members)."
+
+
+def read_tables(folder: Path, stems: Sequence[str]) -> dict[str, pd.DataFrame]:
+    """The scenario tables of ``stems`` that exist, indexed by policy."""
+    return {stem: pd.read_csv(folder / f"{stem}.csv").set_index("policy") for stem in stems if (folder / f"{stem}.csv").is_file()}
+
+
+def pso_section(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """Mean total J, rank and the paired difference to IHPSO of each PSO variant, per table."""
+    rows = []
+    for name in PSO_VARIANTS:
+        cells = [name]
+        for table in tables.values():
+            if name not in table.index:
+                cells.append("-")
+                continue
+            r = table.loc[name]
+            cell = (f"{number(r['total_cost_mean'], 4)}{partial(table, name)}, IQM {number(r['total_cost_iqm'], 4)} "
+                    f"(rank {number(r['friedman_rank'], 3)}")  # fmt: skip
+            if name != REFERENCE and not math.isnan(r["delta_mean"]):
+                cell += f"; Δ {number(r['delta_mean'], 2)}, p {pvalue(r['pvalue_holm'])}"
+            cells.append(cell + ")")
+        rows.append(cells)
+    best = ["best policy"]
+    for table in tables.values():
+        winner = table["total_cost_mean"].idxmin()
+        best.append(f"{winner} {number(table.loc[winner, 'total_cost_mean'], 4)} (of {len(table)})")
+    rows.append(best)
+    return [
+        "## 1. IHPSO against the other PSO variants",
+        "",
+        "Mean and IQM of total J (incl. the failure penalty), Friedman rank among every policy of the table, and the "
+        f"paired difference to {REFERENCE} (Δ = policy − {REFERENCE}, Holm-corrected Wilcoxon p).",
+        "",
+        markdown(["policy", *tables], rows),
+        "",
+        PARTIAL_NOTE,
+        "",
+    ]
+
+
+def evaluations_section(tables: dict[str, pd.DataFrame], folder: Path) -> list[str]:
+    """IHPSO's evaluations against HPSO's: in the episodes, and in every fixed-target study."""
+    lines = ["## 2. IHPSO's evaluations against HPSO's (the paper's 78 % claim)", ""]
+    rows = []
+    for stem, table in tables.items():
+        if REFERENCE in table.index and BASELINE in table.index:
+            r, base = table.loc[REFERENCE], table.loc[BASELINE]
+            rows.append([stem, number(r["nfev_per_step"], 4), number(base["nfev_per_step"], 4),
+                         percent(r["nfev_per_step"] / base["nfev_per_step"]), percent(r["stopped_early_share"]),
+                         number(r["switches_per_step"]), number(r["reverse_switches_per_step"])])  # fmt: skip
+    if rows:
+        lines += ["Episodes (per MPC step):", ""]
+        header = ["table", f"{REFERENCE} evals", f"{BASELINE} evals", "ratio", "stopped early", "switches", "reverse"]
+        lines += [markdown(header, rows), ""]
+    for traces_path in sorted(folder.glob("*-fixed-target-traces.csv")):
+        stem = traces_path.name.removesuffix("-fixed-target-traces.csv")
+        traces = pd.read_csv(traces_path).set_index("optimizer")
+        if REFERENCE not in traces.index:
+            continue
+        lines += [f"Window study `{stem}` (fixed-target pages, api.md §4.8):", ""]
+        base_evals = traces.loc[BASELINE, "nfev_mean"] if BASELINE in traces.index else math.nan
+        rows = [
+            [name, str(int(r["runs"])), number(r["nfev_mean"], 4), percent(r["nfev_mean"] / base_evals),
+             percent(r["stopped_early_share"]), number(r["switches_mean"]), number(r["reverse_switches_mean"]),
+             number(r["fun_median"], 6)]
+            for name, r in traces.iterrows()
+        ]  # fmt: skip
+        header = ["optimizer", "runs", "evals/run", f"of {BASELINE}'s", "stopped early", "switches/run",
+                  "reverse/run", "median J"]  # fmt: skip
+        lines += [markdown(header, rows), ""]
+        paired_path = folder / f"{stem}-fixed-target-paired.csv"
+        if paired_path.is_file():
+            paired = pd.read_csv(paired_path)
+            paired = paired[paired["other"] == BASELINE]
+            for r in paired.itertuples():
+                lines.append(f"- {r.comparison}, {r.reference} vs {r.other}: medians {number(r.reference_median, 6)} vs "
+                             f"{number(r.other_median, 6)}, {r.reference} better in {r.reference_better} and "
+                             f"{r.other} in {r.other_better} of {r.pairs} pairs, p {pvalue(r.pvalue)}")  # fmt: skip
+        ert_path = folder / f"{stem}-fixed-target.csv"
+        if ert_path.is_file():
+            ert = pd.read_csv(ert_path)
+            ert = ert[ert["optimizer"].isin([REFERENCE, BASELINE])]
+            for precision, group in ert.groupby("precision", sort=False):
+                cells = [f"{r.optimizer} {r.successes}/{r.runs} (ERT {number(r.ert, 4)})" for r in group.itertuples()]
+                lines.append(f"- target f* + {precision:g}|f*|: " + ", ".join(cells))
+        lines.append("")
+    return lines
+
+
+def gap_section(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """Per family and table: the member closest to the best known, and the family's median gap (IQM)."""
+    header = "## 3. Distance from the best known, per family"
+    if not any("gap_iqm" in table for table in tables.values()):
+        return [header, "", "No best-known record covers these tables (docs/best-known.md).", ""]
+    rows = []
+    for family in FAMILIES:
+        cells = [family]
+        for table in tables.values():
+            if "gap_iqm" not in table:
+                cells.append("-")
+                continue
+            members = table[[policy_family(str(p)) == family for p in table.index]]["gap_iqm"].dropna()
+            if members.empty:
+                cells.append("-")
+                continue
+            closest = members.idxmin()
+            mark = partial(table, closest)
+            cells.append(f"{closest}{mark} {percent(members[closest])}; median {percent(members.median())}")
+        rows.append(cells)
+    return [
+        header,
+        "",
+        "Gap to the best-known total J (IQM over episodes; docs/best-known.md): the family's closest member "
+        "and the median over its members.",
+        "",
+        markdown(["family", *tables], rows),
+        "",
+        PARTIAL_NOTE,
+        "",
+    ]
+
+
+def rl_section(folder: Path, stems: Sequence[str]) -> list[str]:
+    """Every RL group's IQM, its probabilities of improvement and its decision time, per table."""
+    lines = ["## 4. RL agents against the swarm planners", ""]
+    found = False
+    for stem in stems:
+        path = folder / f"{stem}-rl.csv"
+        if not path.is_file():
+            continue
+        found = True
+        table = pd.read_csv(path)
+        references = table[table["kind"] == "reference"]
+        planner = references[references["group"] != "greedy"]
+        planner_seconds = float(planner["decision_seconds"].iloc[0]) if len(planner) else math.nan
+        rows = [
+            [str(r.group), str(r.kind), str(r.runs), f"{number(r.iqm, 4)} [{number(r.iqm_ci_low, 4)}, {number(r.iqm_ci_high, 4)}]",
+             number(r.mean, 4), number(r.poi_greedy, 2), number(r.poi_planner, 2), number(r.decision_seconds, 3),
+             number(planner_seconds / r.decision_seconds, 3) if r.decision_seconds else "-"]
+            for r in table.itertuples()
+        ]  # fmt: skip
+        header = ["group", "kind", "runs", "IQM [95% CI]", "mean", "P(better than greedy)",
+                  "P(better than best planner)", "decision [s/step]", "planner's time / this"]  # fmt: skip
+        lines += [f"`{stem}` (best planner: {planner['group'].iloc[0] if len(planner) else '-'}):", "",
+                  markdown(header, rows), ""]  # fmt: skip
+    if not found:
+        lines += ["No RL table in this folder.", ""]
+    return lines
+
+
+def suite_section(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """Per difficulty level: success, the cheapest policy, IHPSO's rank, the floors' gaps."""
+    levels = {stem: table for stem, table in tables.items() if "-d0." in stem}
+    if not levels:
+        return []
+    rows = []
+    for stem, table in levels.items():
+        winner = table["total_cost_mean"].idxmin()
+        ihpso = table.loc[REFERENCE] if REFERENCE in table.index else None
+        greedy = table.loc["greedy"] if "greedy" in table.index else None
+        planners = table[[policy_family(str(p)).endswith("(MPC)") for p in table.index]]
+        rows.append([
+            stem, str(int(table["members"].max())) if "members" in table else "-",
+            f"{winner} {number(table.loc[winner, 'total_cost_mean'], 4)}",
+            "-" if ihpso is None else f"{number(ihpso['friedman_rank'], 3)} of {len(table)}",
+            f"{percent(planners['success_rate'].min())}-{percent(planners['success_rate'].max())}",
+            "-" if greedy is None else percent(greedy["gap_iqm"]),
+        ])  # fmt: skip
+    header = ["level", "members", "cheapest (mean total J)", "IHPSO rank", "MPC success range", "greedy gap (IQM)"]
+    return ["## 5. The frozen suite by difficulty", "", markdown(header, rows), ""]
+
+
+def compute_section(folder: Path) -> list[str]:
+    """Wall and CPU hours per part of the regeneration, every attempt counted."""
+    log = folder / "compute.jsonl"
+    if not log.is_file():
+        return []
+    attempts = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+    parts: dict[str, list[float]] = {}
+    for attempt in attempts:
+        totals = parts.setdefault(attempt["part"], [0, 0.0, 0.0])
+        totals[0] += 1
+        totals[1] += float(attempt["wall_s"])
+        totals[2] += float(attempt["cpu_s"])
+    rows = [[part, str(n), f"{wall / 3600:.2f}", f"{cpu / 3600:.2f}"] for part, (n, wall, cpu) in parts.items()]
+    rows.append(["total", "", f"{sum(p[1] for p in parts.values()) / 3600:.2f}",
+                 f"{sum(p[2] for p in parts.values()) / 3600:.2f}"])  # fmt: skip
+    return ["## 6. Compute of the regeneration (2 cores)", "", markdown(["part", "attempts", "wall [h]", "CPU [h]"], rows), ""]
+
+
+def headline(folder: Path, stems: Sequence[str] = TABLES) -> str:
+    """The headline numbers of the leaderboard folder ``folder`` as Markdown.
+
+    Raises:
+        SystemExit: ``folder`` holds none of the scenario tables ``stems``.
+    """
+    tables = read_tables(folder, stems)
+    if not tables:
+        raise SystemExit(f"{folder}: none of the tables {', '.join(f'{s}.csv' for s in stems)}; "
+                         "expected a leaderboard folder (leaderboards/ or the output of uav-bench leaderboard)")  # fmt: skip
+    lines = [f"# Headline numbers from `{folder}`", ""]
+    lines += pso_section(tables)
+    lines += evaluations_section(tables, folder)
+    lines += gap_section(tables)
+    lines += rl_section(folder, list(tables))
+    lines += suite_section(tables)
+    lines += compute_section(folder)
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python benchmarks/headline.py", description=__doc__.splitlines()[0])
+    parser.add_argument("folder", nargs="?", default=str(ROOT / "leaderboards"), help="leaderboard folder")
+    parser.add_argument("--tables", nargs="+", default=TABLES, metavar="STEM", help="scenario tables to read")
+    args = parser.parse_args(argv)
+    print(headline(Path(args.folder), args.tables))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

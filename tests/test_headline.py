@@ -1,0 +1,64 @@
+"""benchmarks/headline.py: the README's headline numbers, read back from a leaderboard folder."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from conftest import tiny_scenario
+from test_benchmark_scripts import load
+
+from uav_penetration_env.benchmark import cli
+from uav_penetration_env.benchmark.store import ResultsStore
+
+
+def run_cli(*argv: object) -> int:
+    return cli.main([str(a) for a in argv])
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """A leaderboard folder from a tiny store: IHPSO, HPSO and greedy episodes, one window study."""
+    root = tmp_path_factory.mktemp("headline")
+    scenario = str(tiny_scenario(time={"max_steps": 12}).to_yaml(root / "tiny.yaml"))
+    store = root / "h.sqlite"
+    assert run_cli("run", "--policies", "ihpso", "hpso", "greedy", "--scenarios", scenario, "--seeds", "2",
+                   "--max-evals", "400", "--horizon", "2", "--store", store, "--jobs", "1",
+                   "--no-report", "--no-progress") == 0  # fmt: skip
+    assert run_cli("windows", "--store", store, "--from-policy", "greedy", "--scenario", "tiny", "--steps", "1,3",
+                   "--optimizers", "ihpso", "hpso", "--seeds", "2", "--max-evals", "400", "--horizon", "2") == 0  # fmt: skip
+    assert run_cli("leaderboard", "--store", store, "--out", root / "out") == 0
+    attempts = [{"part": "paper", "wall_s": 1800.0, "cpu_s": 3600.0}, {"part": "paper", "wall_s": 1800.0, "cpu_s": 0.0},
+                {"part": "tables", "wall_s": 360.0, "cpu_s": 720.0}]  # fmt: skip
+    (root / "out" / "compute.jsonl").write_text("".join(json.dumps(a) + "\n" for a in attempts))
+    with ResultsStore(store) as s:
+        return root / "out", s.episodes(), s.window_runs()
+
+
+def test_headline_numbers_equal_those_computed_from_the_rows(folder):
+    out, episodes, windows = folder
+    headline = load("headline")
+    text = headline.headline(out, ["tiny"])
+    # §1: every PSO variant flown appears with its mean total J; the reference has no Δ.
+    mean = episodes.groupby("policy")["total_cost"].mean()
+    assert f"| ihpso | {headline.number(mean['ihpso'], 4)}, IQM " in text
+    assert f"| hpso | {headline.number(mean['hpso'], 4)}, IQM " in text and "; Δ " in text
+    # §2, episodes: IHPSO's evaluations per step as a share of HPSO's, from the episodes themselves.
+    per_step = episodes.groupby("policy")["nfev_per_step"].mean()
+    assert f"| {headline.percent(per_step['ihpso'] / per_step['hpso'])} |" in text
+    # §2, window study: the same from the window runs, and the paired lines over 2 windows x 2 seeds.
+    per_run = windows.groupby("optimizer")["nfev"].mean()
+    assert "Window study `tiny`" in text
+    assert f"| ihpso | 4 | {headline.number(per_run['ihpso'], 4)} | {headline.percent(per_run['ihpso'] / per_run['hpso'])} |" in text
+    assert text.count("of 4 pairs") == 2 and "fixed budget: J, ihpso vs hpso" in text
+    assert "- target f* + 0.1|f*|: " in text
+    # §4: no agent in this store; §6: hours summed over every attempt of a part.
+    assert "No RL table in this folder." in text
+    assert "| paper | 2 | 1.00 | 1.00 |" in text and "| tables | 1 | 0.10 | 0.20 |" in text
+    assert "| total |  | 1.10 | 1.20 |" in text
+
+
+def test_headline_refuses_a_folder_without_tables(tmp_path):
+    headline = load("headline")
+    with pytest.raises(SystemExit, match=r"none of the tables tiny\.csv; expected a leaderboard folder"):
+        headline.headline(tmp_path, ["tiny"])
