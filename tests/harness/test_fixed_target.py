@@ -174,6 +174,35 @@ def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
     assert (out / "tiny-runtime-ecdf.png").is_file()
 
 
+def test_runtime_ecdf_styles_each_optimiser_apart_with_the_legend_outside(window_store):
+    from matplotlib.axes import Axes
+    from matplotlib.colors import to_hex
+    from matplotlib.legend import Legend
+
+    from uav_penetration_env.benchmark import figures
+    from uav_penetration_env.benchmark.leaderboard import scenario_groups
+
+    _, store = window_store
+    with ResultsStore(store) as s:
+        (group,) = scenario_groups(s.episodes())
+        runs = s.window_runs()
+    # Ten names as in the published study: more than the palette, so colour and line style both count.
+    names = ["hpso", "ihpso", "ihpso-2022v0", "ihpso-noreverse", "ihpso-noswitch", "ihpso-noterm",
+             "ihpso-rtol1e-2", "ihpso-rtol1e-3", "ihpso-rtol1e-5", "ihpso-rtol1e-6"]  # fmt: skip
+    many = pd.concat([runs.assign(optimizer=name) for name in names[:5]] + [runs[runs["optimizer"] == "hpso"].assign(optimizer=n) for n in names[5:]])
+    figure = figures.plot_runtime_ecdf(group, many, figures.policy_styles(names))
+    figure.canvas.draw()
+    (ax,) = figure.findobj(Axes)
+    pairs = {(to_hex(line.get_color()), repr(line._unscaled_dash_pattern)) for line in ax.get_lines()}
+    assert len(ax.get_lines()) == len(pairs) == len(names)
+    # The axis starts at the initial swarm's evaluations, not at 1.
+    first = min(json.loads(h)[0] for h in runs["history_nfev"])
+    assert ax.get_lines()[0].get_xdata()[0] == pytest.approx(first)
+    renderer = figure.canvas.get_renderer()
+    (legend,) = figure.findobj(Legend)
+    assert not legend.get_window_extent(renderer).overlaps(ax.get_window_extent(renderer))
+
+
 def test_report_shows_the_fixed_target_tables_and_writes_their_pages(window_store, capsys):
     import html as html_module
 

@@ -113,7 +113,7 @@ FIGURES: dict[str, FigureSpec] = {
     "rl-profile": FigureSpec(plot_rl_profile, pools_training_seeds=True),
 }
 # Figures of the window runs (``uav-bench windows``, api.md §4.8), drawn after the others for a scenario
-# whose window runs the store holds: ``(group, window_runs, colours per optimiser) -> Figure``.
+# whose window runs the store holds: ``(group, window_runs, styles per optimiser) -> Figure``.
 WINDOW_FIGURES: dict[str, Callable[..., Any]] = {
     "runtime-ecdf": plot_runtime_ecdf,
 }
@@ -273,6 +273,6 @@ def write_figures(
             runs = window_runs[window_runs["scenario_hash"].astype(str) == group.scenario_hash]
             if suite is None and not runs.empty:
                 for name, draw in WINDOW_FIGURES.items():
-                    figure = draw(group, runs, policy_colours(runs["optimizer"].unique()))
+                    figure = draw(group, runs, policy_styles(runs["optimizer"].unique()))
                     written += save_figure(figure, out_dir, f"{group.stem}-{name}", formats)
     return written
