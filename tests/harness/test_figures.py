@@ -403,3 +403,16 @@ def test_figures_draw_one_agent_per_rl_group_except_those_that_pool_training_see
         assert not labels & {"sb3:ppo-paper-s1", "sb3:ppo-paper-s2"}, name
     _, labels = drawn["compute-axis"].axes[0].get_legend_handles_labels()
     assert "sb3:ppo-paper (3 training seeds)" in labels  # pooled over its training seeds
+
+
+def test_cost_axes_turn_logarithmic_when_costs_span_more_than_a_factor_of_four():
+    from uav_penetration_env.benchmark.figures.common import COST_LOG_SPAN, cost_axis, new_figure
+
+    ax = new_figure(3, 3).add_subplot()
+    assert cost_axis(ax, [13.0, 13.0 * COST_LOG_SPAN, np.nan, np.inf], "total J", "mean") is False
+    assert ax.get_yscale() == "linear" and ax.get_ylabel() == "total J (mean; lower is better)"
+    ax = new_figure(3, 3).add_subplot()
+    assert cost_axis(ax, np.array([[13.0, 148.0]]), "total J", "mean") is True  # the random floor's ~148
+    assert ax.get_yscale() == "log" and ax.get_ylabel() == "total J (mean; log scale; lower is better)"
+    ax = new_figure(3, 3).add_subplot()
+    assert cost_axis(ax, [-1.0, 100.0], "total J", "mean") is False  # a log axis cannot show a cost <= 0

@@ -180,6 +180,44 @@ def family_figure(labels: Sequence[str], width: float, height: float):
     ]
 
 
+COST_LOG_SPAN = 4.0  # costs spanning more than this factor get a log axis (cost_axis)
+
+
+def cost_axis(ax, values: Any, quantity: str, detail: str) -> bool:
+    """Label a total-J axis (y), on a log scale when the costs span more than :data:`COST_LOG_SPAN`.
+
+    DECISION (api.md §4.6, docs/rl-statistics.md §2): the random floor's ~150 and a failed
+    episode's ~90 against the planners' ~13 would squeeze every planner into the bottom tenth of a
+    linear axis; a log axis keeps their differences readable. Costs within a factor of 4 stay
+    linear, where differences read directly. The label says which.
+
+    Args:
+        ax: the axes.
+        values: the costs drawn (any shape; NaN and infinities ignored).
+        quantity: what the axis shows (``total J incl. penalty``).
+        detail: how (``mean, 95% CI``); the label is ``quantity (detail[; log scale]; lower is better)``.
+
+    Returns:
+        Whether the axis is logarithmic.
+    """
+    import matplotlib.ticker
+
+    finite = np.asarray(values, dtype=np.float64).ravel()
+    finite = finite[np.isfinite(finite)]
+    low, high = (finite.min(), finite.max()) if finite.size else (0.0, 0.0)
+    if low > 0 and high / low > COST_LOG_SPAN:
+        ax.set_yscale("log")
+        ax.set_ylabel(f"{quantity} ({detail}; log scale; lower is better)")
+        ax.yaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+        # 12 and 15 as well: the planners' costs often lie between 10 and 20, where the default
+        # minor ticks (2, 3, ... x 10^k) would leave them without a labelled tick.
+        ax.yaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(1.2, 1.5, 2, 3, 4, 5, 6, 7, 8, 9)))
+        ax.yaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}" if v < 100 else ""))
+        return True
+    ax.set_ylabel(f"{quantity} ({detail}; lower is better)")
+    return False
+
+
 def outside_legend(container, fontsize: float = 7.0) -> None:
     """One legend for a (sub-)figure's labelled artists, outside its axes (right, top).
 

@@ -7,6 +7,7 @@ import pandas as pd
 
 from uav_penetration_env.benchmark.figures.common import (
     FigureInput,
+    cost_axis,
     family_figure,
     finished_steps,
     mean_band,
@@ -96,7 +97,7 @@ def plot_cost_box(inp: FigureInput):
         ax.set_xticklabels(order, rotation=35 if len(order) > 8 else 20, ha="right", fontsize=8)
     else:
         note_empty(ax, "no finished episode")
-    ax.set_ylabel("total J incl. failure penalty (= −return)")
+    cost_axis(ax, np.concatenate(list(samples.values())) if samples else [], "total J incl. failure penalty", "= −return")
     ax.set_title(f"{inp.group.name}: total cost per episode (lower is better)", fontsize=9)
     return figure
 

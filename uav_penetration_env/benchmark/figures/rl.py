@@ -8,12 +8,12 @@ are drawn with the core install.
 
 from __future__ import annotations
 
-import matplotlib.ticker
 import numpy as np
 
 from uav_penetration_env.benchmark import rl_stats
 from uav_penetration_env.benchmark.figures.common import (
     FigureInput,
+    cost_axis,
     new_figure,
     note_empty,
     outside_legend,
@@ -59,7 +59,6 @@ def plot_compute_axis(inp: FigureInput):
     title = f"{inp.group.name}: total J vs decision time per step"
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("decision time per step [s] (wall clock, log scale; this machine)")
-    ax.set_ylabel("total J incl. failure penalty (mean, 95% CI; lower is better)")
     finite = (
         points[np.isfinite(points["decision_seconds"]) & (points["decision_seconds"] > 0)]
         if len(points)
@@ -67,6 +66,7 @@ def plot_compute_axis(inp: FigureInput):
     )
     if finite.empty:
         note_empty(ax, "no finished episode with a recorded decision time")
+        cost_axis(ax, [], "total J incl. failure penalty", "mean, 95% CI")
         return figure
     styles = policy_styles(finite["method"].tolist())
     for r in finite.itertuples(index=False):
@@ -90,17 +90,7 @@ def plot_compute_axis(inp: FigureInput):
         for collection in bars.lines[2]:  # the bars carry the family's line style, as elsewhere
             collection.set_linestyle(style.linestyle)
     ax.set_xscale("log")
-    # DECISION (docs/rl-statistics.md §2): a log y axis once the costs span more than a factor of 4
-    # (the random floor's ~150 against the planners' ~13 would otherwise squeeze every planner and
-    # agent into the bottom tenth of the axis); linear otherwise, where differences read directly.
-    low, high = finite["total_cost"].min(), finite["total_cost"].max()
-    if low > 0 and high / low > 4.0:
-        ax.set_yscale("log")
-        ax.set_ylabel("total J incl. penalty (mean, 95% CI; log scale; lower is better)")
-        ax.yaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
-        ax.yaxis.set_minor_formatter(
-            matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}" if v < 100 else "")
-        )
+    cost_axis(ax, finite["total_cost"], "total J incl. failure penalty", "mean, 95% CI")
     ax.grid(True, which="major", alpha=0.3)
     outside_legend(figure)
     return figure
