@@ -416,3 +416,10 @@ def test_cost_axes_turn_logarithmic_when_costs_span_more_than_a_factor_of_four()
     assert ax.get_yscale() == "log" and ax.get_ylabel() == "total J (mean; log scale; lower is better)"
     ax = new_figure(3, 3).add_subplot()
     assert cost_axis(ax, [-1.0, 100.0], "total J", "mean") is False  # a log axis cannot show a cost <= 0
+
+
+def test_log_axis_minor_labels_skip_the_crowded_ticks():
+    from uav_penetration_env.benchmark.figures.costs import _sparse_log_label
+
+    labels = [_sparse_log_label(v) for v in (1.2, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 12.0, 20.0, 90.0)]
+    assert labels == ["1.2", "1.5", "2", "3", "", "5", "", "", "", "", "12", "20", ""]

@@ -102,6 +102,14 @@ def plot_cost_box(inp: FigureInput):
     return figure
 
 
+def _sparse_log_label(value: float, _position: object = None) -> str:
+    """A log axis' minor tick label: ``value`` at 1.2, 1.5, 2, 3 and 5 x 10^k, else nothing."""
+    if value <= 0:
+        return ""
+    mantissa = value / 10 ** np.floor(np.log10(value))
+    return f"{value:g}" if any(abs(mantissa - m) < 1e-6 for m in (1.2, 1.5, 2, 3, 5)) else ""
+
+
 def performance_profile(table: pd.DataFrame) -> tuple[dict[str, np.ndarray], float]:
     """Dolan-Moré ratios per policy over the seeds every policy finished.
 
@@ -130,7 +138,7 @@ def plot_performance_profile(inp: FigureInput):
     The ratios are taken against the best of *all* policies, also when the figure has one panel
     per family.
     """
-    from matplotlib.ticker import NullFormatter, ScalarFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     ratios, shift = performance_profile(cost_table(inp.group.episodes))
     figure, panels = family_figure(list(ratios), 6.5, 4.6)
@@ -152,9 +160,11 @@ def plot_performance_profile(inp: FigureInput):
                 ax.step(taus, fraction, where="post", **inp.styles[label].line(), linewidth=1.6, label=label)
             ax.set_xscale("log")
             ax.set_xlim(1.0, end)
-            ax.xaxis.set_major_formatter(ScalarFormatter())
-            # Label the minor ticks (2, 3, ...) only on short ranges, where they do not crowd.
-            ax.xaxis.set_minor_formatter(ScalarFormatter() if end < 20 else NullFormatter())
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            # Minor ticks at 1.2 and 1.5 x 10^k too, where most profiles rise; labels at 1.2, 1.5, 2,
+            # 3 and 5 x 10^k only (6, 7, 8, 9 crowd into each other), and none beyond three decades.
+            ax.xaxis.set_minor_locator(LogLocator(subs=(1.2, 1.5, 2, 3, 4, 5, 6, 7, 8, 9)))
+            ax.xaxis.set_minor_formatter(FuncFormatter(_sparse_log_label) if end <= 1000 else NullFormatter())
             outside_legend(container)
         else:
             note_empty(ax, "no seed finished by every planner")
