@@ -423,3 +423,18 @@ def test_log_axis_minor_labels_skip_the_crowded_ticks():
 
     labels = [_sparse_log_label(v) for v in (1.2, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 12.0, 20.0, 90.0)]
     assert labels == ["1.2", "1.5", "2", "3", "", "5", "", "", "", "", "12", "20", ""]
+
+
+def test_a_step_below_ground_is_drawn_at_zero_with_a_cross(tmp_path):
+    path = tmp_path / "crash.sqlite"
+    tiny = tiny_scenario()
+    steps = synthetic_steps(0, 4, history=False)
+    steps[-1]["altitude_agl"] = -480.0  # the collision step, as ihpso's seed 0 on the paper scenario
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        store.write_episode(synthetic_episode("ihpso", 0, "tiny", tiny.hash, 90.0, outcome="collided"), steps)
+    altitude = dict(drawn_figures(path))["timeline"].axes[0]
+    track, cross = altitude.get_lines()
+    assert track.get_ydata().tolist() == [110.0, 120.0, 100.0, 0.0]
+    assert cross.get_marker() == "x" and cross.get_xdata().tolist() == [4] and cross.get_ydata().tolist() == [0.0]
+    assert altitude.get_ylim()[0] > -50.0 and "below ground" in altitude.get_ylabel()

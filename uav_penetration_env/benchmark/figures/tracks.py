@@ -394,7 +394,11 @@ def plot_tracks_3d(inp: FigureInput):
 
 
 def plot_timeline(inp: FigureInput):
-    """Altitude above ground and detection probability per step, one line per planner, the track seed."""
+    """Altitude above ground and detection probability per step, one line per planner, the track seed.
+
+    A step that ends below the ground (a collision) is drawn at 0 m with a cross in the policy's
+    colour: its depth below ground says nothing, and would squeeze every other altitude.
+    """
     seed, tracks, _ = _seed_inputs(inp)
     figure, panels = family_figure(list(tracks), 7.0, 5.0)
     title = f"{inp.group.name}: altitude and detection, seed {seed}"
@@ -404,11 +408,16 @@ def plot_timeline(inp: FigureInput):
             rows = tracks[label]
             k = rows["step"].to_numpy(dtype=int)
             style = {**inp.styles[label].line(), "marker": "o", "markersize": 2.5, "linewidth": 1.3}
-            altitude_ax.plot(k, rows["altitude_agl"].to_numpy(dtype=np.float64), label=label, **style)
+            agl = rows["altitude_agl"].to_numpy(dtype=np.float64)
+            below = agl < 0.0  # the step that hit the ground: drawn at 0 m with a cross, not hundreds of m down
+            altitude_ax.plot(k, np.maximum(agl, 0.0), label=label, **style)
+            if below.any():
+                altitude_ax.plot(k[below], np.zeros(int(below.sum())), linestyle="none", marker="x",
+                                 markersize=7, markeredgewidth=1.8, color=inp.styles[label].colour)  # fmt: skip
             detection_ax.plot(k, rows["detection_prob"].to_numpy(dtype=np.float64), **style)
         if not tracks:
             note_empty(altitude_ax, "no finished episode with stored steps")
-        altitude_ax.set_ylabel("altitude AGL [m]")
+        altitude_ax.set_ylabel("altitude AGL [m] (x: below ground)")
         altitude_ax.set_title(family if family is not None else title, fontsize=9)
         detection_ax.set_ylabel("detection probability")
         detection_ax.set_ylim(-0.02, 1.02)
