@@ -15,7 +15,9 @@ It reads, when present:
 - their RL tables ``<stem>-rl.csv``;
 - every fixed-target study in the folder: ``<stem>-fixed-target.csv`` (ERT),
   ``-fixed-target-paired.csv`` and ``-fixed-target-traces.csv``;
-- ``compute.jsonl``, the publication driver's log of every attempt (docs/publishing.md §2).
+- ``compute.jsonl``, the publication driver's log of every attempt, with the exported rows
+  (``rows/leaderboard-*``) and the RL programme's snapshot (``rl/``) for its compute table
+  (docs/publishing.md §2).
 
 Usage: ``python benchmarks/headline.py [DIR] [--tables STEM ...]`` (DIR defaults to leaderboards).
 """
@@ -23,7 +25,6 @@ Usage: ``python benchmarks/headline.py [DIR] [--tables STEM ...]`` (DIR defaults
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from collections.abc import Sequence
@@ -261,21 +262,27 @@ def suite_section(tables: dict[str, pd.DataFrame]) -> list[str]:
 
 
 def compute_section(folder: Path) -> list[str]:
-    """Wall and CPU hours per part of the regeneration, every attempt counted."""
+    """The publication driver's compute table (docs/publishing.md §2) from the folder's log and rows."""
+    import importlib.util
+
     log = folder / "compute.jsonl"
     if not log.is_file():
         return []
-    attempts = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
-    parts: dict[str, list[float]] = {}
-    for attempt in attempts:
-        totals = parts.setdefault(attempt["part"], [0, 0.0, 0.0])
-        totals[0] += 1
-        totals[1] += float(attempt["wall_s"])
-        totals[2] += float(attempt["cpu_s"])
-    rows = [[part, str(n), f"{wall / 3600:.2f}", f"{cpu / 3600:.2f}"] for part, (n, wall, cpu) in parts.items()]
-    rows.append(["total", "", f"{sum(p[1] for p in parts.values()) / 3600:.2f}",
-                 f"{sum(p[2] for p in parts.values()) / 3600:.2f}"])  # fmt: skip
-    return ["## 6. Compute of the regeneration (2 cores)", "", markdown(["part", "attempts", "wall [h]", "CPU [h]"], rows), ""]
+    spec = importlib.util.spec_from_file_location("uav_publish_driver", ROOT / "benchmarks" / "publish.py")
+    publish = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = publish  # its dataclasses look their module up by name while it loads
+    try:
+        spec.loader.exec_module(publish)
+    finally:
+        sys.modules.pop(spec.name, None)
+    rows = folder / "rows" / "leaderboard"
+    worker = {}
+    if rows.with_name("leaderboard-runs.parquet").is_file():
+        from uav_penetration_env.benchmark.rows import read_rows
+
+        worker = publish.worker_seconds(read_rows(rows))
+    table = publish.compute_table(publish.read_log(log), rl_root=folder / "rl", worker=worker)
+    return ["## 6. Compute of the regeneration (2 cores)", "", table, ""]
 
 
 def headline(folder: Path, stems: Sequence[str] = TABLES) -> str:

@@ -55,6 +55,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 ROOT = Path("results/v2")
@@ -345,22 +346,73 @@ def rl_compute(rl_root: Path = RL_ROOT) -> list[tuple[str, int, float]]:
             (f"RL training ({len(models)} runs)", len(models), training)]  # fmt: skip
 
 
-def compute_table(attempts: list[dict], rl_root: Path = RL_ROOT) -> str:
-    """Per part: attempts, wall and CPU time (all attempts, interrupted ones included), then the RL programme."""
-    lines = ["| part | attempts | wall [h] | CPU [h] |", "|---|---:|---:|---:|"]
+def worker_seconds(tables: Any) -> dict[str, tuple[int, float]]:
+    """Per run command: (finished episodes and window runs, the sum of their own wall seconds).
+
+    Read from a store's (or its exported rows') ``runs``, ``episodes`` (``episode_seconds``) and
+    ``window_runs`` (``seconds``) tables, keyed by the command each run's provenance records, so every
+    finished item counts, including those of an attempt killed before the driver could log it.
+    """
+    commands = {int(r.run_id): json.loads(r.provenance).get("command", "") for r in tables.runs.itertuples()}
+    totals: dict[str, list[float]] = {}
+    for frame, column in ((tables.episodes, "episode_seconds"), (tables.window_runs, "seconds")):
+        if frame.empty:
+            continue
+        for run_id, seconds in frame.groupby("run_id")[column]:
+            total = totals.setdefault(commands.get(int(run_id), ""), [0, 0.0])
+            total[0] += len(seconds)
+            total[1] += float(seconds.sum())
+    return {command: (int(n), seconds) for command, (n, seconds) in totals.items()}
+
+
+def compute_table(
+    attempts: list[dict], rl_root: Path = RL_ROOT, worker: dict[str, tuple[int, float]] | None = None
+) -> str:
+    """Per part: attempts, logged wall and CPU time, and the worker time of its finished work; then the RL programme.
+
+    DECISION (docs/publishing.md §2): two measures. The log's wall and CPU time cover the attempts
+    that ended (a process killed with the session never writes its line); the worker time is the
+    sum of every finished episode's and window run's own wall time (``worker``, from the rows), which
+    counts all finished work whichever attempt did it. With as many workers as idle cores it
+    approximates CPU time; on a shared machine it includes the waiting.
+    """
+    worker = worker or {}
+    part_of = {a["command"]: a["part"] for a in attempts}
+    lines = ["| part | attempts | wall [h] | CPU [h] | episodes + window runs | worker [h] |",
+             "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
     order = [p.name for p in parts(unfinished=lambda: ["-"])]
-    total_wall = total_cpu = 0.0
+    total_wall = total_cpu = total_worker = 0.0
     for name in order:
         rows = [a for a in attempts if a["part"] == name]
-        if not rows:
+        done = [value for command, value in worker.items() if part_of.get(command) == name]
+        if not rows and not done:
             continue
         wall, cpu = sum(a["wall_s"] for a in rows), sum(a["cpu_s"] for a in rows)
-        total_wall, total_cpu = total_wall + wall, total_cpu + cpu
-        lines.append(f"| {name} | {len(rows)} | {wall / 3600:.2f} | {cpu / 3600:.2f} |")
-    lines.append(f"| total | | {total_wall / 3600:.2f} | {total_cpu / 3600:.2f} |")
+        items, seconds = sum(n for n, _ in done), sum(s for _, s in done)
+        total_wall, total_cpu, total_worker = total_wall + wall, total_cpu + cpu, total_worker + seconds
+        work = f"{items} | {seconds / 3600:.2f}" if done else "- | -"
+        lines.append(f"| {name} | {len(rows)} | {wall / 3600:.2f} | {cpu / 3600:.2f} | {work} |")
+    unlogged = [value for command, value in worker.items() if command not in part_of]
+    if unlogged:
+        items, seconds = sum(n for n, _ in unlogged), sum(s for _, s in unlogged)
+        total_worker += seconds
+        lines.append(f"| (runs of no logged command) | | | | {items} | {seconds / 3600:.2f} |")
+    lines.append(f"| total | | {total_wall / 3600:.2f} | {total_cpu / 3600:.2f} | | {total_worker / 3600:.2f} |")
     for what, _, wall in rl_compute(rl_root):
-        lines.append(f"| {what} | | {wall / 3600:.2f} | (one core each) |")
+        lines.append(f"| {what} | | {wall / 3600:.2f} | (one core each) | | |")
     return "\n".join(lines)
+
+
+def published_worker_seconds() -> dict[str, tuple[int, float]]:
+    """:func:`worker_seconds` of the store, or of the committed rows on a clone without it ({} if neither)."""
+    from uav_penetration_env.benchmark.rows import read_rows, store_tables
+
+    if (REPO / STORE).is_file():
+        return worker_seconds(store_tables(REPO / STORE))
+    committed = REPO / "leaderboards" / "rows" / "leaderboard"
+    if committed.with_name("leaderboard-runs.parquet").is_file():
+        return worker_seconds(read_rows(committed))
+    return {}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -382,7 +434,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         published = REPO / "leaderboards" / "compute.jsonl"
         if not log.is_file() and published.is_file():  # a fresh clone: the log --install committed
             attempts = read_log(published)
-        print(compute_table(attempts))
+        print(compute_table(attempts, worker=published_worker_seconds()))
         return 0
     if args.install:
         if not rebuild_checked(attempts):

@@ -28,8 +28,9 @@ def folder(tmp_path_factory):
     assert run_cli("windows", "--store", store, "--from-policy", "greedy", "--scenario", "tiny", "--steps", "1,3",
                    "--optimizers", "ihpso", "hpso", "--seeds", "2", "--max-evals", "400", "--horizon", "2") == 0  # fmt: skip
     assert run_cli("leaderboard", "--store", store, "--out", root / "out") == 0
-    attempts = [{"part": "paper", "wall_s": 1800.0, "cpu_s": 3600.0}, {"part": "paper", "wall_s": 1800.0, "cpu_s": 0.0},
-                {"part": "tables", "wall_s": 360.0, "cpu_s": 720.0}]  # fmt: skip
+    attempts = [{"part": "paper", "command": "a", "wall_s": 1800.0, "cpu_s": 3600.0, "status": 0},
+                {"part": "paper", "command": "a", "wall_s": 1800.0, "cpu_s": 0.0, "status": 0},
+                {"part": "tables", "command": "b", "wall_s": 360.0, "cpu_s": 720.0, "status": 0}]  # fmt: skip
     (root / "out" / "compute.jsonl").write_text("".join(json.dumps(a) + "\n" for a in attempts))
     with ResultsStore(store) as s:
         return root / "out", s.episodes(), s.window_runs()
@@ -54,8 +55,8 @@ def test_headline_numbers_equal_those_computed_from_the_rows(folder):
     assert "- target f* + 0.1|f*|: " in text
     # §4: no agent in this store; §6: hours summed over every attempt of a part.
     assert "No RL table in this folder." in text
-    assert "| paper | 2 | 1.00 | 1.00 |" in text and "| tables | 1 | 0.10 | 0.20 |" in text
-    assert "| total |  | 1.10 | 1.20 |" in text
+    assert "| paper | 2 | 1.00 | 1.00 | - | - |" in text and "| tables | 1 | 0.10 | 0.20 | - | - |" in text
+    assert "| total | | 1.10 | 1.20 | | " in text
 
 
 def test_headline_refuses_a_folder_without_tables(tmp_path):

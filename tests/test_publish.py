@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 
 import pytest
 
@@ -191,3 +192,23 @@ def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_pa
     assert not (target / "held-out-random-d0.5.md").exists() and not (target / "models").exists()
     assert (target / "rl" / "state.json").is_file()  # the RL programme's snapshot stays
     assert (target / "compute.jsonl").read_text() == log.read_text()
+
+
+def test_worker_time_counts_finished_work_of_every_attempt_logged_or_not():
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    paper = "uav-bench run --scenarios paper --policies ihpso"
+    runs = pd.DataFrame({"run_id": [1, 2, 3], "provenance": [json.dumps({"command": c}) for c in
+                                                              (paper, paper, "uav-bench windows --x")]})  # fmt: skip
+    # Run 1 was killed with its session (no log line); run 2, the same command resumed, was logged.
+    episodes = pd.DataFrame({"run_id": [1, 1, 2], "episode_seconds": [1800.0, 1800.0, 3600.0]})
+    windows = pd.DataFrame({"run_id": [3, 3], "seconds": [360.0, 360.0]})
+    worker = publish.worker_seconds(SimpleNamespace(runs=runs, episodes=episodes, window_runs=windows))
+    assert worker == {paper: (3, 7200.0), "uav-bench windows --x": (2, 720.0)}
+    attempts = [{"part": "paper", "command": paper, "wall_s": 1800.0, "cpu_s": 3600.0, "status": 0}]
+    table = publish.compute_table(attempts, rl_root=Path("/nonexistent"), worker=worker)
+    assert "| paper | 1 | 0.50 | 1.00 | 3 | 2.00 |" in table
+    assert "| (runs of no logged command) | | | | 2 | 0.20 |" in table
+    assert "| total | | 0.50 | 1.00 | | 2.20 |" in table
