@@ -11,7 +11,7 @@ rebuilds from the committed rows), so the headline can be checked line by line a
 It reads, when present:
 
 - the scenario tables ``<stem>.csv`` (default stems: the paper scenario in both weightings, the
-  suite and its three difficulty levels; ``--tables`` to choose others);
+  suite and its three difficulty levels, the held-out set; ``--tables`` to choose others);
 - their RL tables ``<stem>-rl.csv``;
 - every fixed-target study in the folder: ``<stem>-fixed-target.csv`` (ERT),
   ``-fixed-target-paired.csv`` and ``-fixed-target-traces.csv``;
@@ -45,6 +45,7 @@ TABLES = (
     "uavpen-v1-d0.25",
     "uavpen-v1-d0.50",
     "uavpen-v1-d0.75",
+    "held-out-random-d0.5",
 )
 PSO_VARIANTS = (*PAPER_PLANNERS, "pso")
 REFERENCE = "ihpso"

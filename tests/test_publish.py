@@ -26,11 +26,14 @@ def test_agents_wait_for_the_rl_programme(tmp_path):
         "windows",
         "suite",
         "windows-suite",
+        "held-out",
         "agents",
         "best-known",
         "tables",
     ]
-    agents = plan[4]
+    held_out = plan[4].commands[0]
+    assert held_out[held_out.index("--scenarios") + 1] == "random:10000-10049" and "greedy" in held_out
+    agents = plan[5]
     assert agents.commands == [] and "1 unfinished steps (train/sac-paper-s2" in agents.waits
 
 
@@ -80,11 +83,13 @@ def test_agent_commands_cover_every_finished_agent(tmp_path):
     record.parent.mkdir(parents=True)
     record.write_text("chosen: zoo\n")
     plan = {part.name: part for part in publish.parts(tmp_path, unfinished=list, rl_root=tmp_path / "rl")}
-    paper, random_suite, hybrid = plan["agents"].commands
+    paper, random_suite, held_out, hybrid = plan["agents"].commands
     agents = [f"sb3:{(tmp_path / n).as_posix()}.zip" for n in
               ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "ppo-random-zoo-s0", "sac-random-s0")]  # fmt: skip
     assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == agents
     assert random_suite[:3] == ["run", "--suite", "uavpen-v1"] and random_suite[4:6] == agents[3:]
+    # every agent on the held-out set: the Random-regime agents' test, the paper agents' generalisation
+    assert held_out[held_out.index("--policies") + 1 : held_out.index("--seeds")] == agents
     # the chosen (zoo) PPO paper agents warm-start IHPSO
     assert hybrid[hybrid.index("--policies") + 1 : hybrid.index("--seeds")] == [
         f"ihpso+{a}" for a in agents[1:3]
