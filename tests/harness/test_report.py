@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import re
 
+import numpy as np
 import pytest
 from browser import browser_available, check_report
 from conftest import tiny_scenario
@@ -102,3 +103,19 @@ def test_the_browser_check_fails_on_a_broken_script(written, tmp_path):
     check = check_report(broken)
     assert check.errors, "a broken script must leave an error in the console"
     assert check.drawn_pixels == 0
+
+
+def test_embedded_figures_keep_their_size_and_look_in_a_256_colour_palette(written):
+    import io
+
+    from PIL import Image
+
+    figure = next(f for f in written[3] if f.suffix == ".png" and "tracks-top" in f.name)
+    data = report.embedded_png(figure)
+    with Image.open(figure) as original, Image.open(io.BytesIO(data)) as embedded:
+        assert embedded.format == "PNG" and embedded.mode == "P" and embedded.size == original.size
+        assert len(embedded.getcolors(256)) <= 256
+        before = np.asarray(original.convert("RGB"), dtype=np.int16)
+        after = np.asarray(embedded.convert("RGB"), dtype=np.int16)
+    assert np.abs(before - after).mean() < 3.0  # of 255: the palette barely changes a pixel on average
+    assert len(data) < figure.stat().st_size
