@@ -78,7 +78,7 @@ WINDOW_OPTIMIZERS = ["ihpso", "hpso", "ihpso-noswitch", "ihpso-noreverse", "ihps
 WINDOW_STEPS = ",".join(str(step) for step in range(2, 47, 3))
 COMMON = ["--store", str(STORE), "--no-report", "--no-progress"]
 SUITE_WINDOW_MEMBERS = ("random-30000", "random-30100", "random-30200")  # difficulty 0.25, 0.50, 0.75
-HELD_OUT = "random:10000-10049"  # the held-out set (model.md §7c), one seed per scenario as in v1
+HELD_OUT = "uavpen-heldout-v1"  # the held-out set (model.md §7c) frozen as a suite: one seed per member
 # The greedy floor on the paper scenario, a line in the learning curves: the suite's frozen replay
 # J of uavpen-v1/paper (17.19829762, docs/suite.md), so the command does not depend on the store.
 GREEDY_LINE = "paper-2022-sec5:greedy=17.198"
@@ -149,8 +149,8 @@ def parts(
     ])  # fmt: skip
     # The held-out set: the Random-regime agents' test set (issue 15), with the planners and floors to
     # pair them with; the agents join in the agents part.
-    held_out = Part("held-out", [["run", "--scenarios", HELD_OUT, "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS,
-                                  "--seeds", "1", *COMMON]])  # fmt: skip
+    held_out = Part("held-out", [["run", "--suite", HELD_OUT, "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS,
+                                  *COMMON]])  # fmt: skip
     waiting = (unfinished or programme_unfinished)()
     agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
     if waiting:
@@ -166,7 +166,7 @@ def parts(
         if random_agents:
             commands.append(["run", "--suite", "uavpen-v1", "--policies", *random_agents, *COMMON])
         # Every agent on the held-out set: the Random-regime agents' test, the paper agents' generalisation.
-        commands.append(["run", "--scenarios", HELD_OUT, "--policies", *agents, "--seeds", "1", *COMMON])
+        commands.append(["run", "--suite", HELD_OUT, "--policies", *agents, *COMMON])
         if hybrids:
             commands.append(["run", "--scenarios", "paper", "--policies", *hybrids, "--seeds", "20",
                              "--max-evals", "10000", *COMMON])  # fmt: skip

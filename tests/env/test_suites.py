@@ -152,7 +152,9 @@ def test_array_hash_rounds_last_digits_away_but_sees_a_centimetre():
 
 def test_unknown_names_get_a_did_you_mean(v1):
     with pytest.raises(
-        SuiteError, match=r"unknown suite 'uavpen-v2' — did you mean 'uavpen-v1'\? known suites: uavpen-v1"
+        SuiteError,
+        match=r"unknown suite 'uavpen-v2' — did you mean 'uavpen-v1', 'uavpen-heldout-v1'\? "
+        r"known suites: uavpen-heldout-v1, uavpen-v1$",
     ):
         load_suite("uavpen-v2")
     with pytest.raises(SuiteError, match=r"unknown member 'uavpen-v1/papr' — did you mean 'uavpen-v1/paper'"):
@@ -206,7 +208,9 @@ def test_the_suite_command(tmp_path, capsys):
     from uav_penetration_env.benchmark import cli
 
     assert cli.main(["suite", "list"]) == 0
-    assert capsys.readouterr().out.startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
+    listed = capsys.readouterr().out.splitlines()
+    assert listed[0].startswith("uavpen-heldout-v1: 50 members (d0.50 50)")
+    assert listed[1].startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
     assert cli.main(["suite", "show", "uavpen-v1", "--members", "uavpen-v1/paper*"]) == 0
     out = capsys.readouterr().out
     assert "| uavpen-v1/paper-w2 | fixed | paper-2022-sec5-w2 | d2cada97cea659ca |" in out
@@ -261,3 +265,20 @@ def test_the_whole_suite_runs_with_greedy(tmp_path):
     assert (tmp_path / "out" / "uavpen-v1.md").is_file() and (
         tmp_path / "out" / "uavpen-v1-d0.75.csv"
     ).is_file()
+
+
+def test_the_held_out_suite_is_the_held_out_set_unchanged(v1):
+    held_out = load_suite("uavpen-heldout-v1")
+    assert [m.name for m in held_out.members] == [f"uavpen-heldout-v1/d0.50/{s}" for s in HELD_OUT_SEEDS]
+    for member, seed in zip(held_out.members, HELD_OUT_SEEDS, strict=True):
+        # the same scenario `random:10000-10049` has named since version 0.1 (and its stored episodes)
+        assert member.fingerprint.scenario_hash == resolve_scenario(f"random:{seed}", difficulty=0.5).hash
+    assert not {m.fingerprint.scenario_hash for m in held_out.members} & {m.fingerprint.scenario_hash for m in v1.members}
+    scenario = build_member(held_out, "uavpen-heldout-v1/d0.50/10049")  # fingerprints reproduce (raises otherwise)
+    assert scenario.name == "random-10049"
+
+
+@pytest.mark.slow
+def test_every_held_out_member_reproduces():
+    failures = [str(c.error) for c in verify_suite(load_suite("uavpen-heldout-v1")) if c.error is not None]
+    assert failures == []
