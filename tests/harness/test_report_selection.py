@@ -50,9 +50,13 @@ def test_the_page_caps_its_3d_views(store, tmp_path, monkeypatch):
 
 
 def test_report_embeds_extra_figures_and_refuses_a_non_png(store, tmp_path, capsys):
+    from PIL import Image
+
     figure = tmp_path / "learning-curves.png"
-    figure.write_bytes(b"\x89PNG\r\n\x1a\n")  # embedded as it is: the page does not decode it
+    Image.new("RGB", (8, 4), (255, 0, 0)).save(figure)
     (tmp_path / "x").write_bytes(b"")
+    truncated = tmp_path / "cut.png"
+    truncated.write_bytes(b"\x89PNG\r\n\x1a\n")  # the signature alone: named, not a crash
     out = tmp_path / "out"
     assert (
         cli.main(
@@ -63,10 +67,9 @@ def test_report_embeds_extra_figures_and_refuses_a_non_png(store, tmp_path, caps
     page = (out / "index.html").read_text()
     assert "<figcaption>learning-curves.png</figcaption>" in page
     assert not any(p.name.startswith("tiny-b-") for p in out.iterdir())
-    assert (
-        cli.main(["report", "--store", str(store), "--out", str(out), "--figures", str(tmp_path / "x")]) == 2
-    )
-    assert "--figures" in capsys.readouterr().err
+    for bad in (tmp_path / "x", truncated):
+        assert cli.main(["report", "--store", str(store), "--out", str(out), "--figures", str(bad)]) == 2
+        assert f"--figures {bad}: not a PNG file" in capsys.readouterr().err
 
 
 def test_an_explicit_reference_must_be_stored_and_the_default_may_be_absent(store, tmp_path, capsys):
@@ -121,3 +124,29 @@ def test_reference_names_include_labels_and_window_optimizers():
     windows = pd.DataFrame({"optimizer": ["ihpso-rtol1e-6", "hpso"]})
     names = reference_names(SimpleNamespace(episodes=episodes, window_runs=windows))
     assert names == ["greedy", "hpso", "ihpso-rtol1e-6", "pso", "pso@aaaaaaaa", "pso@bbbbbbbb"]
+
+
+def test_leaderboards_show_the_markdown_cells_and_fold_the_one_seed_tables(store, tmp_path):
+    import html
+    import re
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.leaderboard import write_leaderboards
+
+    out = tmp_path / "folded"
+    tables = [p for p in write_leaderboards(store, out, command="test") if p.suffix == ".csv"]
+    page = html.unescape(report.write_report(store, out, tables=tables, min_seeds=2).read_text())
+    section = page[page.index('id="leaderboards"') :]
+    section = section[: section.index("</section>")]
+    shown, folded = section.split("<details>", 1)
+    assert "<h3>tiny (" in shown and "tiny-b" not in shown  # three seeds: shown
+    assert "<h3>tiny-b (" in folded and "1 more scenario tables, each flown with fewer than 2" in folded
+    # The cells read as in the Markdown table: the mean with its interval, not raw CSV floats.
+    markdown = (out / "tiny.md").read_text()
+    mean_cell = re.search(r"\| greedy +\|.*", markdown).group(0).split("|")[6].strip()
+    assert "[" in mean_cell and f"<td>{mean_cell}</td>" in shown
+    raw = pd.read_csv(out / "tiny.csv")["total_cost_mean_ci_low"].iloc[0]
+    assert repr(float(raw)) not in shown  # e.g. 3.9174035152227307: never a full-precision float
+    page = html.unescape(report.write_report(store, tmp_path / "all", tables=tables).read_text())
+    assert "<details>" not in page[page.index('id="leaderboards"') :].split("</section>", 1)[0]

@@ -136,7 +136,7 @@ code{background:#eef1f5;padding:1px 4px}
 """
 
 # Sorting: a click on a header sorts the rows by that column (numbers as numbers, "12.3 [1, 2]"
-# by its leading number); a second click reverses.
+# by its leading number, "10,000" as ten thousand); a second click reverses.
 _SORT_SCRIPT = """
 document.querySelectorAll("table.sortable").forEach(function (table) {
   table.querySelectorAll("th").forEach(function (th, column) {
@@ -147,7 +147,7 @@ document.querySelectorAll("table.sortable").forEach(function (table) {
       th.classList.add(ascending ? "sorted-asc" : "sorted-desc");
       var key = function (row) {
         var text = row.cells[column].textContent.trim();
-        var number = parseFloat(text.replace(/[%*]/g, ""));
+        var number = parseFloat(text.replace(/[%*,]/g, ""));
         return isNaN(number) ? text : number;
       };
       Array.from(body.rows).sort(function (a, b) {
@@ -287,21 +287,58 @@ def _provenance(context: ReportContext) -> str:
     return "".join(lines)
 
 
+def _display_table(frame: pd.DataFrame, reference: str) -> pd.DataFrame:
+    """A leaderboard CSV as its Markdown twin shows it: the same headers and formatted cells.
+
+    Tables with the leaderboard's columns get :func:`~.leaderboard.markdown.markdown_rows` (means
+    with their intervals, p-values, shares); any other table keeps its columns, numbers to four
+    significant digits.
+    """
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_number
+    from uav_penetration_env.benchmark.leaderboard.markdown import markdown_rows
+
+    if {"policy", "total_cost_mean"} <= set(frame.columns) and "member" not in frame.columns:
+        header, rows, _ = markdown_rows(frame, reference)
+        return pd.DataFrame(rows, columns=header)
+    return pd.DataFrame(
+        {
+            column: [
+                format_number(v) if isinstance(v, float) else ("" if _missing(v) else str(v)) for v in frame[column]
+            ]
+            for column in frame.columns
+        }
+    )
+
+
 @register_section("leaderboards", "Leaderboards")
 def _leaderboards(context: ReportContext) -> str | None:
+    """Every leaderboard, formatted as its Markdown; one-seed scenario tables folded away (``min_seeds``).
+
+    DECISION (api.md §4.6): a store holding a whole suite has a table per member; those flown with
+    fewer than ``min_seeds`` episodes per policy (the procedural members at one seed each) are folded
+    into one closed ``<details>`` block after the others, so the paper scenario and the suite tables
+    come first. A stacked per-member CSV (``*-members.csv``) is linked, not repeated.
+    """
     if not context.tables:
         return None
-    parts = []
+    shown, folded = [], []
     for path in context.tables:
         frame = pd.read_csv(path)
         markdown = path.with_suffix(".md")
-        link = (
-            f' (<a href="{html.escape(os.path.relpath(markdown, context.out_dir))}">Markdown with provenance</a>)'
-            if markdown.exists()
-            else ""
+        href = html.escape(os.path.relpath(markdown, context.out_dir))
+        link = f' (<a href="{href}">Markdown with provenance</a>)' if markdown.exists() else ""
+        if "member" in frame.columns:
+            shown.append(f"<p>Per-member tables of a suite: <a href=\"{href}\">{html.escape(markdown.name)}</a>.</p>")
+            continue
+        block = f"<h3>{html.escape(path.stem)}{link}</h3>{_html_table(_display_table(frame, context.reference))}"
+        one_seed = "episodes" in frame and len(frame) and int(frame["episodes"].max()) < context.min_seeds
+        (folded if one_seed else shown).append(block)
+    if folded:
+        shown.append(
+            f"<details><summary>{len(folded)} more scenario tables, each flown with fewer than "
+            f"{context.min_seeds} episodes per policy (--min-seeds)</summary>{''.join(folded)}</details>"
         )
-        parts.append(f"<h3>{html.escape(path.stem)}{link}</h3>{_html_table(frame)}")
-    return "".join(parts)
+    return "".join(shown)
 
 
 @register_section("fixed-target", "Fixed target and fixed budget (identical windows)")

@@ -121,6 +121,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _readable_png(path: Path) -> bool:
+    """Whether ``path`` decodes as a PNG image (the page re-encodes it, ``report.embedded_png``)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            image.load()
+            return image.format == "PNG"
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError):
+        return False
+
+
 def run(args: argparse.Namespace) -> int:
     """Write the tables, figures and page; print the summary and where they are."""
     store = existing_store(args.store)
@@ -130,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
         check_reference(args.reference, reference_names(store_tables(store)))
     extra = [Path(f) for f in args.figures]
     for path in extra:
-        if path.suffix != ".png" or not path.is_file():
+        if path.suffix != ".png" or not path.is_file() or not _readable_png(path):
             raise CLIError(
                 f"--figures {path}: not a PNG file; expected figures such as those `uav-bench plot` writes"
             )
