@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats as scipy_stats
 
+from uav_penetration_env.benchmark import rl_stats
 from uav_penetration_env.benchmark.rl_stats import (
     interval_estimate,
     iqm_score,
@@ -137,3 +138,47 @@ def test_probability_of_improvement_interval():
     assert mixed.value == pytest.approx(0.5)  # 3 wins of 6
     assert 0.0 <= mixed.low < 0.5 < mixed.high <= 1.0
     assert probability_of_improvement([1.0, 3.0, 5.0], [2.0, 4.0], seed=0, n_resamples=500) == mixed
+
+
+# --- the paired difference -------------------------------------------------------------------------------
+
+
+def _difference_by_loop(x, y, seed, n):
+    """The two-stage bootstrap of mean_difference, written as loops over the same draws."""
+    rng_tasks, rng_x, rng_y = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3))
+    (rx, tasks), ry = x.shape, y.shape[0]
+    drawn = rng_tasks.integers(0, tasks, size=(n, 1, tasks))
+    runs_x = rng_x.integers(0, rx, size=(n, rx, tasks))
+    runs_y = rng_y.integers(0, ry, size=(n, ry, tasks))
+    values = []
+    for k in range(n):
+        per_task = []
+        for j in range(tasks):
+            t = drawn[k, 0, j]
+            per_task.append(np.mean([x[i, t] for i in runs_x[k, :, j]]) - np.mean([y[i, t] for i in runs_y[k, :, j]]))
+        values.append(np.mean(per_task))
+    return np.percentile(values, [2.5, 97.5])
+
+
+def test_mean_difference_by_hand_and_against_a_loop_over_the_same_draws():
+    x = np.array([[1.0, 2.0, 3.0], [2.0, 3.0, 4.0]])  # task means 1.5, 2.5, 3.5
+    y = np.array([[2.0, 2.0, 5.0]])  # 2, 2, 5: differences -0.5, 0.5, -1.5
+    estimate = rl_stats.mean_difference(x, y, seed=np.random.SeedSequence(7), n_resamples=300)
+    assert estimate.value == pytest.approx(-0.5)
+    low, high = _difference_by_loop(x, y, 7, 300)
+    assert (estimate.low, estimate.high) == (pytest.approx(low), pytest.approx(high))
+    assert estimate.low <= estimate.value <= estimate.high
+
+
+def test_mean_difference_intervals_for_one_task_one_run_and_a_clear_winner():
+    one = rl_stats.mean_difference([[3.0]], [[5.0]], seed=0)
+    assert (one.value, one.low, one.high) == (-2.0, -2.0, -2.0)
+    shifted = np.array([[1.0, 4.0, 2.0]]), np.array([[2.0, 5.0, 3.0]])  # every task exactly 1 cheaper
+    assert rl_stats.mean_difference(*shifted, seed=0) == rl_stats.Estimate(-1.0, -1.0, -1.0)
+    rng = np.random.default_rng(3)
+    cheaper = 10.0 + rng.normal(0.0, 0.3, size=(5, 50))  # five training seeds on fifty scenarios
+    greedy = 12.0 + rng.normal(0.0, 0.3, size=(1, 50))
+    estimate = rl_stats.mean_difference(cheaper, greedy, seed=1, n_resamples=2_000)
+    assert estimate.high < 0.0 and estimate.value == pytest.approx(cheaper.mean() - greedy.mean())
+    with pytest.raises(ValueError, match=r"x, y: got 50 and 3 tasks"):
+        rl_stats.mean_difference(cheaper, np.ones((1, 3)), seed=0)

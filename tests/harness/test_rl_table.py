@@ -80,6 +80,10 @@ def test_rl_table_by_hand():
     # only 18 is cheaper -> 2 of 8 pairs = 0.25.
     assert group["poi_greedy"] == pytest.approx(0.5) and group["poi_planner"] == pytest.approx(0.25)
     assert group["poi_greedy_ci_low"] <= 0.5 <= group["poi_greedy_ci_high"]
+    # Paired difference to greedy (21): mean of the runs 22.75 - 21 = 1.75; with one scenario the
+    # interval resamples the four training seeds: the mean of four draws from {20, 23, 18, 30}, minus 21.
+    assert group["delta_greedy"] == pytest.approx(1.75)
+    assert 18.0 - 21.0 <= group["delta_greedy_ci_low"] < 1.75 < group["delta_greedy_ci_high"] <= 30.0 - 21.0
     assert group["decision_seconds"] == pytest.approx(1.5e-4)  # mean over the group's 8 episodes
     assert group["train_timesteps"] == pytest.approx(2500.0)  # members trained 1000..4000 steps
     greedy, hpso = table.iloc[1], table.iloc[2]
@@ -89,6 +93,7 @@ def test_rl_table_by_hand():
     assert text.startswith("## RL agents over training seeds")
     assert "the variation that counts is across training seeds" in text
     assert "P(< hpso) [95% CI]" in text and "| hpso (reference) " in text
+    assert "Δ vs greedy [95% CI]" in text and "1.75 [" in text
 
 
 def test_a_suite_stratifies_by_scenario():
@@ -103,6 +108,10 @@ def test_a_suite_stratifies_by_scenario():
     assert row["mean"] == pytest.approx(22.75 + 5.0)  # tasks weigh alike: (22.75 + 32.75) / 2
     # Per scenario the pairs are the same as in one scenario, so the average over tasks is too.
     assert row["poi_greedy"] == pytest.approx(0.5) and row["poi_planner"] == pytest.approx(0.25)
+    assert row["delta_greedy"] == pytest.approx(1.75)  # both scenarios shifted alike: the same difference
+    hpso = table[table["group"] == "hpso"].iloc[0]
+    assert hpso["delta_greedy"] == pytest.approx(-2.0)  # 19 vs 21 and 29 vs 31, every resample alike
+    assert (hpso["delta_greedy_ci_low"], hpso["delta_greedy_ci_high"]) == (pytest.approx(-2.0), pytest.approx(-2.0))
 
 
 def test_no_agents_no_table():

@@ -136,7 +136,7 @@ def test_run_suite_refuses_flags_that_change_members(tmp_path, capsys, extra, me
 
 def test_unknown_suite_and_members_without_suite(tmp_path, capsys):
     status, _ = cli.main(["run", "--suite", "uavpen-1", "--store", str(tmp_path / "s.sqlite")]), None
-    assert status == 2 and "unknown suite 'uavpen-1' — did you mean 'uavpen-v1'?" in capsys.readouterr().err
+    assert status == 2 and "unknown suite 'uavpen-1' — did you mean 'uavpen-v1', 'uavpen-heldout-v1'?" in capsys.readouterr().err
     assert cli.main(["run", "--members", "x", "--store", str(tmp_path / "s.sqlite")]) == 2
     assert "--members: only with --suite" in capsys.readouterr().err
 
@@ -277,3 +277,35 @@ def test_a_suite_that_cannot_be_loaded_is_named_not_silently_dropped(tmp_path):
     with pytest.warns(UserWarning, match=f"suite {missing} .*member-weighted tables are left out"):
         written = write_leaderboards(store, tmp_path / "out", command="test")
     assert [p.name for p in written] == ["tiny.md", "tiny.csv"]  # the other tables are still written
+
+
+def test_suite_tables_add_the_rl_table_over_the_members(tmp_path):
+    """Agents of two training seeds and greedy on two held-out members: the RL section pools the seeds."""
+    from uav_penetration_env.benchmark.leaderboard.registry import TableContext
+    from uav_penetration_env.benchmark.leaderboard.suite import write_suite_tables
+
+    held_out = load_suite("uavpen-heldout-v1")
+    members = held_out.members[:2]
+    costs = {"sb3:ppo-random-s0": (10.0, 14.0), "sb3:ppo-random-s1": (12.0, 16.0), "greedy": (13.0, 15.0)}
+    from uav_penetration_env.benchmark.rows import store_tables
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    with ResultsStore(tmp_path / "h.sqlite") as store:
+        for index, (policy, values) in enumerate(costs.items()):
+            for member, cost in zip(members, values, strict=True):
+                store.write_episode({"policy": policy, "policy_hash": f"{index:016d}", "scenario": member.scenario,
+                                     "scenario_hash": member.fingerprint.scenario_hash, "seed": 0,
+                                     "outcome": "success", "total_J": cost, "total_penalty": 0.0, "total_cost": cost,
+                                     "planning_seconds": 1e-4, "steps": 40, "error": ""}, [])  # fmt: skip
+    episodes = store_tables(tmp_path / "h.sqlite").episodes
+    runs = pd.DataFrame({"run_id": [1], "started": ["2026-11-29T00:00:00+00:00"],
+                         "provenance": ['{"command": "test"}'], "settings": ['{"suite": "uavpen-heldout-v1"}']})  # fmt: skip
+    context = TableContext(tmp_path, tmp_path, episodes, runs, "greedy", 0, "test", 400, "today")
+    written = {p.name for p in write_suite_tables(context, "uavpen-heldout-v1")}
+    assert {"uavpen-heldout-v1.md", "uavpen-heldout-v1.csv", "uavpen-heldout-v1-rl.csv"} <= written
+    rl = pd.read_csv(tmp_path / "uavpen-heldout-v1-rl.csv").set_index("group")
+    # Runs: the seeds' scores (10, 14) and (12, 16); tasks: the 2 members; greedy 13 and 15.
+    assert (rl.loc["sb3:ppo-random", "runs"], rl.loc["sb3:ppo-random", "tasks"]) == (2, 2)
+    assert rl.loc["sb3:ppo-random", "mean"] == pytest.approx(13.0)
+    assert rl.loc["sb3:ppo-random", "delta_greedy"] == pytest.approx(-1.0)  # (11 - 13 + 15 - 15) / 2
+    assert "## RL agents over training seeds" in (tmp_path / "uavpen-heldout-v1.md").read_text()

@@ -16,6 +16,9 @@ seed of an agent, an episode seed of a stochastic planner) and a *task* one scen
 * :func:`probability_of_improvement`: per task the Mann-Whitney U statistic over ``n x m``, i.e.
   P(X better than Y) + ½ P(tie), averaged over tasks; its interval resamples X and Y
   independently, each stratified by task (``StratifiedIndependentBootstrap``).
+* :func:`mean_difference`: the paired difference of X and Y (mean over tasks of the difference
+  of their per-task means), with a two-stage bootstrap interval (tasks, then runs in each); not
+  an rliable estimator: the leaderboard's paired Δ, for methods whose runs are training seeds.
 
 DECISION (docs/rl-statistics.md §1): our scores are COSTS, lower is better, whereas rliable's are
 returns, higher is better. Every function here takes ``higher_is_better`` (default ``False``);
@@ -362,6 +365,60 @@ def probability_of_improvement(
                 stratified_resamples(a, rng_x, n), stratified_resamples(b, rng_y, n), higher_is_better
             )
         )
+    low, high = percentile_interval(np.concatenate(parts), confidence)
+    return Estimate(value, float(low), float(high))
+
+
+def mean_difference(
+    x: ArrayLike,
+    y: ArrayLike,
+    *,
+    seed: RNGLike,
+    n_resamples: int = 10_000,
+    confidence: float = 0.95,
+) -> Estimate:
+    """Mean over tasks of (mean of X's runs − mean of Y's runs) on each task, with a bootstrap interval.
+
+    The paired difference of two methods on the same tasks (scenarios): negative when X is cheaper.
+    The interval is a two-stage percentile bootstrap: each resample draws the tasks with
+    replacement (the same tasks for X and Y: the pairing), then, within each drawn task, X's runs
+    and Y's runs independently with replacement. DECISION (docs/rl-statistics.md §1): both sources
+    of variation count, the scenarios and the training seeds; with one task it resamples the runs
+    alone (the paper scenario: variation across training seeds), with one run per task it is the
+    paired bootstrap over tasks the leaderboard's Δ column uses. With one run and one task, or
+    identical differences everywhere, the interval is the point.
+
+    Args:
+        x: (runs_x, tasks) scores of X.
+        y: (runs_y, tasks) scores of Y on the same tasks, in the same column order.
+        seed: the bootstrap's seed.
+        n_resamples: bootstrap resamples.
+        confidence: confidence level in (0, 1).
+
+    Returns:
+        The :class:`Estimate` of the difference (X − Y, in the scores' unit).
+
+    Raises:
+        ValueError: bad scores, different task counts, bad confidence or resamples.
+    """
+    a, b = score_matrix(x, "x"), score_matrix(y, "y")
+    if a.shape[1] != b.shape[1]:
+        raise ValueError(f"x, y: got {a.shape[1]} and {b.shape[1]} tasks, expected the same tasks in both")
+    _check_level(confidence, n_resamples)
+    value = float((a.mean(axis=0) - b.mean(axis=0)).mean())
+    (runs_a, tasks), runs_b = a.shape, b.shape[0]
+    if (runs_a == runs_b == 1 and tasks == 1) or (
+        np.all(a == a[:1]) and np.all(b == b[:1]) and np.all(a[0] - b[0] == a[0, 0] - b[0, 0])
+    ):
+        return Estimate(value, value, value)  # every resample gives the sample's difference
+    base = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(_entropy(seed))
+    rng_tasks, rng_a, rng_b = (np.random.default_rng(s) for s in base.spawn(3))
+    parts = []
+    for n in _chunks(n_resamples, a.shape, b.shape):
+        drawn = rng_tasks.integers(0, tasks, size=(n, 1, tasks))
+        runs_of_a = rng_a.integers(0, runs_a, size=(n, runs_a, tasks))
+        runs_of_b = rng_b.integers(0, runs_b, size=(n, runs_b, tasks))
+        parts.append((a[runs_of_a, drawn].mean(axis=1) - b[runs_of_b, drawn].mean(axis=1)).mean(axis=1))
     low, high = percentile_interval(np.concatenate(parts), confidence)
     return Estimate(value, float(low), float(high))
 

@@ -148,6 +148,13 @@ def _improvement(x: pd.DataFrame, y: pd.DataFrame, seed: np.random.SeedSequence,
     )
 
 
+def _difference(x: pd.DataFrame, y: pd.DataFrame, seed: np.random.SeedSequence, n: int) -> rl_stats.Estimate:
+    tasks = [t for t in x.columns if t in y.columns]
+    if x.empty or y.empty or not tasks:
+        return rl_stats.Estimate(np.nan, np.nan, np.nan)
+    return rl_stats.mean_difference(x[tasks].to_numpy(), y[tasks].to_numpy(), seed=seed, n_resamples=n)
+
+
 def best_planner(episodes: pd.DataFrame, found: Sequence[Method]) -> Method | None:
     """The swarm planner (family "paper planners (MPC)") with the lowest mean total J, ties by label.
 
@@ -224,6 +231,12 @@ def rl_table(episodes: pd.DataFrame, *, seed: int = 0, n_resamples: int = 10_000
                 )
             )
             row.update({key: poi.value, f"{key}_ci_low": poi.low, f"{key}_ci_high": poi.high})
+        delta = (
+            rl_stats.Estimate(np.nan, np.nan, np.nan)
+            if greedy is None or greedy is method
+            else _difference(table, scores[greedy.label], label_seed(seed, method.label, 14), n_resamples)
+        )
+        row.update({"delta_greedy": delta.value, "delta_greedy_ci_low": delta.low, "delta_greedy_ci_high": delta.high})
         gaps = relative_gaps(valid).to_numpy(dtype=np.float64) if len(valid) else np.array([])
         gaps = gaps[np.isfinite(gaps)]
         row["gap"] = float(gaps.mean()) if len(gaps) else np.nan
@@ -248,6 +261,8 @@ def _cell(name: str, r: Any) -> str:
         return f"{int(r[name])}"
     if name in ("iqm", "mean"):
         return format_interval(r[name], r[f"{name}_ci_low"], r[f"{name}_ci_high"])
+    if name == "delta_greedy":
+        return format_interval(r[name], r[f"{name}_ci_low"], r[f"{name}_ci_high"], 3)
     if name.startswith("poi_"):
         return format_interval(r[name], r[f"{name}_ci_low"], r[f"{name}_ci_high"], 3)
     if name == "gap":

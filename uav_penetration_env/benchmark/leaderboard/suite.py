@@ -46,6 +46,7 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
     statistics_paragraph,
 )
 from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables
+from uav_penetration_env.benchmark.leaderboard.rl import rl_markdown, rl_table
 from uav_penetration_env.benchmark.leaderboard.table import CONFIDENCE, _label_seed, leaderboard_table
 
 if TYPE_CHECKING:  # imported where used: the suites package reads YAML and builds scenarios
@@ -422,7 +423,9 @@ def write_suite_tables(context: TableContext, suite_name: str) -> list[Path]:
     """Write the tables of one frozen suite (module docstring); none when the store has no member episodes.
 
     Returns:
-        Markdown then CSV of ``<suite>``, of each ``<suite>-<group>`` present, then of ``<suite>-members``.
+        Markdown then CSV (then ``-rl.csv`` when RL agents flew the members: the RL table over the
+        members, whose section the Markdown also gets) of ``<suite>``, of each ``<suite>-<group>``
+        present, then Markdown and CSV of ``<suite>-members``.
     """
     from uav_penetration_env.suites import load_suite
 
@@ -443,7 +446,15 @@ def write_suite_tables(context: TableContext, suite_name: str) -> list[Path]:
             continue
         table = equal_weight_table(rows, **settings)
         markdown = equal_weight_markdown(title, suite, rows, table, members, context)
-        written += _write_pair(context.out_dir, title, markdown, table)
+        # The RL table over the members (docs/rl-statistics.md §2): the members are its tasks, the
+        # strata of the bootstraps, as the RL field reports agents over a benchmark's environments.
+        rl = rl_table(rows, seed=context.seed, n_resamples=context.n_resamples)
+        written += _write_pair(context.out_dir, title, markdown + ("\n" + rl_markdown(rl) if not rl.empty else ""), table)
+        if not rl.empty:
+            rl_csv = context.out_dir / f"{title}-rl.csv"
+            with atomic_path(rl_csv) as temporary:
+                rl.to_csv(temporary, index=False, lineterminator="\n")
+            written.append(rl_csv)
     stacked = member_tables(frame, **settings)
     written += _write_pair(
         context.out_dir, f"{suite.name}-members", members_markdown(suite, frame, stacked, context), stacked
