@@ -3,30 +3,32 @@
 ```bash
 python benchmarks/publish.py --dry-run              # every command and whether it is done
 nice -n 10 python benchmarks/publish.py             # run what is not done (results under results/v2)
-python benchmarks/publish.py --compute              # wall and CPU time per part, all attempts summed
-python benchmarks/publish.py --install              # copy results/v2/out into leaderboards/
+python benchmarks/publish.py --only tables          # run some parts only
+python benchmarks/publish.py --compute              # wall, CPU and worker time per part
+python benchmarks/publish.py --install              # replace leaderboards/'s generated files by results/v2/out's
 ```
 
-The parts, in order (each a list of ``uav-bench`` commands, printed exactly as run; README
-"The published leaderboard" lists them):
+The parts, in order (each a list of ``uav-bench`` commands, printed exactly as run by ``--dry-run``;
+docs/publishing.md §1):
 
 1. ``paper``: the paper scenario in both weightings, 20 paired seeds, 10 000 evaluations per
    planning step: the six paper planners, the references, the IHPSO ablations and the floors;
 2. ``windows``: IHPSO, HPSO and IHPSO's variants rerun on MPC window states of the greedy episode
    (the fixed-target and fixed-budget study of issue 11, with the tolerance variants);
 3. ``suite``: the frozen suite ``uavpen-v1`` (its own seed rule) for the paper planners, ``cmaes``
-   and the floors; ``windows-suite``: IHPSO and HPSO on the window states of one procedural member
-   per difficulty;
-4. ``agents``: every finished agent of the RL programme (``leaderboards/rl/models``) on the paper
-   scenario, the Random-regime agents on the suite, and the agent-warm-started IHPSO; it waits
-   until the programme (``python -m baselines.programme``) has finished;
-5. ``best-known``: best-known records updated from the store (tracked files change: commit them);
-6. ``tables``: the learning curves, the figures (per-scenario figures and 3-D views only for
-   scenarios flown with at least 2 seeds: the suite's 60 procedural members, one seed each, are
-   summarised by the suite tables), the leaderboards and the HTML report from the store into
-   ``results/v2/out``, the episode, run, window-run and step rows exported as Parquet, and the
-   tables rebuilt from the rows alone, which must equal the store's byte for byte apart from the
-   date line.
+   and the floors;
+4. ``windows-suite``: IHPSO and HPSO on the window states of one procedural member per difficulty;
+5. ``held-out``: the held-out set, frozen as the suite ``uavpen-heldout-v1``, for the same policies;
+6. ``agents``: every finished agent of the RL programme (``leaderboards/rl/models``) on the paper
+   scenario in both weightings and on the held-out suite, the Random-regime agents on
+   ``uavpen-v1``, and the agent-warm-started IHPSO; it waits (exit status 3) until the programme's
+   committed snapshot ``leaderboards/rl`` is complete;
+7. ``best-known``: best-known records updated from the store (tracked files change: commit them);
+8. ``tables``: the learning curves, the figures (per-scenario figures and 3-D views only for
+   scenarios flown with at least 2 seeds: the procedural members, one seed each, are summarised by
+   the suite tables), the leaderboards and the HTML report from the store into ``results/v2/out``,
+   the episode, run, window-run and step rows exported as Parquet, and the tables rebuilt from the
+   rows alone, which must equal the store's byte for byte apart from the date line.
 
 DECISION (docs/publishing.md §2, clean tree): a command runs only on a clean working tree (tracked files as committed),
 so every run's provenance names a clean commit; between the ``best-known`` and ``tables`` parts
@@ -37,7 +39,8 @@ report covers every table.
 DECISION (docs/publishing.md §2, compute log): each attempt of a command appends a line to ``results/v2/compute.jsonl``
 (part, command, wall seconds, CPU seconds of its process tree, exit status, commit); a command is
 done when one attempt exited 0. ``uav-bench run`` and ``windows`` skip what the store holds, so a
-cut attempt resumes; its CPU time still counts.
+cut attempt resumes. An attempt killed with its session writes no line, so ``--compute`` also sums
+the worker time of every finished episode and window run from the rows (:func:`worker_seconds`).
 """
 
 from __future__ import annotations
@@ -428,11 +431,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--dry-run", action="store_true", help="print every command and its state; run nothing"
     )
-    parser.add_argument("--compute", action="store_true", help="print the compute table; run nothing")
+    parser.add_argument("--compute", action="store_true", help="print the compute table (wall, CPU, worker time); run nothing")
     parser.add_argument(
         "--install",
         action="store_true",
-        help="copy results/v2/out into leaderboards/ (after a passed rebuild check)",
+        help="replace leaderboards/'s generated files by results/v2/out's (after a passed rebuild check)",
     )
     args = parser.parse_args(argv)
     log = REPO / ROOT / "compute.jsonl"

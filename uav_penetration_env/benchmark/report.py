@@ -553,7 +553,7 @@ def embedded_png(path: Path) -> bytes:
 
     DECISION (api.md §4.6, report size): the figures are line plots over a grey hillshade, which a
     256-colour palette renders with barely visible banding at about a quarter of the bytes (the
-    29 figures of the published store: 11.1 MB as written, 2.9 MB in the palette), and the page
+    29 figures of the v2 store before its agents part: 11.1 MB as written, 2.9 MB in the palette), and the page
     carries every figure base64-encoded. The PNG files beside the page stay full colour.
     """
     import io

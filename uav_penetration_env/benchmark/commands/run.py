@@ -111,7 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
     parser.add_argument(
         "--suite",
-        help="run every member of a frozen suite (uavpen-v1; `uav-bench suite list`), each checked against "
+        help="run every member of a frozen suite (uavpen-v1, uavpen-heldout-v1; `uav-bench suite list`), each checked against "
         "its fingerprint; seeds per member by the suite rule unless --seeds (docs/suite.md)",
     )
     parser.add_argument(
