@@ -309,3 +309,16 @@ def test_suite_tables_add_the_rl_table_over_the_members(tmp_path):
     assert rl.loc["sb3:ppo-random", "mean"] == pytest.approx(13.0)
     assert rl.loc["sb3:ppo-random", "delta_greedy"] == pytest.approx(-1.0)  # (11 - 13 + 15 - 15) / 2
     assert "## RL agents over training seeds" in (tmp_path / "uavpen-heldout-v1.md").read_text()
+
+
+def test_figures_add_the_aggregate_figures_of_a_recorded_suite(tmp_path):
+    from uav_penetration_env.benchmark.figures import FIGURES, SCENARIO_FIGURES, write_figures
+
+    status, store = _run(tmp_path, "--members", *MEMBERS, "--policies", "greedy", "random", "--no-report")
+    assert status == 0
+    names = {p.name for p in write_figures(store, tmp_path / "figures", formats=("png",), min_seeds=2)}
+    aggregate = [f for f in FIGURES if f not in SCENARIO_FIGURES]
+    assert {f"uavpen-v1-{f}.png" for f in aggregate} <= names
+    assert not any(n.startswith("uavpen-v1-") and n[len("uavpen-v1-") : -4] in SCENARIO_FIGURES for n in names)
+    # The paper member (random floor: 5 seeds) still gets its own figures; the one-seed member does not.
+    assert "paper-2022-sec5-cost-box.png" in names and not any(n.startswith("random-30000-") for n in names)

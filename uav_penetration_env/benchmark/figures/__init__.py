@@ -199,6 +199,29 @@ def one_agent_per_group(inp: FigureInput) -> FigureInput:
     )
 
 
+def frozen_suite_groups(store: ResultsStore) -> list[Any]:
+    """One group per frozen suite a ``run --suite`` of the store recorded, over its members' episodes.
+
+    DECISION (api.md §4.6): the figures that aggregate over episodes (box plot, profiles, the
+    compute axis) are drawn over every member of such a suite as well, named after it
+    (``uavpen-heldout-v1-rl-profile.png``): with its members flown at one seed each, these are the
+    suite's only figures, and the RL profile over the held-out members is the Random-regime agents'
+    test. A suite this package does not ship is skipped (its tables say why).
+    """
+    from uav_penetration_env.benchmark.leaderboard.suite import recorded_suites, suite_episodes
+    from uav_penetration_env.suites import SuiteError, load_suite
+
+    episodes, groups = store.episodes(), []
+    for name in recorded_suites(store.runs()):
+        try:
+            members = suite_episodes(episodes, load_suite(name))
+        except SuiteError:
+            continue
+        if not members.empty:
+            groups.append(suite_group(members.drop(columns=["member", "member_group", "member_index"]), name))
+    return groups
+
+
 def write_figures(
     store_path: str | Path,
     out_dir: str | Path,
@@ -229,7 +252,8 @@ def write_figures(
     Returns:
         The written paths, ``<stem>-<figure>.<format>`` in the order of ``formats``, groups sorted
         by (name, hash) and figures in the order of :data:`FIGURES`, then :data:`WINDOW_FIGURES`
-        for a group whose window runs the store holds (not in a suite).
+        for a group whose window runs the store holds (not in a suite); then, without ``suite``, the
+        aggregate figures of every frozen suite the store's runs recorded (:func:`frozen_suite_groups`).
 
     Raises:
         FileNotFoundError: there is no store at ``store_path``.
@@ -251,12 +275,13 @@ def write_figures(
         episodes = store.episodes()
         scenarios = store.scenarios()
         window_runs = store.window_runs()
+        aggregate = [f for f in FIGURES if f not in SCENARIO_FIGURES]
         if suite is not None and not episodes.empty:
-            groups, names = [suite_group(episodes, suite)], [f for f in FIGURES if f not in SCENARIO_FIGURES]
+            plan = [(suite_group(episodes, suite), aggregate)]
         else:
-            groups, names = scenario_groups(episodes), list(FIGURES)
-            groups = [g for g in groups if g.episodes["seed"].nunique() >= min_seeds]
-        for group in groups:
+            groups = [g for g in scenario_groups(episodes) if g.episodes["seed"].nunique() >= min_seeds]
+            plan = [(g, list(FIGURES)) for g in groups] + [(g, aggregate) for g in frozen_suite_groups(store)]
+        for group, names in plan:
             rows = store.steps(group.episodes["episode_id"].astype(int).tolist(), include_start=True)
             starts, steps = rows[rows["step"] == 0], rows[rows["step"] > 0]
             model = (
