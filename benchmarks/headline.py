@@ -215,7 +215,7 @@ def gap_section(tables: dict[str, pd.DataFrame]) -> list[str]:
 
 
 def rl_section(folder: Path, stems: Sequence[str]) -> list[str]:
-    """Every RL group's IQM, its probabilities of improvement and its decision time, per table."""
+    """Every RL group's IQM, its paired difference to greedy, its probabilities of improvement and decision time."""
     lines = ["## 4. RL agents against the swarm planners", ""]
     found = False
     for stem in stems:
@@ -227,13 +227,18 @@ def rl_section(folder: Path, stems: Sequence[str]) -> list[str]:
         references = table[table["kind"] == "reference"]
         planner = references[references["group"] != "greedy"]
         planner_seconds = float(planner["decision_seconds"].iloc[0]) if len(planner) else math.nan
+        def delta(r) -> str:  # tables written before the column existed lack it
+            if not hasattr(r, "delta_greedy"):
+                return "-"
+            return f"{number(r.delta_greedy, 3)} [{number(r.delta_greedy_ci_low, 3)}, {number(r.delta_greedy_ci_high, 3)}]"
+
         rows = [
             [str(r.group), str(r.kind), str(r.runs), f"{number(r.iqm, 4)} [{number(r.iqm_ci_low, 4)}, {number(r.iqm_ci_high, 4)}]",
-             number(r.mean, 4), number(r.poi_greedy, 2), number(r.poi_planner, 2), number(r.decision_seconds, 3),
+             number(r.mean, 4), delta(r), number(r.poi_greedy, 2), number(r.poi_planner, 2), number(r.decision_seconds, 3),
              number(planner_seconds / r.decision_seconds, 3) if r.decision_seconds else "-"]
             for r in table.itertuples()
         ]  # fmt: skip
-        header = ["group", "kind", "runs", "IQM [95% CI]", "mean", "P(better than greedy)",
+        header = ["group", "kind", "runs", "IQM [95% CI]", "mean", "Δ vs greedy [95% CI]", "P(better than greedy)",
                   "P(better than best planner)", "decision [s/step]", "planner's time / this"]  # fmt: skip
         lines += [f"`{stem}` (best planner: {planner['group'].iloc[0] if len(planner) else '-'}):", "",
                   markdown(header, rows), ""]  # fmt: skip

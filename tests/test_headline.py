@@ -63,3 +63,21 @@ def test_headline_refuses_a_folder_without_tables(tmp_path):
     headline = load("headline")
     with pytest.raises(SystemExit, match=r"none of the tables tiny\.csv; expected a leaderboard folder"):
         headline.headline(tmp_path, ["tiny"])
+
+
+def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.leaderboard import rl_table
+
+    rows = []
+    for policy, cost, seconds in (("sb3:ppo-paper-s0", 20.0, 1e-4), ("sb3:ppo-paper-s1", 24.0, 1e-4),
+                                  ("greedy", 21.0, 5e-5), ("hpso", 19.0, 0.3)):  # fmt: skip
+        rows.append({"policy": policy, "policy_hash": policy[:16].ljust(16, "0"), "scenario": "s",
+                     "scenario_hash": "h", "seed": 0, "outcome": "success", "total_J": cost, "total_penalty": 0.0,
+                     "total_cost": cost, "planning_seconds": seconds, "steps": 10, "error": ""})  # fmt: skip
+    rl_table(pd.DataFrame(rows), n_resamples=200).to_csv(tmp_path / "s-rl.csv", index=False)
+    text = "\n".join(load("headline").rl_section(tmp_path, ["s"]))
+    assert "`s` (best planner: hpso):" in text
+    # The group's runs 20 and 24 against greedy's 21: +1; the planner decides 3 000 times slower.
+    assert "| sb3:ppo-paper | RL group | 2 | " in text and "| 1 [" in text and "| 3000 |" in text
