@@ -162,3 +162,37 @@ def test_rl_corridor_reads_altitudes_from_the_stored_steps(tmp_path):
         ValueError, match="--scenario paper --seed 0: no finished episode; stored scenarios: tiny"
     ):
         load("rl_corridor").corridor_table(store, scenario="paper", seed=0)
+
+
+def test_goal_misses_measures_the_closest_approach_and_the_end_at_the_edge(tmp_path, capsys):
+    import yaml
+    from conftest import tiny_scenario
+
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    module = load("goal_misses")
+    tiny = tiny_scenario()  # map -25..50 km square, goal at (25, 25)
+    store = tmp_path / "m.sqlite"
+    tracks = {  # (policy, seed): (outcome, [(x, y, distance to goal)])
+        ("hpso", 0): ("success", [(10.0, 10.0, 21.2), (24.0, 24.0, 1.4)]),
+        ("hpso", 1): ("collided", [(20.0, 28.0, 5.8), (40.0, 40.0, 21.2), (48.0, 30.0, 23.5)]),  # ends 2 km from x=50
+        ("greedy", 0): ("success", [(25.0, 25.0, 0.0)]),  # a floor: not an MPC planner, left out
+    }
+    with ResultsStore(store) as s:
+        s.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        for (policy, seed), (outcome, points) in tracks.items():
+            steps = [{"step": k, "x_km": x, "y_km": y, "distance_to_goal": d, "J": 0.1, "penalty": 0.0}
+                     for k, (x, y, d) in enumerate(points, start=1)]  # fmt: skip
+            s.write_episode({"policy": policy, "policy_hash": f"{policy:0<16}", "scenario": "tiny",
+                             "scenario_hash": tiny.hash, "seed": seed, "outcome": outcome, "total_J": 1.0,
+                             "total_penalty": 0.0, "total_cost": 1.0, "steps": len(points), "error": ""}, steps)  # fmt: skip
+    table = module.summary(module.approaches(store)).set_index("policy")
+    assert list(table.index) == ["hpso"]
+    row = table.loc["hpso"]
+    assert (row["episodes"], row["failed"], row["collided"]) == (2, 1, 1)
+    assert row["closest_km_failed"] == 5.8 and row["closest_km_success"] == 1.4
+    assert row["failed_at_edge"] == 1
+    assert module.main([str(store)]) == 0
+    assert "1 failed of 2 MPC episodes; 1 failures ended within 5 km of the map edge" in capsys.readouterr().out
+    assert module.scenario_group("random-30006") == "uavpen-v1 d0.25"
+    assert module.scenario_group("random-10049") == "uavpen-heldout-v1"
