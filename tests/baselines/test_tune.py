@@ -109,6 +109,26 @@ def test_a_rerun_continues_to_the_number_of_trials_asked(two_trials):
     assert names == ["COMPLETE"] * 3 and more.complete == 3
 
 
+def test_each_trial_is_collected_before_the_next_starts(tmp_path, monkeypatch):
+    """A trial's model, envs and replay buffer are cycles the collector must free between trials."""
+    import gc
+
+    from stable_baselines3 import PPO
+
+    import baselines.tune
+
+    alive_at_collection, original = [], gc.collect
+
+    def collect(*args):
+        result = original(*args)
+        alive_at_collection.append(sum(1 for o in gc.get_objects() if type(o) is PPO))
+        return result
+
+    monkeypatch.setattr(baselines.tune.gc, "collect", collect)
+    run_study(tiny(tmp_path, trials=2))
+    assert alive_at_collection == [0, 0]  # one collection per trial, after which no trial model survives
+
+
 def test_an_interrupted_trial_is_failed_and_its_parameters_run_again(tmp_path, monkeypatch):
     config = tiny(tmp_path, trials=2)
     run_study(tiny(tmp_path, trials=1))
