@@ -319,6 +319,23 @@ def performance_profile(
 # --- probability of improvement ----------------------------------------------------------------------------
 
 
+def _paired_matrices(x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The (runs, tasks) score matrices of two methods compared on the same tasks.
+
+    Raises:
+        ValueError: bad scores or different task counts.
+    """
+    a, b = score_matrix(x, "x"), score_matrix(y, "y")
+    if a.shape[1] != b.shape[1]:
+        raise ValueError(f"x, y: got {a.shape[1]} and {b.shape[1]} tasks, expected the same tasks in both")
+    return a, b
+
+
+def _seed_sequence(seed: RNGLike) -> np.random.SeedSequence:
+    """``seed`` as a SeedSequence (from which a statistic spawns its independent streams)."""
+    return seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(_entropy(seed))
+
+
 def probability_of_improvement(
     x: ArrayLike,
     y: ArrayLike,
@@ -349,14 +366,12 @@ def probability_of_improvement(
     Raises:
         ValueError: bad scores, different task counts, bad confidence or resamples.
     """
-    a, b = score_matrix(x, "x"), score_matrix(y, "y")
-    if a.shape[1] != b.shape[1]:
-        raise ValueError(f"x, y: got {a.shape[1]} and {b.shape[1]} tasks, expected the same tasks in both")
+    a, b = _paired_matrices(x, y)
     _check_level(confidence, n_resamples)
     value = float(_improvement_stack(a[None], b[None], higher_is_better)[0])
     if seed is None:
         return Estimate(value, float("nan"), float("nan"))
-    base = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(_entropy(seed))
+    base = _seed_sequence(seed)
     rng_x, rng_y = (np.random.default_rng(s) for s in base.spawn(2))
     parts = []
     for n in _chunks(n_resamples, a.shape, b.shape, (a.shape[0] * b.shape[0], a.shape[1])):
@@ -401,9 +416,7 @@ def mean_difference(
     Raises:
         ValueError: bad scores, different task counts, bad confidence or resamples.
     """
-    a, b = score_matrix(x, "x"), score_matrix(y, "y")
-    if a.shape[1] != b.shape[1]:
-        raise ValueError(f"x, y: got {a.shape[1]} and {b.shape[1]} tasks, expected the same tasks in both")
+    a, b = _paired_matrices(x, y)
     _check_level(confidence, n_resamples)
     value = float((a.mean(axis=0) - b.mean(axis=0)).mean())
     (runs_a, tasks), runs_b = a.shape, b.shape[0]
@@ -411,7 +424,7 @@ def mean_difference(
         np.all(a == a[:1]) and np.all(b == b[:1]) and np.all(a[0] - b[0] == a[0, 0] - b[0, 0])
     ):
         return Estimate(value, value, value)  # every resample gives the sample's difference
-    base = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(_entropy(seed))
+    base = _seed_sequence(seed)
     rng_tasks, rng_a, rng_b = (np.random.default_rng(s) for s in base.spawn(3))
     parts = []
     for n in _chunks(n_resamples, a.shape, b.shape):
