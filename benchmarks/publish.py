@@ -208,8 +208,28 @@ def read_log(log: Path) -> list[dict]:
     return attempts
 
 
+ORDER = ("paper", "windows", "suite", "windows-suite", "held-out", "agents", "best-known", "tables")
+# Parts computed from what earlier parts wrote (the store, the records).
+DERIVED = ("best-known", "tables")
+
+
+def current(attempts: list[dict], index: int) -> bool:
+    """Whether attempt ``index`` saw every earlier part's output: no attempt of an earlier part came after it.
+
+    DECISION (docs/publishing.md §2, staleness): a derived part (best-known, tables) done before a run
+    part added rows (a first publication before the agents part, say) is stale and runs again; run
+    parts skip what the store holds, so they are never stale.
+    """
+    part = attempts[index].get("part")
+    if part not in DERIVED:
+        return True
+    earlier = set(ORDER[: ORDER.index(part)])
+    return not any(a.get("part") in earlier for a in attempts[index + 1 :])
+
+
 def done_commands(attempts: list[dict]) -> set[str]:
-    return {a["command"] for a in attempts if a.get("status") == 0}
+    """The commands with a successful attempt that is :func:`current`."""
+    return {a["command"] for i, a in enumerate(attempts) if a.get("status") == 0 and current(attempts, i)}
 
 
 def dirty_files(repo: Path = REPO) -> list[str]:
@@ -306,8 +326,11 @@ REBUILD_CHECK = "rebuild check: tables from rows equal the store's"
 
 def rebuild_checked(attempts: list[dict]) -> bool:
     """Whether the last thing the tables part recorded is a passed rebuild check."""
-    tables = [a for a in attempts if a.get("part") == "tables"]
-    return bool(tables) and tables[-1].get("command") == REBUILD_CHECK and tables[-1].get("status") == 0
+    tables = [i for i, a in enumerate(attempts) if a.get("part") == "tables"]
+    if not tables:
+        return False
+    last = attempts[tables[-1]]
+    return last.get("command") == REBUILD_CHECK and last.get("status") == 0 and current(attempts, tables[-1])
 
 
 def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
@@ -390,7 +413,7 @@ def compute_table(
     part_of = {a["command"]: a["part"] for a in attempts}
     lines = ["| part | attempts | wall [h] | CPU [h] | episodes + window runs | worker [h] |",
              "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
-    order = [p.name for p in parts(unfinished=lambda: ["-"])]
+    order = ORDER
     total_wall = total_cpu = total_worker = 0.0
     for name in order:
         rows = [a for a in attempts if a["part"] == name]

@@ -21,7 +21,7 @@ def fake_agent(folder, name, interrupted=False):
 
 def test_agents_wait_for_the_rl_programme(tmp_path):
     plan = publish.parts(tmp_path, unfinished=lambda: ["train/sac-paper-s2"])
-    assert [p.name for p in plan] == [
+    assert [p.name for p in plan] == list(publish.ORDER) == [
         "paper",
         "windows",
         "suite",
@@ -67,6 +67,26 @@ def test_install_needs_a_passed_rebuild_check(tmp_path, monkeypatch, capsys):
     assert publish.rebuild_checked([{**key, "command": publish.REBUILD_CHECK, "status": 0}])
     assert publish.main(["--install"]) == 1
     assert "refused: the tables part has not ended with a passed rebuild check" in capsys.readouterr().err
+
+
+def attempt(part, command, status=0):
+    return {"part": part, "command": command, "status": status, "wall_s": 1.0, "cpu_s": 1.0}
+
+
+def test_derived_parts_done_before_new_rows_run_again():
+    """A first publication before the agents part: its best-known and tables go stale when agents run."""
+    first = [attempt("held-out", "run held"), attempt("best-known", "bk"), attempt("tables", "plot"),
+             attempt("tables", publish.REBUILD_CHECK)]  # fmt: skip
+    assert publish.done_commands(first) == {"run held", "bk", "plot", publish.REBUILD_CHECK}
+    assert publish.rebuild_checked(first)
+    # The agents part's attempt, even a failed one, may have written rows: both derived parts rerun.
+    later = [*first, attempt("agents", "run agents", status=1)]
+    assert publish.done_commands(later) == {"run held"}
+    assert not publish.rebuild_checked(later)
+    # best-known again makes the tables stale but not the run parts; the tables again are current.
+    again = [*later, attempt("agents", "run agents"), attempt("best-known", "bk")]
+    assert publish.done_commands(again) == {"run held", "run agents", "bk"}
+    assert publish.rebuild_checked([*again, attempt("tables", "plot"), attempt("tables", publish.REBUILD_CHECK)])
 
 
 def test_agent_commands_cover_every_finished_agent(tmp_path):

@@ -112,16 +112,20 @@ def test_a_rerun_continues_to_the_number_of_trials_asked(two_trials):
 def test_each_trial_is_collected_before_the_next_starts(tmp_path, monkeypatch):
     """A trial's model, envs and replay buffer are cycles the collector must free between trials."""
     import gc
+    import weakref
 
     from stable_baselines3 import PPO
 
     import baselines.tune
 
+    gc.collect()
+    # Models that earlier tests keep alive (module fixtures) are not this study's: count only new ones.
+    earlier = weakref.WeakSet(o for o in gc.get_objects() if type(o) is PPO)
     alive_at_collection, original = [], gc.collect
 
     def collect(*args):
         result = original(*args)
-        alive_at_collection.append(sum(1 for o in gc.get_objects() if type(o) is PPO))
+        alive_at_collection.append(sum(1 for o in gc.get_objects() if type(o) is PPO and o not in earlier))
         return result
 
     monkeypatch.setattr(baselines.tune.gc, "collect", collect)
