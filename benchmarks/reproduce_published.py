@@ -1,23 +1,24 @@
 """Compare a re-run sweep with the published episode rows (issue 10's reproduction check).
 
-The published leaderboard's episodes (``leaderboards/results-*-episodes.csv``) were computed with the
-numpy model; the compiled model agrees with it to about 1e-15 relative, so an episode reproduces
-exactly unless a last-digit difference flips a comparison inside an optimiser and the trajectories
-part. This script matches each episode of a results store with the published row of the same policy,
-scenario and seed, and prints, per policy, how many reproduce exactly (total J bit for bit, the same
-steps and outcome) and the relative total-J difference of the others, then one line per episode
-that differs.
+The published leaderboard's episodes are committed as rows (``leaderboards/rows/leaderboard-*.parquet``,
+written by the publication's ``tables`` part, docs/publishing.md §3); version 1's episode CSVs
+(``results-*-episodes.csv``, computed with the numpy model) can still be named with ``--published``.
+The compiled model is deterministic, so on the machine that recorded them the episodes reproduce bit
+for bit; elsewhere a last-digit difference of the floating-point library can flip a comparison
+inside an optimiser and the trajectories part. This script matches each episode of a results store
+with the published row of the same policy, scenario and seed, and prints, per policy, how many
+reproduce exactly (total J bit for bit, the same steps and outcome) and the relative total-J
+difference of the others, then one line per episode that differs.
 
-Re-run the published paper-scenario sweep, e.g. for the planners whose code has not changed since
-(one command line):
+Re-run part of the published paper-scenario sweep (one command line):
 
     nice -n 10 uav-bench run --policies hpso lpso ps2o mcpso ccpso-ism pso cem de cmaes greedy
-        --scenarios paper --seeds 5 --jobs 1 --store /tmp/repro.sqlite --no-report
+        --scenarios paper --seeds 5 --max-evals 10000 --store /tmp/repro.sqlite --no-report
     python benchmarks/reproduce_published.py /tmp/repro.sqlite
 
 Episodes still missing from the store (a sweep in progress) are counted as missing, not as failures.
 
-Usage: ``python benchmarks/reproduce_published.py STORE [--published CSV]``.
+Usage: ``python benchmarks/reproduce_published.py STORE [--published ROWS_STEM | CSV]``.
 """
 
 from __future__ import annotations
@@ -29,10 +30,11 @@ from pathlib import Path
 
 import pandas as pd
 
+from uav_penetration_env.benchmark.rows import RowsError, read_rows
 from uav_penetration_env.benchmark.store import ResultsStore
 
 ROOT = Path(__file__).resolve().parents[1]
-PUBLISHED = ROOT / "leaderboards" / "results-paper-episodes.csv"
+PUBLISHED = ROOT / "leaderboards" / "rows" / "leaderboard"  # the stem of the committed row tables
 KEY = ["policy", "scenario", "seed"]
 # Same steps and outcome, total J within rounding: the trajectory is the published one to the last
 # digits (the compiled model's 1e-15 differences summed over an episode), not a different path.
@@ -110,14 +112,34 @@ def summary(compared: pd.DataFrame, published: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def read_published(source: str | Path) -> pd.DataFrame:
+    """The published episodes: an episode CSV, or the episode table of a row export (its stem).
+
+    Raises:
+        SystemExit: one line naming ``--published`` when neither can be read.
+    """
+    if str(source).endswith(".csv"):
+        if not Path(source).is_file():
+            raise SystemExit(f"--published {source}: no such file; expected an episode CSV")
+        return pd.read_csv(source)
+    try:
+        return read_rows(source).episodes
+    except RowsError as error:
+        raise SystemExit(f"--published {source}: {error}") from None
+
+
 def main(argv: list[str] | None = None) -> pd.DataFrame:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("store", help="results store (sqlite) of the re-run")
-    parser.add_argument("--published", default=str(PUBLISHED), help="published episode rows (CSV)")
+    parser.add_argument(
+        "--published",
+        default=str(PUBLISHED),
+        help="published episode rows: a row-table stem (uav-bench export) or an episode CSV",
+    )
     args = parser.parse_args(argv)
     if not Path(args.store).is_file():
         parser.error(f"store: got {args.store!r}, expected an existing results store (sqlite file)")
-    published = pd.read_csv(args.published)
+    published = read_published(args.published)
     with ResultsStore(args.store, create=False) as store:
         episodes = store.episodes()
     compared = compare(episodes, published)

@@ -105,6 +105,27 @@ def test_reproduce_published_counts_exact_rounding_and_differing_episodes():
     assert table.loc["cem", "mean_dJ/J"] == pytest.approx(-0.05)
 
 
+def test_reproduce_published_reads_a_row_export_or_a_csv(tmp_path):
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.rows import row_path, write_table
+
+    module = load("reproduce_published")
+    episodes = pd.DataFrame({"policy": ["pso"], "scenario": ["paper"], "scenario_hash": ["ab"], "seed": [0], "outcome": ["success"],
+                             "total_J": [14.5], "steps": [50]})  # fmt: skip
+    stem = tmp_path / "rows" / "leaderboard"
+    stem.parent.mkdir()
+    write_table(episodes, row_path(stem, "episodes", "csv"), "csv")
+    write_table(pd.DataFrame({"policy": ["pso"]}), row_path(stem, "runs", "csv"), "csv")
+    assert module.read_published(stem)[["policy", "total_J", "steps"]].values.tolist() == [["pso", 14.5, 50]]
+    episodes.to_csv(tmp_path / "v1.csv", index=False)
+    assert module.read_published(tmp_path / "v1.csv")["total_J"].tolist() == [14.5]
+    with pytest.raises(SystemExit, match=r"^--published .*missing: --rows .*no episodes table"):
+        module.read_published(tmp_path / "missing")
+    with pytest.raises(SystemExit, match=r"^--published .*gone.csv: no such file; expected an episode CSV"):
+        module.read_published(tmp_path / "gone.csv")
+
+
 def test_mechanism_share_row_reads_the_traces():
     module = load("ihpso_mechanism_shares")
 
