@@ -7,8 +7,8 @@ evaluator's parent process reads sidecars without torch).
 ```python
 from baselines import train_agent, load_policy
 train_agent("ppo", env_id="UAVPenetration-v0", scenario=None, total_timesteps=200_000, seed=0,
-            n_envs=8, out="leaderboards/models/ppo-paper-s0.zip")
-policy = load_policy("leaderboards/models/ppo-paper-s0.zip")    # a Policy for evaluate()
+            n_envs=8, out="results/models/ppo-paper-s0.zip")
+policy = load_policy("results/models/ppo-paper-s0.zip")    # a Policy for evaluate()
 ```
 """
 

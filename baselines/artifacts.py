@@ -94,11 +94,11 @@ def verify_artifacts(files: ModelFiles, sidecar: dict[str, Any]) -> tuple[str, s
     """Check the model, its observation statistics and hyper-parameters against the sidecar's hashes.
 
     DECISION (api.md §5, unsealed sidecars): a sidecar written before the statistics and hyper-parameter hashes were
-    recorded (``format`` 1 without ``vecnormalize_sha256``/``hyperparameters_sha256``, as the
-    published models under ``leaderboards/models/`` are) is accepted with an
+    recorded (``format`` 1 without ``vecnormalize_sha256``/``hyperparameters_sha256``, as version 1's
+    published models, ``leaderboards/models/`` before the v2 install, were) is accepted with an
     :class:`UnverifiedArtifactWarning` naming what cannot be checked and how to seal it
     (:func:`seal_sidecar`), and what it does record (``model_sha256``) is still checked. Refusing
-    it would break every published model, and sealing the published sidecars in place would change
+    it would break every such model, and sealing those sidecars in place would change
     their bytes and so the policy hash under which their results are stored (``sidecar_sha256`` is
     part of an SB3 policy's store key). A sidecar that records a hash is held to it: no warning
     there, a mismatch is an error.

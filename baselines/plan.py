@@ -21,7 +21,7 @@ from baselines.hyperparameters import resolve_hyperparams
 from baselines.resume import ResumeState, check_resumable, read_resume_state, resume_key
 from uav_penetration_env.suggest import did_you_mean
 
-DEFAULT_MODELS = Path("leaderboards/models")
+DEFAULT_MODELS = Path("results/models")  # leaderboards/ holds only generated, published files
 # DECISION: learning curves are measured on seeds 20000, 20001, ... for every training seed, so
 # curves of different seeds are comparable; they stay clear of the held-out set (10000-10049,
 # model.md §7c), which is kept for the final evaluation and must not steer training.
@@ -140,7 +140,7 @@ class TrainingPlan:
 
 
 def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path:
-    """``leaderboards/models/ALGO-NAME-sSEED.zip``.
+    """``results/models/ALGO-NAME-sSEED.zip``.
 
     NAME is the scenario's as the user gave it: a catalogue name or ``random:SEED`` as typed, a YAML
     path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`).

@@ -1,6 +1,6 @@
 """A trained SB3 agent as a harness Policy (``reset(model, seed)``, ``act(observation, info)``; api.md).
 
-``load_policy("leaderboards/models/ppo-paper-s0.zip")`` reads the model's sidecar and hashes its
+``load_policy("leaderboards/rl/models/ppo-paper-zoo-s0.zip")`` reads the model's sidecar and hashes its
 files, but loads nothing heavy: the evaluator pickles policies into worker processes, so the SB3
 model (and torch) are loaded lazily in the process that acts, once per process and model file.
 Loading runs pickle-based code from the model and statistics files (SB3's and VecNormalize's

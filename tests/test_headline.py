@@ -81,3 +81,25 @@ def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
     assert "`s` (best planner: hpso):" in text
     # The group's runs 20 and 24 against greedy's 21: +1; the planner decides 3 000 times slower.
     assert "| sb3:ppo-paper | RL group | 2 | " in text and "| 1 [" in text and "| 3000 |" in text
+
+
+def test_the_readme_quotes_the_published_paper_table():
+    """Every one-planner row of the README's paper table equals the committed CSV, rounded as shown."""
+    import re
+    from pathlib import Path
+
+    import pandas as pd
+
+    root = Path(__file__).resolve().parents[1]
+    table = pd.read_csv(root / "leaderboards" / "paper-2022-sec5.csv").set_index("policy")
+    readme = (root / "README.md").read_text()
+    section = readme[readme.index("**Paper scenario**") : readme.index("**The paper's efficiency claim")]
+    row = re.compile(r"^\| \**([a-z0-9-]+)\** \| (\d+)% \| ([\d.]+) \[([\d.]+), ([\d.]+)\] \| ([\d.]+) \|", re.M)
+    quoted = row.findall(section)
+    assert len(quoted) >= 3, "the README's paper table has no one-planner rows"
+    for policy, success, mean, low, high, iqm in quoted:
+        published = table.loc[policy]
+        assert int(success) == round(100 * published["success_rate"]), policy
+        for text, column in ((mean, "total_cost_mean"), (low, "total_cost_mean_ci_low"),
+                             (high, "total_cost_mean_ci_high"), (iqm, "total_cost_iqm")):  # fmt: skip
+            assert float(text) == pytest.approx(published[column], abs=0.0051), (policy, column)

@@ -28,7 +28,7 @@ def test_train_agent_has_no_second_copy_of_the_settings():
 
 def test_default_model_path_names_the_scenario_as_given():
     assert default_model_path("PPO", "UAVPenetration-v0", None, 0) == Path(
-        "leaderboards/models/ppo-paper-s0.zip"
+        "results/models/ppo-paper-s0.zip"
     )
     assert default_model_path("sac", "UAVPenetrationRandom-v0", None, 2).name == "sac-random-s2.zip"
     assert default_model_path("ppo", "UAVPenetration-v0", "random:7", 1).name == "ppo-random-7-s1.zip"

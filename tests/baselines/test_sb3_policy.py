@@ -247,16 +247,3 @@ def test_an_unsealed_sidecar_loads_with_a_warning_and_can_be_sealed(tiny_ppo, tm
     shutil.copyfile(tiny_ppo.files.checkpoints / "ppo-tiny-s0-128steps.vecnormalize.pkl", copied.vecnormalize)
     with pytest.raises(ValueError, match="not the observation statistics"):
         load_policy(copied.model)
-
-
-def test_published_models_still_load_with_a_warning():
-    from pathlib import Path
-
-    from baselines.artifacts import UnverifiedArtifactWarning
-
-    model = Path(__file__).resolve().parents[2] / "leaderboards/models/ppo-paper-s0.zip"
-    if not model.is_file():
-        pytest.skip("no published models in this checkout")
-    with pytest.warns(UnverifiedArtifactWarning, match="ppo-paper-s0.vecnormalize.pkl"):
-        policy = load_policy(model)
-    assert policy.sidecar["model_sha256"] == policy.model_sha256
