@@ -24,13 +24,14 @@ hyper-parameters of a run must not change under it.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import fnmatch
 import json
 import shlex
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -324,6 +325,34 @@ def run_in_subprocess(argv: Sequence[str]) -> int:
         return process.wait()
 
 
+@contextlib.contextmanager
+def step_lock(root: Path, name: str) -> Iterator[bool]:
+    """Hold ``ROOT/locks/NAME.lock`` while a step runs; yields False when another process holds it.
+
+    DECISION (docs/rl.md §3, parallel programme processes): two processes may work through one
+    programme (one per core); an advisory ``flock`` makes each skip a step the other is running, so
+    no run is trained twice into the same files. The lock dies with its process, so a killed
+    process leaves nothing to clean up. Without ``fcntl`` (Windows) every step counts as free.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on the platforms CI runs
+        yield True
+        return
+    path = root / "locks" / (name.replace("/", "_") + ".lock")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            yield False
+            return
+        try:
+            yield True
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def run_programme(
     root: Path = DEFAULT_ROOT,
     *,
@@ -342,7 +371,8 @@ def run_programme(
         runner: runs ``uav-bench ARGV`` and returns its exit status.
 
     Returns:
-        0 when every selected step is done, else the failing step's exit status (130: interrupted).
+        0 when every selected step is done or run by another programme process (:func:`step_lock`),
+        else the failing step's exit status (130: interrupted).
     """
     root = Path(root)
 
@@ -376,11 +406,16 @@ def run_programme(
                         print(f"[wait] {step.name}: {step.why}", flush=True)
                         waiting.add(step.name)
                     continue
-                print(f"[{'plan' if dry_run else 'run'}] {step.name} ({step.why}): {command}", flush=True)
                 reported.add(step.name)
                 if dry_run:
+                    print(f"[plan] {step.name} ({step.why}): {command}", flush=True)
                     continue
-                status = runner(step.argv)
+                with step_lock(root, step.name) as free:
+                    if not free:
+                        print(f"[busy] {step.name}: another programme process runs it", flush=True)
+                        continue
+                    print(f"[run] {step.name} ({step.why}): {command}", flush=True)
+                    status = runner(step.argv)
                 if status != 0:
                     print(
                         f"programme stopped at {step.name} (exit status {status}); run it again to continue"

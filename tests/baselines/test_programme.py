@@ -122,6 +122,28 @@ def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
     assert len(rest.calls) == 30 - 7
 
 
+def test_a_step_another_process_runs_is_skipped_and_left_to_it(tmp_path, capsys):
+    """Two programme processes share the steps: a held lock makes the other one pass the step by."""
+    import fcntl
+
+    from baselines.programme import step_lock
+
+    for algo, regime, _ in STUDIES:
+        finish_study(tmp_path, algo, regime, trials_complete=100, trials_pruned=0)
+    with step_lock(tmp_path, "train/ppo-paper-s0") as free:
+        assert free
+        # flock locks belong to open files: a second open of the path (as another process makes) is refused.
+        with (tmp_path / "locks" / "train_ppo-paper-s0.lock").open("a") as other, pytest.raises(BlockingIOError):
+            fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fake = FakeUavBench(tmp_path)
+        assert run_programme(tmp_path, runner=fake, only=["train/ppo-paper-*"]) == 0
+    assert "ppo-paper-s0" not in run_names(fake.calls)
+    assert run_names(fake.calls)[0] == "ppo-paper-zoo-s0"
+    assert "[busy] train/ppo-paper-s0: another programme process runs it" in capsys.readouterr().out
+    with step_lock(tmp_path, "train/ppo-paper-s0") as free:  # released: free again
+        assert free
+
+
 def test_an_unfinished_study_runs_again_and_holds_back_its_training(tmp_path, capsys):
     for algo, regime, trials in STUDIES:
         finish_study(tmp_path, algo, regime, trials_complete=trials, trials_pruned=0)
