@@ -438,3 +438,29 @@ def test_a_step_below_ground_is_drawn_at_zero_with_a_cross(tmp_path):
     assert track.get_ydata().tolist() == [110.0, 120.0, 100.0, 0.0]
     assert cross.get_marker() == "x" and cross.get_xdata().tolist() == [4] and cross.get_ydata().tolist() == [0.0]
     assert altitude.get_ylim()[0] > -50.0 and "below ground" in altitude.get_ylabel()
+
+
+def test_clip_to_box_moves_only_the_points_outside_and_says_which():
+    from uav_penetration_env.benchmark.figures.tracks import clip_to_box
+
+    x, y, z = np.array([0.0, 5.0, 12.0]), np.array([1.0, 2.0, 3.0]), np.array([150.0, -480.0, 90.0])
+    cx, cy, cz, moved = clip_to_box(x, y, z, ((0.0, 10.0), (0.0, 10.0), (0.0, 1000.0)))
+    assert cx.tolist() == [0.0, 5.0, 10.0] and cy.tolist() == [1.0, 2.0, 3.0] and cz.tolist() == [150.0, 0.0, 90.0]
+    assert moved.tolist() == [False, True, True]
+
+
+def test_the_3d_view_keeps_a_crash_inside_its_box(tmp_path):
+    """A collision's last point, far below ground, is drawn on the box's floor with a cross."""
+    path = tmp_path / "crash3d.sqlite"
+    tiny = tiny_scenario()
+    steps = synthetic_steps(0, 4, history=False)
+    steps[-1]["z_m"], steps[-1]["altitude_agl"] = -900.0, -1000.0
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        store.write_episode(synthetic_episode("ihpso", 0, "tiny", tiny.hash, 90.0, outcome="collided"), steps)
+    ax = dict(drawn_figures(path))["tracks-3d"].axes[0]
+    low, high = ax.get_zlim()
+    drawn = [line for line in ax.get_lines() if len(line.get_data_3d()[2])]
+    assert drawn and all(low <= v <= high for line in drawn for v in line.get_data_3d()[2])
+    crosses = [line for line in drawn if line.get_marker() == "x"]
+    assert len(crosses) == 1 and list(crosses[0].get_data_3d()[2]) == [low]

@@ -93,6 +93,26 @@ def _with_start(rows: pd.DataFrame, start: np.ndarray | None) -> tuple[np.ndarra
     )
 
 
+def clip_to_box(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, box: tuple[tuple[float, float], ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A track held inside a 3-D view's box, and which of its points were moved onto the box.
+
+    Matplotlib's 3-D axes do not clip lines to their limits: a crash's last point, metres below
+    the ground (and below the z axis), or a point past the map's edge, would be drawn across the
+    tick labels. Each coordinate is clamped to its ``(low, high)`` in ``box`` (x, y in km; z in m);
+    the moved points are marked by the caller, as the timeline marks a step below ground.
+
+    Returns:
+        ``x, y, z`` clamped (shape of the inputs) and a bool mask of the points that moved.
+    """
+    clamped = [np.clip(values, low, high) for values, (low, high) in zip((x, y, z), box, strict=True)]
+    moved = np.zeros(x.shape, dtype=bool)
+    for values, inside in zip((x, y, z), clamped, strict=True):
+        moved |= values != inside
+    return clamped[0], clamped[1], clamped[2], moved
+
+
 def _scenario_markers(ax, model, start: np.ndarray | None, three_d: bool) -> None:
     scenario = model.scenario
     present = model.radar_present[0] > 0
@@ -346,6 +366,13 @@ def plot_tracks_3d(inp: FigureInput):
         altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
         coverage = coverage_at(model, altitude, start)
         title += "\n" + _coverage_title(altitude, reason).replace("P_d", "contour P_d")
+    extent = None  # the terrain surface's x and y range [km]: the box the tracks are held in
+    if model is not None:
+        grid = model.built[0].grid
+        top = max(top, float(model.built[0].terrain.max()))
+        extent = ((float(grid.x_nodes[0]) / 1000.0, float(grid.x_nodes[-1]) / 1000.0),
+                  (float(grid.y_nodes[0]) / 1000.0, float(grid.y_nodes[-1]) / 1000.0))  # fmt: skip
+    ceiling = max(top * 1.3, 1.0)
     for family, container, members in panels:
         ax = container.add_subplot(projection="3d")
         if model is not None:
@@ -373,15 +400,21 @@ def plot_tracks_3d(inp: FigureInput):
                         linestyles="dashed",
                     )
             _scenario_markers(ax, model, start, three_d=True)
-            top = max(top, float(built.terrain.max()))
         for label in members:
             x, y, z = _with_start(tracks[label], start)
+            if extent is not None:
+                x, y, z, moved = clip_to_box(x, y, z, (*extent, (0.0, ceiling)))
+            else:
+                z, moved = np.clip(z, 0.0, ceiling), (z < 0.0) | (z > ceiling)
             ax.plot(x, y, z, **inp.styles[label].line(), linewidth=1.6, label=label)
+            if moved.any():  # a crash below ground or a point past the edge, drawn on the box with a cross
+                ax.plot(x[moved], y[moved], z[moved], linestyle="none", marker="x", markersize=6,
+                        markeredgewidth=1.6, color=inp.styles[label].colour)  # fmt: skip
         if best is not None:
             ax.plot(best[1][:, 0], best[1][:, 1], best[1][:, 2], label=best[0], **BEST_KNOWN_STYLE)
         if not tracks:
             ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
-        ax.set_zlim(0.0, max(top * 1.3, 1.0))
+        ax.set_zlim(0.0, ceiling)
         ax.view_init(elev=35, azim=-60)
         ax.set_xlabel("x [km]")
         ax.set_ylabel("y [km]")
