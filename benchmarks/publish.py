@@ -21,8 +21,8 @@ docs/publishing.md §1):
 5. ``held-out``: the held-out set, frozen as the suite ``uavpen-heldout-v1``, for the same policies;
 6. ``agents``: every finished agent of the RL programme (``leaderboards/rl/models``) on the paper
    scenario in both weightings and on the held-out suite, the Random-regime agents on
-   ``uavpen-v1``, and the agent-warm-started IHPSO; it waits (exit status 3) until the programme's
-   committed snapshot ``leaderboards/rl`` is complete;
+   ``uavpen-v1``, and the agent-warm-started IHPSO; while the programme's committed snapshot
+   ``leaderboards/rl`` is incomplete it flies the agents finished so far, then waits (exit status 3);
 7. ``best-known``: best-known records updated from the store (tracked files change: commit them);
 8. ``tables``: the learning curves, the figures (per-scenario figures and 3-D views only for
    scenarios flown with at least 2 seeds: the procedural members, one seed each, are summarised by
@@ -156,16 +156,11 @@ def parts(
                                   *COMMON]])  # fmt: skip
     waiting = (unfinished or programme_unfinished)()
     agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
-    if waiting:
-        agent_part = Part(
-            "agents", [], f"the RL programme has {len(waiting)} unfinished steps ({waiting[0]}, ...)"
-        )
-    else:
+    commands = []
+    if agents:
         random_agents = [a for a in agents if "-random-" in a]
         hybrids = [f"ihpso+{agent}" for agent in chosen_paper_ppo(agents, rl_root)]
-        commands = [
-            ["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON]
-        ]
+        commands.append(["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON])
         if random_agents:
             commands.append(["run", "--suite", "uavpen-v1", "--policies", *random_agents, *COMMON])
         # Every agent on the held-out set: the Random-regime agents' test, the paper agents' generalisation.
@@ -173,7 +168,11 @@ def parts(
         if hybrids:
             commands.append(["run", "--scenarios", "paper", "--policies", *hybrids, "--seeds", "20",
                              "--max-evals", "10000", *COMMON])  # fmt: skip
-        agent_part = Part("agents", commands)
+    # DECISION (docs/publishing.md §1, incremental agents): while the programme runs, the part flies
+    # the agents finished so far and then waits; the next attempt's commands name more agents, and
+    # `uav-bench run` skips the episodes the store holds, so only the new agents fly.
+    waits = f"the RL programme has {len(waiting)} unfinished steps ({waiting[0]}, ...)" if waiting else ""
+    agent_part = Part("agents", commands, waits)
     best_known = Part("best-known", [["best-known", "update", "--store", str(STORE), "--no-progress"]])
     tables = Part(
         "tables",
@@ -486,11 +485,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     for part in plan:
         if args.only and part.name not in args.only:
             continue
-        if part.waits:
-            print(f"[wait] {part.name}: {part.waits}", flush=True)
-            if not args.dry_run:
-                return WAITING  # later parts need this one
-            continue
         for index, command in enumerate(part.commands):
             key = command_key(command)
             if key in done:
@@ -523,6 +517,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                     f"stopped at {part.name} (exit status {status}); run again to continue", file=sys.stderr
                 )
                 return status
+        if part.waits:  # its commands so far are done; the rest, and the later parts, wait
+            print(f"[wait] {part.name}: {part.waits}", flush=True)
+            if not args.dry_run:
+                return WAITING
+            continue
         if part.name == "tables" and not args.dry_run:
             differing = compare_rebuild(REPO / OUT, REPO / CHECK)
             append_attempt(log, {"part": "tables", "command": REBUILD_CHECK, "wall_s": 0.0, "cpu_s": 0.0,

@@ -37,6 +37,21 @@ def test_agents_wait_for_the_rl_programme(tmp_path):
     assert agents.commands == [] and "1 unfinished steps (train/sac-paper-s2" in agents.waits
 
 
+def test_agents_finished_so_far_fly_while_the_programme_runs(tmp_path):
+    """Incremental: the waiting part names the finished agents; a later plan names more of them."""
+    fake_agent(tmp_path, "ppo-paper-zoo-s0")
+    fake_agent(tmp_path, "sac-paper-s0", interrupted=True)  # still training: not flown
+    early = publish.parts(tmp_path, unfinished=lambda: ["train/sac-paper-s0"])[5]
+    assert early.waits and [c[:2] for c in early.commands] == [["run", "--scenarios"], ["run", "--suite"],
+                                                                ["run", "--scenarios"]]  # fmt: skip
+    assert f"sb3:{tmp_path.as_posix()}/ppo-paper-zoo-s0.zip" in early.commands[0]
+    assert not any("sac-paper-s0" in " ".join(c) for c in early.commands)
+    fake_agent(tmp_path, "sac-paper-s0")
+    late = publish.parts(tmp_path, unfinished=lambda: [])[5]
+    assert not late.waits and any("sac-paper-s0" in " ".join(c) for c in late.commands)
+    assert publish.command_key(late.commands[0]) != publish.command_key(early.commands[0])
+
+
 def test_the_hybrids_use_the_set_the_confirmation_chose(tmp_path):
     agents = [
         f"sb3:m/{n}.zip" for n in ("ppo-paper-s0", "ppo-paper-zoo-s0", "ppo-paper-zoo-s1", "sac-paper-s0")
@@ -55,6 +70,7 @@ def test_commands_import_this_tree_and_a_wait_is_not_success(tmp_path, monkeypat
     assert env["PYTHONPATH"].split(os.pathsep)[0] == str(tmp_path)
     monkeypatch.setattr(publish, "ROOT", tmp_path)
     monkeypatch.setattr(publish, "programme_unfinished", lambda: ["tune/ppo-random"])
+    monkeypatch.setattr(publish, "agent_models", lambda models: [])  # no finished agent: nothing flies first
     assert publish.main(["--only", "agents"]) == publish.WAITING == 3
     assert "[wait] agents: the RL programme has 1 unfinished steps" in capsys.readouterr().out
 
