@@ -416,6 +416,10 @@ def test_cost_axes_turn_logarithmic_when_costs_span_more_than_a_factor_of_four()
     assert ax.get_yscale() == "log" and ax.get_ylabel() == "total J (mean; log scale; lower is better)"
     ax = new_figure(3, 3).add_subplot()
     assert cost_axis(ax, [-1.0, 100.0], "total J", "mean") is False  # a log axis cannot show a cost <= 0
+    ax = new_figure(3, 3).add_subplot()
+    cost_axis(ax, [13.0, 148.0], "total J incl. failure penalty", "mean, 95% CI")
+    # 71 characters on one line overran the axis: the detail goes to a second line
+    assert ax.get_ylabel() == "total J incl. failure penalty\n(mean, 95% CI; log scale; lower is better)"
 
 
 def test_log_axis_minor_labels_skip_the_crowded_ticks():

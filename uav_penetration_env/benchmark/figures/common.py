@@ -183,6 +183,15 @@ def family_figure(labels: Sequence[str], width: float, height: float):
 COST_LOG_SPAN = 4.0  # costs spanning more than this factor get a log axis (cost_axis)
 
 
+LABEL_LINE = 48  # characters: a longer axis label overran a 5-inch-high axis and lost its end
+
+
+def axis_label(quantity: str, detail: str) -> str:
+    """``quantity (detail)``, on two lines when it would be longer than :data:`LABEL_LINE`."""
+    label = f"{quantity} ({detail})"
+    return label if len(label) <= LABEL_LINE else f"{quantity}\n({detail})"
+
+
 def cost_axis(ax, values: Any, quantity: str, detail: str) -> bool:
     """Label a total-J axis (y), on a log scale when the costs span more than :data:`COST_LOG_SPAN`.
 
@@ -207,14 +216,14 @@ def cost_axis(ax, values: Any, quantity: str, detail: str) -> bool:
     low, high = (finite.min(), finite.max()) if finite.size else (0.0, 0.0)
     if low > 0 and high / low > COST_LOG_SPAN:
         ax.set_yscale("log")
-        ax.set_ylabel(f"{quantity} ({detail}; log scale; lower is better)")
+        ax.set_ylabel(axis_label(quantity, f"{detail}; log scale; lower is better"))
         ax.yaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
         # 12 and 15 as well: the planners' costs often lie between 10 and 20, where the default
         # minor ticks (2, 3, ... x 10^k) would leave them without a labelled tick.
         ax.yaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(1.2, 1.5, 2, 3, 4, 5, 6, 7, 8, 9)))
         ax.yaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}" if v < 100 else ""))
         return True
-    ax.set_ylabel(f"{quantity} ({detail}; lower is better)")
+    ax.set_ylabel(axis_label(quantity, f"{detail}; lower is better"))
     return False
 
 

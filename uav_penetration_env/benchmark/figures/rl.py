@@ -74,7 +74,8 @@ def plot_compute_axis(inp: FigureInput):
         x, y = r.decision_seconds, r.total_cost
         xerr = np.array([[x - r.decision_seconds_ci_low], [r.decision_seconds_ci_high - x]])
         yerr = np.array([[y - r.total_cost_ci_low], [r.total_cost_ci_high - y]])
-        runs = f"{r.runs} training seeds" if r.family == "RL agents" else f"{r.runs} runs"
+        unit = "training seed" if r.family == "RL agents" else "run"
+        runs = f"{r.runs} {unit}{'' if r.runs == 1 else 's'}"
         bars = ax.errorbar(
             x,
             y,
