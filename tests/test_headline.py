@@ -94,9 +94,10 @@ def test_the_readme_quotes_the_published_paper_table():
     table = pd.read_csv(root / "leaderboards" / "paper-2022-sec5.csv").set_index("policy")
     readme = (root / "README.md").read_text()
     section = readme[readme.index("**Paper scenario**") : readme.index("**The paper's efficiency claim")]
-    row = re.compile(r"^\| \**([a-z0-9-]+)\** \| (\d+)% \| ([\d.]+) \[([\d.]+), ([\d.]+)\] \| ([\d.]+) \|", re.M)
+    row = re.compile(r"^\| \**([a-z0-9:+-]+)\** \| (\d+)% \| ([\d.]+) \[([\d.]+), ([\d.]+)\] \| ([\d.]+) \|", re.M)
     quoted = row.findall(section)
     assert len(quoted) >= 3, "the README's paper table has no one-planner rows"
+    assert {"ihpso", "sb3:ppo-paper-zoo-s3", "ihpso+sb3:ppo-paper-zoo-s3"} <= {q[0] for q in quoted}
     for policy, success, mean, low, high, iqm in quoted:
         published = table.loc[policy]
         assert int(success) == round(100 * published["success_rate"]), policy
