@@ -56,6 +56,18 @@ def test_rows_reproduce_the_store_leaderboards_in_both_formats(exported):
                 assert stable_lines(got) == stable_lines(expected), f"{fmt}: {name}"
 
 
+def test_parquet_row_tables_are_zstd_compressed(exported):
+    import pyarrow.parquet as pq
+
+    folder, _ = exported
+    tables = sorted((folder / "parquet").glob("published-*.parquet"))
+    assert tables
+    for path in tables:
+        metadata = pq.ParquetFile(path).metadata
+        codecs = {metadata.row_group(0).column(i).compression for i in range(metadata.num_columns)}
+        assert codecs == {"ZSTD"}, path.name
+
+
 def test_the_same_rows_give_the_same_bytes_apart_from_the_date(exported):
     folder, _ = exported
     out = folder / "again"

@@ -66,7 +66,9 @@ def write_table(frame: pd.DataFrame, path: Path, extension: str) -> None:
             # lineterminator fixed so the bytes do not depend on the platform
             frame.to_csv(temporary, index=False, lineterminator="\n")
         else:
-            frame.to_parquet(temporary, index=False)
+            # zstd: the step table's per-iteration histories shrink to about 2/3 of snappy's size
+            # (53 -> 34 MB for leaderboard v2), and every published install is a commit.
+            frame.to_parquet(temporary, index=False, compression="zstd")
 
 
 def _declared_types(table: str) -> dict[str, str]:
