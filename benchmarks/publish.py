@@ -412,9 +412,8 @@ def compute_table(
     part_of = {a["command"]: a["part"] for a in attempts}
     lines = ["| part | attempts | wall [h] | CPU [h] | episodes + window runs | worker [h] |",
              "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
-    order = ORDER
     total_wall = total_cpu = total_worker = 0.0
-    for name in order:
+    for name in ORDER:
         rows = [a for a in attempts if a["part"] == name]
         done = [value for command, value in worker.items() if part_of.get(command) == name]
         if not rows and not done:

@@ -366,7 +366,8 @@ def plot_tracks_3d(inp: FigureInput):
         altitude, reason = coverage_altitude(tracks, inp.styles, inp.altitude)
         coverage = coverage_at(model, altitude, start)
         title += "\n" + _coverage_title(altitude, reason).replace("P_d", "contour P_d")
-    extent = None  # the terrain surface's x and y range [km]: the box the tracks are held in
+    # the terrain surface's x and y range [km]: the box the tracks are held in (no map: unbounded)
+    extent = ((-math.inf, math.inf), (-math.inf, math.inf))
     if model is not None:
         grid = model.built[0].grid
         top = max(top, float(model.built[0].terrain.max()))
@@ -402,10 +403,7 @@ def plot_tracks_3d(inp: FigureInput):
             _scenario_markers(ax, model, start, three_d=True)
         for label in members:
             x, y, z = _with_start(tracks[label], start)
-            if extent is not None:
-                x, y, z, moved = clip_to_box(x, y, z, (*extent, (0.0, ceiling)))
-            else:
-                z, moved = np.clip(z, 0.0, ceiling), (z < 0.0) | (z > ceiling)
+            x, y, z, moved = clip_to_box(x, y, z, (*extent, (0.0, ceiling)))
             ax.plot(x, y, z, **inp.styles[label].line(), linewidth=1.6, label=label)
             if moved.any():  # a crash below ground or a point past the edge, drawn on the box with a cross
                 ax.plot(x[moved], y[moved], z[moved], linestyle="none", marker="x", markersize=6,
