@@ -6,6 +6,7 @@ nice -n 10 python benchmarks/publish.py             # run what is not done (resu
 python benchmarks/publish.py --only tables          # run some parts only
 python benchmarks/publish.py --compute              # wall, CPU and worker time per part
 python benchmarks/publish.py --install              # replace leaderboards/'s generated files by results/v2/out's
+python benchmarks/publish.py --from-published       # a new machine: results/v2 rebuilt from leaderboards/
 ```
 
 The parts, in order (each a list of ``uav-bench`` commands, printed exactly as run by ``--dry-run``;
@@ -446,6 +447,42 @@ def published_worker_seconds() -> dict[str, tuple[int, float]]:
     return {}
 
 
+def from_published(root: Path = ROOT, published: Path = Path("leaderboards")) -> int:
+    """Rebuild ``root``'s store and compute log from an installed leaderboard (``--from-published``).
+
+    DECISION (docs/publishing.md §2, carrying on elsewhere): the store and the compute log live
+    outside the tracked tree, so a new machine (or a lost folder) has neither. The installed
+    leaderboard holds both in committed form: the rows (``leaderboards/rows``), which ``uav-bench
+    import`` turns back into the store with every id kept, and the compute log ``--install``
+    copied. With them back, every published command reads as done and a new agent, say, flies
+    alone; nothing published is recomputed.
+
+    Returns:
+        The exit status of ``uav-bench import`` (the log is copied only after it succeeded).
+
+    Raises:
+        FileExistsError: the store or the log already exists (they are never overwritten).
+        FileNotFoundError: no installed rows or compute log.
+    """
+    store, log = REPO / root / STORE.name, REPO / root / "compute.jsonl"
+    for path in (store, log):
+        if path.exists():
+            raise FileExistsError(f"{path} exists; --from-published only rebuilds a missing store and log")
+    rows, published_log = REPO / published / "rows" / "leaderboard", REPO / published / "compute.jsonl"
+    for path in (rows.with_name("leaderboard-episodes.parquet"), published_log):
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: missing; expected an installed leaderboard (--install)")
+    argv = ["import", "--rows", str(rows.relative_to(REPO)), "--store", str(store.relative_to(REPO))]
+    print(f"[run] {command_key(argv)}", flush=True)
+    status = subprocess.run([*uav_bench(), *argv], cwd=REPO, env=child_environment()).returncode
+    if status == 0:
+        shutil.copyfile(published_log, log)
+        print(
+            f"{log.relative_to(REPO)}: {len(read_log(log))} attempts, copied from {published_log.relative_to(REPO)}"
+        )
+    return status
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python benchmarks/publish.py", description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", default=(), metavar="PART", help="run only these parts")
@@ -454,11 +491,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--compute", action="store_true", help="print the compute table (wall, CPU, worker time); run nothing")
     parser.add_argument(
+        "--from-published",
+        action="store_true",
+        help="rebuild a missing results/v2 store and compute log from the installed leaderboard; run nothing else",
+    )
+    parser.add_argument(
         "--install",
         action="store_true",
         help="replace leaderboards/'s generated files by results/v2/out's (after a passed rebuild check)",
     )
     args = parser.parse_args(argv)
+    if args.from_published:
+        try:
+            return from_published()
+        except (FileExistsError, FileNotFoundError) as error:
+            print(f"refused: {error}", file=sys.stderr)
+            return 1
     log = REPO / ROOT / "compute.jsonl"
     attempts = read_log(log)
     if args.compute:

@@ -254,3 +254,29 @@ def test_worker_time_counts_finished_work_of_every_attempt_logged_or_not():
     assert "| paper | 1 | 0.50 | 1.00 | 3 | 2.00 |" in table
     assert "| (runs of no logged command) | | | | 2 | 0.20 |" in table
     assert "| total | | 0.50 | 1.00 | | 2.20 |" in table
+
+
+def test_from_published_rebuilds_a_missing_store_and_log_once(tmp_path, monkeypatch, capsys):
+    from tests.conftest import tiny_scenario
+    from uav_penetration_env.benchmark import cli
+    from uav_penetration_env.benchmark.rows import store_tables
+
+    monkeypatch.setattr(publish, "REPO", tmp_path)
+    original = tmp_path / "original.sqlite"
+    scenario = str(tiny_scenario(time={"max_steps": 6}).to_yaml(tmp_path / "tiny.yaml"))
+    assert cli.main(["run", "--policies", "greedy", "--scenarios", scenario, "--seeds", "2", "--store", str(original),
+                     "--jobs", "1", "--no-report", "--no-progress"]) == 0  # fmt: skip
+    rows = tmp_path / "leaderboards" / "rows" / "leaderboard"
+    assert cli.main(["export", "--format", "parquet", "--store", str(original), "--out", str(rows)]) == 0
+    (tmp_path / "leaderboards" / "compute.jsonl").write_text(
+        '{"part": "paper", "command": "c", "status": 0}\n'
+    )
+    assert publish.main(["--from-published"]) == 0
+    store = tmp_path / publish.STORE
+    assert store_tables(store).episodes.equals(store_tables(original).episodes)
+    assert publish.read_log(tmp_path / publish.ROOT / "compute.jsonl") == [
+        {"part": "paper", "command": "c", "status": 0}
+    ]
+    capsys.readouterr()
+    assert publish.main(["--from-published"]) == 1  # never over an existing store
+    assert "exists; --from-published only rebuilds a missing store" in capsys.readouterr().err

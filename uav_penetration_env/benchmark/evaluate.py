@@ -320,7 +320,7 @@ def evaluate(
             pending = [t for t in tasks if t.key not in done]
             results.register(
                 {hashes[n]: (n, policy_config(p)) for n, p in policies.items()},
-                {s.hash: (s.name, _yaml(s)) for s in scenario_list},
+                {s.hash: (s.name, scenario_yaml(s)) for s in scenario_list},
             )
             run_id = results.start_run(
                 run_provenance(command),
@@ -372,7 +372,8 @@ def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     return frame[list(EPISODE_COLUMNS)]
 
 
-def _yaml(scenario: Scenario) -> str:
+def scenario_yaml(scenario: Scenario) -> str:
+    """The scenario as the store keeps it (``scenarios.yaml``): its full mapping, in field order."""
     import yaml
 
     return yaml.safe_dump(scenario.to_dict(), sort_keys=False)

@@ -21,6 +21,9 @@ from pathlib import Path
 import pandas as pd
 
 ROW_TABLES = ("episodes", "runs", "window_runs")  # what a leaderboard reads
+# What ``export`` writes: the leaderboard's tables, the step rows, and the configurations by hash,
+# so that ``uav-bench import`` rebuilds the whole store from them (:mod:`~.restore`).
+EXPORT_TABLES = (*ROW_TABLES, "steps", "scenarios", "policies")
 ROW_FORMATS = ("parquet", "csv")  # the order --rows looks for them in
 
 
@@ -75,7 +78,11 @@ def _declared_types(table: str) -> dict[str, str]:
     """SQLite type per column of a store table (``TEXT``, ``REAL``, ``INTEGER``), where declared."""
     from uav_penetration_env.benchmark import store
 
-    declared = {"episodes": store.EPISODE_COLUMNS, "window_runs": store.WINDOW_RUN_COLUMNS}
+    declared = {
+        "episodes": store.EPISODE_COLUMNS,
+        "window_runs": store.WINDOW_RUN_COLUMNS,
+        "steps": store.STEP_COLUMNS,
+    }
     # "TEXT NOT NULL DEFAULT ''" -> "TEXT"
     types = {name: kind.split()[0] for name, kind in declared.get(table, {}).items()}
     types.update({"episode_id": "INTEGER", "run_id": "INTEGER", "window_run_id": "INTEGER"})
@@ -86,7 +93,8 @@ def _read_csv(path: Path, table: str) -> pd.DataFrame:
     """A CSV table with the store's column types (text stays text, floats exact)."""
     header = pd.read_csv(path, nrows=0).columns
     types = _declared_types(table)
-    text = [c for c in header if types.get(c) == "TEXT" or (table == "runs" and c not in types)]
+    untyped_text = table in ("runs", "scenarios", "policies")  # JSON, YAML and names: all text
+    text = [c for c in header if types.get(c) == "TEXT" or (untyped_text and c not in types)]
     frame = pd.read_csv(
         path,
         dtype={c: str for c in text},
@@ -97,6 +105,27 @@ def _read_csv(path: Path, table: str) -> pd.DataFrame:
         if types.get(column) == "INTEGER" and frame[column].dtype.kind == "f" and frame[column].notna().all():
             frame[column] = frame[column].astype("int64")
     return frame
+
+
+def read_table(stem: str | Path, table: str) -> pd.DataFrame | None:
+    """One exported table under ``stem`` (``None`` where neither format exists).
+
+    Raises:
+        RowsError: the table in both formats, or a file that cannot be read as a table.
+    """
+    found = [row_path(stem, table, ext) for ext in ROW_FORMATS if row_path(stem, table, ext).is_file()]
+    if len(found) > 1:  # two exports under one stem: which one is meant cannot be guessed
+        raise RowsError(
+            f"--rows {stem}: both {found[0].name} and {found[1].name} exist; expected one format per "
+            "stem (remove the older export or export to another stem)"
+        )
+    if not found:
+        return None
+    path = found[0]
+    try:
+        return pd.read_parquet(path) if path.suffix == ".parquet" else _read_csv(path, table)
+    except (OSError, ValueError) as error:
+        raise RowsError(f"--rows {stem}: {path} is not a readable {table} table ({error})") from None
 
 
 def read_rows(stem: str | Path) -> ResultTables:
@@ -111,23 +140,16 @@ def read_rows(stem: str | Path) -> ResultTables:
     """
     frames: dict[str, pd.DataFrame] = {}
     for table in ROW_TABLES:
-        found = [row_path(stem, table, ext) for ext in ROW_FORMATS if row_path(stem, table, ext).is_file()]
-        if len(found) > 1:  # two exports under one stem: which one is meant cannot be guessed
-            raise RowsError(
-                f"--rows {stem}: both {found[0].name} and {found[1].name} exist; expected one format per "
-                "stem (remove the older export or export to another stem)"
-            )
-        if not found:
+        frame = read_table(stem, table)
+        if frame is None:
             if table == "window_runs":
-                frames[table] = pd.DataFrame()
-                continue
-            expected = " or ".join(str(row_path(stem, table, ext)) for ext in ROW_FORMATS)
-            raise RowsError(f"--rows {stem}: no {table} table; expected {expected} (from `uav-bench export`)")
-        path = found[0]
-        try:
-            frames[table] = pd.read_parquet(path) if path.suffix == ".parquet" else _read_csv(path, table)
-        except (OSError, ValueError) as error:
-            raise RowsError(f"--rows {stem}: {path} is not a readable {table} table ({error})") from None
+                frame = pd.DataFrame()
+            else:
+                expected = " or ".join(str(row_path(stem, table, ext)) for ext in ROW_FORMATS)
+                raise RowsError(
+                    f"--rows {stem}: no {table} table; expected {expected} (from `uav-bench export`)"
+                )
+        frames[table] = frame
     if "scenario_hash" not in frames["episodes"].columns:
         raise RowsError(f"--rows {stem}: the episodes table has no scenario_hash column; expected an export")
     return ResultTables(frames["episodes"], frames["runs"], frames["window_runs"])

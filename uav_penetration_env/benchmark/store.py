@@ -317,6 +317,54 @@ class ResultsStore:
                 [tuple(_sql_value(row.get(name)) for name in names) for row in rows],
             )
 
+    def load_exported(self, tables: Mapping[str, pd.DataFrame]) -> None:
+        """Fill an empty store with exported rows, keeping every id (``uav-bench import``, api.md §4.9).
+
+        Args:
+            tables: ``runs``, ``episodes``, ``steps``, ``window_runs``, ``scenarios`` and
+                ``policies`` frames as ``uav-bench export`` writes them (any may be empty or
+                missing). Columns the export lacks (an older version) are NULL; the step-0 rows,
+                which an export leaves out (:meth:`steps`), are recomputed from the scenarios
+                (:func:`migrate_start_rows`), so ``scenarios`` must hold every episode's scenario.
+
+        Raises:
+            StoreError: the store already holds results, or a table has a column this store does
+                not declare (a newer export).
+        """
+        held = sum(
+            self._connection.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
+            for table in ("runs", "episodes", "window_runs")
+        )
+        if held:
+            raise StoreError(self.path, f"holds {held} rows already; expected an empty store to import into")
+        declared = {
+            "runs": ["run_id", "started", "provenance", "settings"],
+            "policies": ["policy_hash", "policy", "config"],
+            "scenarios": ["scenario_hash", "scenario", "yaml"],
+            "episodes": ["episode_id", *EPISODE_COLUMNS],
+            "steps": ["episode_id", *STEP_COLUMNS],
+            "window_runs": ["window_run_id", *WINDOW_RUN_COLUMNS],
+        }
+        with self._connection:  # one transaction: an interrupted import leaves an empty store
+            for table, columns in declared.items():  # parents before children (foreign keys)
+                frame = tables.get(table)
+                if frame is None or frame.empty:
+                    continue
+                unknown = [c for c in frame.columns if c not in columns]
+                if unknown:
+                    raise StoreError(
+                        self.path,
+                        f"the {table} table has column {unknown[0]!r}, which this version does not store; "
+                        f"expected columns among {', '.join(columns)}",
+                    )
+                names = [c for c in columns if c in frame.columns]
+                cells = frame[names].astype(object).where(frame[names].notna(), None)
+                self._connection.executemany(
+                    f"INSERT INTO {table} ({', '.join(names)}) VALUES ({', '.join('?' for _ in names)})",
+                    [tuple(_sql_value(v) for v in row) for row in cells.itertuples(index=False, name=None)],
+                )
+            migrate_start_rows(self._connection)
+
     # --- reading ---------------------------------------------------------------------------------------
 
     @_reading

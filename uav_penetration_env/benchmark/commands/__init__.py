@@ -21,6 +21,7 @@ BUILTIN_COMMANDS = (
     "plot",
     "report",
     "export",
+    "import_rows",
     "replay",
     "calibrate",
     "scenario",
@@ -31,7 +32,7 @@ BUILTIN_COMMANDS = (
 
 
 def builtin_commands() -> dict[str, Command]:
-    """The built-in commands by command name (``best-known`` lives in ``best_known.py``), in order."""
+    """The built-in commands by command name, in order (``best-known`` is in ``best_known.py``, ``import`` in ``import_rows.py``)."""
     commands = [importlib.import_module(f"{__name__}.{module}").COMMAND for module in BUILTIN_COMMANDS]
     return {command.name: command for command in commands}
 

@@ -1,7 +1,9 @@
-"""``uav-bench export``: the store's episodes, runs, window-run and steps tables as CSV or Parquet files.
+"""``uav-bench export``: the store's tables as CSV or Parquet files.
 
 The episodes, runs and window-runs files are the rows ``uav-bench leaderboard --rows STEM``
-recomputes the leaderboards from without the store (:mod:`~..rows`).
+recomputes the leaderboards from without the store (:mod:`~..rows`); with the steps and the
+configurations by hash (scenarios, policies) they are the whole store, which ``uav-bench import``
+rebuilds (:mod:`~..restore`).
 
 With ``--tracks``: every episode's track points from step 0 (state, action, cost terms, detection,
 altitude above terrain) as ``<stem>-tracks.<format>``, and ``<stem>-tracks.geojson`` (one
@@ -39,7 +41,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write ``<stem>-{episodes,runs,window_runs,steps}.<format>`` and print their paths."""
+    """Write ``<stem>-{episodes,runs,window_runs,steps,scenarios,policies}.<format>``; print their paths."""
+    import json
+
+    import pandas as pd
+
     from uav_penetration_env.benchmark.rows import row_path, write_table
     from uav_penetration_env.benchmark.store import ResultsStore
 
@@ -56,6 +62,17 @@ def run(args: argparse.Namespace) -> int:
             "runs": store.runs(),
             "window_runs": store.window_runs(),
             "steps": store.steps(),
+            "scenarios": pd.DataFrame(
+                [(h, name, text) for h, (name, text) in sorted(store.scenarios().items())],
+                columns=["scenario_hash", "scenario", "yaml"],
+            ),
+            "policies": pd.DataFrame(
+                [
+                    (h, name, json.dumps(config, sort_keys=True))
+                    for h, (name, config) in sorted(store.policies().items())
+                ],
+                columns=["policy_hash", "policy", "config"],
+            ),
         }
     for name, frame in tables.items():
         path = row_path(out, name, args.format)
@@ -87,7 +104,7 @@ def _export_tracks(store, out: Path, extension: str) -> int:
 
 COMMAND = Command(
     name="export",
-    help="write the episodes, runs, window-run and steps tables, or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
+    help="write the store as tables (episodes, runs, window runs, steps, scenarios, policies), or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
     add_arguments=add_arguments,
     run=run,
 )
