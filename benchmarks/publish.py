@@ -476,7 +476,10 @@ def from_published(root: Path = ROOT, published: Path = Path("leaderboards")) ->
     print(f"[run] {command_key(argv)}", flush=True)
     status = subprocess.run([*uav_bench(), *argv], cwd=REPO, env=child_environment()).returncode
     if status == 0:
-        shutil.copyfile(published_log, log)
+        from uav_penetration_env.atomic import atomic_path
+
+        with atomic_path(log) as temporary:  # a cut copy never passes for the log
+            shutil.copyfile(published_log, temporary)
         print(
             f"{log.relative_to(REPO)}: {len(read_log(log))} attempts, copied from {published_log.relative_to(REPO)}"
         )

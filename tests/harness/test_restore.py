@@ -13,7 +13,7 @@ import pytest
 from tests.conftest import tiny_scenario
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark.restore import RestoreError, restore_store
-from uav_penetration_env.benchmark.rows import row_path
+from uav_penetration_env.benchmark.rows import JSON_TEXT_COLUMNS, row_path
 from uav_penetration_env.benchmark.store import ResultsStore, StoreError
 
 
@@ -35,9 +35,11 @@ def everything(path):
 
 
 def text_as_read_from_csv(frame):
-    """NULL text as empty text: the one thing CSV cannot keep apart (api.md §4.9)."""
+    """NULL plain text as empty text: what CSV cannot keep apart (api.md §4.9); JSON columns stay exact."""
     frame = frame.copy()
     for column in frame.columns:
+        if column in JSON_TEXT_COLUMNS:
+            continue
         if pd.api.types.is_string_dtype(frame[column]) or frame[column].dtype == object:
             frame[column] = frame[column].astype(object).where(frame[column].notna(), "")
     return frame
@@ -89,6 +91,7 @@ def test_a_run_on_the_imported_store_adds_only_what_is_new(original):
     # greedy's episodes were imported: only the random policy's two seeds fly
     assert len(after) == len(before) + 2
     assert set(after.loc[len(before) :, "policy"]) == {"random"}
+    assert after["episode_id"].iloc[len(before) :].min() > before["episode_id"].max()  # ids carry on
     kept = after.iloc[: len(before)]
     pd.testing.assert_frame_equal(kept, before)
 
@@ -136,3 +139,48 @@ def test_loading_rows_into_a_store_that_holds_results_is_refused(original):
     _, store, _ = original
     with ResultsStore(store) as results, pytest.raises(StoreError, match="expected an empty store"):
         results.load_exported({"episodes": everything(store)["episodes"]})
+
+
+def test_the_csv_import_keeps_null_json_text_null_for_its_readers(original):
+    folder, _, _ = original
+    target = folder / "from-csv.sqlite"
+    restore_store(folder / "csv" / "rows", target)
+    steps = everything(target)["steps"]
+    greedy = steps["episode_id"].isin(
+        everything(target)["episodes"].query("policy == 'greedy'")["episode_id"]
+    )
+    assert steps.loc[greedy, "history"].isna().all()  # the floor plans nothing: NULL, not ""
+    assert run_cli("plot", "--store", target, "--out", folder / "csv-plots") == 0  # parses the histories
+
+
+def copy_rows(folder, tmp_path, tables=("episodes", "runs", "window_runs", "steps", "scenarios", "policies")):
+    for table in tables:
+        source = row_path(folder / "parquet" / "rows", table, "parquet")
+        row_path(tmp_path / "rows", table, "parquet").write_bytes(source.read_bytes())
+
+
+def test_rows_a_store_refuses_leave_nothing_behind(original, tmp_path):
+    folder, _, _ = original
+    copy_rows(folder, tmp_path)
+    steps = pd.read_parquet(row_path(tmp_path / "rows", "steps", "parquet"))
+    steps.assign(episode_id=steps["episode_id"] + 1000).to_parquet(
+        row_path(tmp_path / "rows", "steps", "parquet")
+    )
+    with pytest.raises(
+        RestoreError, match=r"^--rows .*: the steps table has rows a store refuses \(FOREIGN KEY"
+    ):
+        restore_store(tmp_path / "rows", tmp_path / "out" / "x.sqlite")
+    episodes = pd.read_parquet(row_path(folder / "parquet" / "rows", "episodes", "parquet"))
+    episodes.assign(bogus=1).to_parquet(row_path(tmp_path / "rows", "episodes", "parquet"))
+    with pytest.raises(
+        RestoreError, match=r"the episodes table has column 'bogus', which this version does not store"
+    ):
+        restore_store(tmp_path / "rows", tmp_path / "out" / "x.sqlite")
+    assert list((tmp_path / "out").iterdir()) == []  # no store, no temporary, no journal
+
+
+def test_a_leftover_journal_of_the_target_is_refused(original, tmp_path):
+    folder, _, _ = original
+    (tmp_path / "x.sqlite-wal").write_bytes(b"stale")  # SQLite would replay it onto the new file
+    with pytest.raises(RestoreError, match=r"has a leftover SQLite journal x\.sqlite-wal"):
+        restore_store(folder / "parquet" / "rows", tmp_path / "x.sqlite")

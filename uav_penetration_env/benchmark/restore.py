@@ -45,11 +45,19 @@ class Restored:
 
 
 def needed_scenarios(episodes: pd.DataFrame, window_runs: pd.DataFrame) -> dict[str, str]:
-    """``scenario_hash -> scenario name`` of every scenario an episode or window run names."""
+    """``scenario_hash -> scenario name`` of every scenario an episode or window run names.
+
+    Raises:
+        RowsError: a table without its ``scenario`` or ``scenario_hash`` column.
+    """
     needed: dict[str, str] = {}
-    for frame in (episodes, window_runs):
-        if not frame.empty:
-            needed.update(zip(frame["scenario_hash"], frame["scenario"], strict=True))
+    for table, frame in (("episodes", episodes), ("window_runs", window_runs)):
+        if frame.empty:
+            continue
+        missing = [c for c in ("scenario_hash", "scenario") if c not in frame.columns]
+        if missing:
+            raise RowsError(f"the {table} table has no {missing[0]} column; expected an export of uav-bench")
+        needed.update(zip(frame["scenario_hash"], frame["scenario"], strict=True))
     return needed
 
 
@@ -70,8 +78,8 @@ def rebuild_scenarios(needed: Mapping[str, str]) -> dict[str, tuple[str, str]]:
     found: dict[str, tuple[str, str]] = {}
 
     def offer(scenario) -> None:
-        if scenario.hash in needed and scenario.hash not in found:
-            found[scenario.hash] = (scenario.name, scenario_yaml(scenario))
+        if scenario.hash in needed and scenario.hash not in found:  # the name the rows recorded
+            found[scenario.hash] = (needed[scenario.hash], scenario_yaml(scenario))
 
     for suite_name in suite_names():
         suite = load_suite(suite_name)
@@ -107,17 +115,21 @@ def restore_store(stem: str | Path, path: str | Path) -> Restored:
 
     Raises:
         RowsError: no episodes or runs table under ``stem``, or an unreadable one (:func:`read_rows`).
-        RestoreError: ``path`` exists, or a scenario cannot be rebuilt (:func:`rebuild_scenarios`).
-        StoreError: the target cannot be written, or a table has a column this version lacks.
+        RestoreError: ``path`` (or an SQLite journal of it, which would be replayed onto the new
+            file) exists, a scenario cannot be rebuilt (:func:`rebuild_scenarios`), or the rows
+            cannot form a store (:meth:`~.store.ResultsStore.load_exported`); nothing is left behind.
+        StoreError: the target cannot be written.
     """
     from uav_penetration_env.atomic import atomic_path
     from uav_penetration_env.benchmark.store import ResultsStore
 
     path = Path(path)
-    if path.exists():
-        raise RestoreError(
-            f"--store {path}: exists; expected a new file path (import does not merge into a store)"
-        )
+    for leftover in (path, *(path.with_name(path.name + end) for end in ("-wal", "-shm", "-journal"))):
+        if leftover.exists():
+            what = "exists" if leftover == path else f"has a leftover SQLite journal {leftover.name}"
+            raise RestoreError(
+                f"--store {path}: {what}; expected a new file path (import does not merge into a store)"
+            )
     rows = read_rows(stem)
     tables = {"episodes": rows.episodes, "runs": rows.runs, "window_runs": rows.window_runs}
     for table in EXPORT_TABLES:
@@ -137,14 +149,13 @@ def restore_store(stem: str | Path, path: str | Path) -> Restored:
     with atomic_path(path) as temporary:
         temporary.unlink()  # an empty file is not an SQLite database the store would open
         with ResultsStore(temporary) as store:
-            store.load_exported(tables)
+            try:
+                store.load_exported(tables)
+            except ValueError as error:
+                raise RestoreError(f"--rows {stem}: {error}") from None
             counts = {
-                "episodes": len(store.episodes()),
-                "steps": len(store.steps(include_start=True)),
-                "runs": len(store.runs()),
-                "window_runs": len(store.window_runs()),
-                "scenarios": len(store.scenarios()),
-                "policies": len(store.policies()),
+                table: store.count(table)
+                for table in ("episodes", "steps", "runs", "window_runs", "scenarios", "policies")
             }
     return Restored(counts, rebuilt)
 

@@ -10,7 +10,8 @@ DECISION (api.md §4.9): Parquet is the exact format (types, NULL versus empty t
 published rows are committed as Parquet; CSV is read as well, with each column's type taken from
 the store's declared schema (:data:`~.store.EPISODE_COLUMNS`) and floats read back exactly (pandas' default parser round-trips them), which
 reproduces the tables too, except that a NULL text cell and an empty one cannot be told apart in
-CSV (both read as empty text, which is what every reader of these tables treats them as).
+CSV: both read as empty text, which every reader of the plain text columns treats alike, and as
+NULL in the JSON columns (:data:`JSON_TEXT_COLUMNS`), where empty text cannot occur.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ ROW_TABLES = ("episodes", "runs", "window_runs")  # what a leaderboard reads
 # so that ``uav-bench import`` rebuilds the whole store from them (:mod:`~.restore`).
 EXPORT_TABLES = (*ROW_TABLES, "steps", "scenarios", "policies")
 ROW_FORMATS = ("parquet", "csv")  # the order --rows looks for them in
+# Text columns that hold JSON (or NULL): an empty CSV cell there can only have been NULL, since ""
+# is not JSON, so the CSV reader restores the NULL and readers that parse the column never meet "".
+JSON_TEXT_COLUMNS = ("history", "history_nfev", "state", "provenance", "settings", "config")
 
 
 class RowsError(ValueError):
@@ -104,6 +108,8 @@ def _read_csv(path: Path, table: str) -> pd.DataFrame:
     for column in header:
         if types.get(column) == "INTEGER" and frame[column].dtype.kind == "f" and frame[column].notna().all():
             frame[column] = frame[column].astype("int64")
+        if column in JSON_TEXT_COLUMNS and column in text:
+            frame[column] = frame[column].astype(object).where(frame[column] != "", None)
     return frame
 
 

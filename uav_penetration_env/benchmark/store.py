@@ -328,8 +328,11 @@ class ResultsStore:
                 (:func:`migrate_start_rows`), so ``scenarios`` must hold every episode's scenario.
 
         Raises:
-            StoreError: the store already holds results, or a table has a column this store does
-                not declare (a newer export).
+            StoreError: the store already holds results, or cannot be written.
+            ValueError: rows that cannot form a store (nothing is written): a column this version
+                does not declare (a newer export), rows SQLite refuses (a step whose episode is
+                missing, a repeated id, NULL where a value is required), or episodes whose scenario
+                no longer builds to the hash they recorded (their start rows could not be computed).
         """
         held = sum(
             self._connection.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
@@ -352,18 +355,31 @@ class ResultsStore:
                     continue
                 unknown = [c for c in frame.columns if c not in columns]
                 if unknown:
-                    raise StoreError(
-                        self.path,
-                        f"the {table} table has column {unknown[0]!r}, which this version does not store; "
-                        f"expected columns among {', '.join(columns)}",
+                    raise ValueError(
+                        f"the {table} table has column {unknown[0]!r}, which this version does not store "
+                        "(an export of a newer version?); expected the columns of this version's export"
                     )
                 names = [c for c in columns if c in frame.columns]
                 cells = frame[names].astype(object).where(frame[names].notna(), None)
-                self._connection.executemany(
-                    f"INSERT INTO {table} ({', '.join(names)}) VALUES ({', '.join('?' for _ in names)})",
-                    [tuple(_sql_value(v) for v in row) for row in cells.itertuples(index=False, name=None)],
-                )
+                try:
+                    self._connection.executemany(
+                        f"INSERT INTO {table} ({', '.join(names)}) VALUES ({', '.join('?' for _ in names)})",
+                        [tuple(_sql_value(v) for v in row) for row in cells.itertuples(index=False, name=None)],
+                    )
+                except sqlite3.IntegrityError as error:
+                    raise ValueError(f"the {table} table has rows a store refuses ({error})") from None
             migrate_start_rows(self._connection)
+            # migrate_start_rows passes by an episode whose scenario no longer builds to its hash;
+            # an import must not: its rows would read differently from the exported store's.
+            (startless,) = self._connection.execute(
+                "SELECT COUNT(DISTINCT episode_id) FROM steps WHERE episode_id NOT IN "
+                "(SELECT episode_id FROM steps WHERE step = 0)"
+            ).fetchone()
+            if startless:
+                raise ValueError(
+                    f"{startless} episodes have steps but no start row: their scenario YAML no longer builds to "
+                    "the hash they recorded; expected an export of this version's scenarios"
+                )
 
     # --- reading ---------------------------------------------------------------------------------------
 
@@ -427,6 +443,13 @@ class ResultsStore:
             self._connection,
             params=ids,
         )
+
+    @_reading
+    def count(self, table: str) -> int:
+        """Rows in one table (``episodes``, ``steps`` with the step-0 rows, ``runs``, ...)."""
+        if table not in ("runs", "policies", "scenarios", "episodes", "steps", "window_runs"):
+            raise ValueError(f"table: got {table!r}, expected a table of the results store")
+        return int(self._connection.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0])
 
     @_reading
     def runs(self) -> pd.DataFrame:

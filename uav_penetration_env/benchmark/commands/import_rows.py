@@ -28,12 +28,14 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.store import StoreError
 
     store = Path(args.store)
+    if store.exists():  # refused before anything is created on the way to it
+        raise CLIError(f"--store {args.store}: exists; expected a new file path (import does not merge into a store)")
     check_writable_folder(store.parent, "--store", args.store)
     try:
         restored = restore_store(args.rows, store)
     except (RowsError, RestoreError) as error:
         raise CLIError(str(error)) from None
-    except StoreError as error:
+    except StoreError as error:  # the target, not the rows: they are RestoreErrors naming --rows
         raise CLIError(f"--store {args.store}: {error.reason}") from None
     held = ", ".join(f"{count} {table}" for table, count in restored.counts.items())
     print(f"uav-bench import: {store}: {held}")
