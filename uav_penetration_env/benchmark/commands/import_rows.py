@@ -29,7 +29,9 @@ def run(args: argparse.Namespace) -> int:
 
     store = Path(args.store)
     if store.exists():  # refused before anything is created on the way to it
-        raise CLIError(f"--store {args.store}: exists; expected a new file path (import does not merge into a store)")
+        raise CLIError(
+            f"--store {args.store}: exists; expected a new file path (import does not merge into a store)"
+        )
     check_writable_folder(store.parent, "--store", args.store)
     try:
         restored = restore_store(args.rows, store)
