@@ -57,8 +57,10 @@ RUNS = (
 # Experiments on the high corridor (docs/rl.md §3.2): (algorithm, regime, name, overrides, seeds,
 # steps), trained after the runs above as ALGO-REGIME-NAME-sSEED with the overrides on the untuned set.
 EXPERIMENTS = (
-    ("ppo", "paper", "ent", "baselines/hyperparams/experiments/ppo-ent.yaml", range(2), 2_000_000),
-    ("ppo", "paper", "gamma", "baselines/hyperparams/experiments/ppo-gamma.yaml", range(2), 2_000_000),
+    # Five seeds each, as the untuned set they are compared with (two first; three more once the two
+    # had shown the changes split by seed).
+    ("ppo", "paper", "ent", "baselines/hyperparams/experiments/ppo-ent.yaml", range(5), 2_000_000),
+    ("ppo", "paper", "gamma", "baselines/hyperparams/experiments/ppo-gamma.yaml", range(5), 2_000_000),
 )
 OFF_POLICY_CPU_MINUTES = 20.0
 # Algorithms whose study is confirmed at the full budget (docs/rl.md §3.1): a PPO trial sees 150 000

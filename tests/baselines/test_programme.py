@@ -67,14 +67,11 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     # PPO per regime: seed 0 of both sets (the confirmation), then seeds 1-4 of the chosen (zoo) set
     ppo_paper = ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-zoo-s{seed}" for seed in range(1, 5)]
     assert run_names(fake.calls)[:6] == ppo_paper
-    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3 + 4  # + the corridor experiments, 2 x 2 seeds
-    assert run_names(fake.calls)[-4:] == [
-        "ppo-paper-ent-s0",
-        "ppo-paper-ent-s1",
-        "ppo-paper-gamma-s0",
-        "ppo-paper-gamma-s1",
+    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3 + 10  # + the corridor experiments, 2 x 5 seeds
+    assert run_names(fake.calls)[-10:] == [
+        f"ppo-paper-{name}-s{seed}" for name in ("ent", "gamma") for seed in range(5)
     ]
-    ent = fake.calls[-4]
+    ent = fake.calls[-10]
     assert ent[ent.index("--hyperparams") + 1] == "baselines/hyperparams/experiments/ppo-ent.yaml"
     printed = capsys.readouterr().out
     assert (
@@ -98,7 +95,7 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     assert run_programme(tmp_path, runner=again) == 0
     assert again.calls == []
     printed = capsys.readouterr().out
-    assert printed.count("[done]") == 5 + 25 and printed.count("[skip]") == 8
+    assert printed.count("[done]") == 5 + 31 and printed.count("[skip]") == 8
     assert "[skip] train/ppo-random-s4: not chosen" in printed
 
 
@@ -119,7 +116,7 @@ def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
     rest = FakeUavBench(tmp_path)
     assert run_programme(tmp_path, runner=rest) == 0
     assert run_names(rest.calls)[0] == "ppo-paper-zoo-s1"  # the cut run first, nothing before it
-    assert len(rest.calls) == 30 - 7
+    assert len(rest.calls) == 36 - 7
 
 
 def test_a_step_another_process_runs_is_skipped_and_left_to_it(tmp_path, capsys):
@@ -133,7 +130,10 @@ def test_a_step_another_process_runs_is_skipped_and_left_to_it(tmp_path, capsys)
     with step_lock(tmp_path, "train/ppo-paper-s0") as free:
         assert free
         # flock locks belong to open files: a second open of the path (as another process makes) is refused.
-        with (tmp_path / "locks" / "train_ppo-paper-s0.lock").open("a") as other, pytest.raises(BlockingIOError):
+        with (
+            (tmp_path / "locks" / "train_ppo-paper-s0.lock").open("a") as other,
+            pytest.raises(BlockingIOError),
+        ):
             fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
         fake = FakeUavBench(tmp_path)
         assert run_programme(tmp_path, runner=fake, only=["train/ppo-paper-*"]) == 0
