@@ -324,13 +324,26 @@ def compare_rebuild(out: Path = OUT, check: Path = CHECK) -> list[str]:
 REBUILD_CHECK = "rebuild check: tables from rows equal the store's"
 
 
-def rebuild_checked(attempts: list[dict]) -> bool:
-    """Whether the last thing the tables part recorded is a passed rebuild check."""
+def rebuild_checked(attempts: list[dict], commands: Sequence[str] = ()) -> bool:
+    """Whether the last thing the tables part recorded is a passed rebuild check of current tables.
+
+    Args:
+        attempts: the compute log.
+        commands: the tables part's commands (keys); each must have succeeded after the last attempt
+            of an earlier part and before the check, so that the check compared tables built from
+            every row (a check alone, after new rows, proves nothing about the tables it read).
+    """
     tables = [i for i, a in enumerate(attempts) if a.get("part") == "tables"]
     if not tables:
         return False
-    last = attempts[tables[-1]]
-    return last.get("command") == REBUILD_CHECK and last.get("status") == 0 and current(attempts, tables[-1])
+    check = tables[-1]
+    last = attempts[check]
+    if not (last.get("command") == REBUILD_CHECK and last.get("status") == 0 and current(attempts, check)):
+        return False
+    earlier = set(ORDER[: ORDER.index("tables")])
+    since = max((i for i, a in enumerate(attempts[:check]) if a.get("part") in earlier), default=-1)
+    rebuilt = {a["command"] for a in attempts[since + 1 : check] if a.get("part") == "tables" and a.get("status") == 0}
+    return all(command in rebuilt for command in commands)
 
 
 def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
@@ -519,7 +532,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(compute_table(attempts, worker=published_worker_seconds()))
         return 0
     if args.install:
-        if not rebuild_checked(attempts):
+        tables = next(part for part in parts() if part.name == "tables")
+        if not rebuild_checked(attempts, [command_key(c) for c in tables.commands]):
             print("refused: the tables part has not ended with a passed rebuild check; run it first",
                   file=sys.stderr)  # fmt: skip
             return 1
@@ -530,11 +544,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     unknown = [name for name in args.only if name not in names]
     if unknown:
         parser.error(f"--only {' '.join(unknown)}: unknown part; expected some of {', '.join(names)}")
-    done = done_commands(attempts)
     checked_imports = False
     for part in plan:
         if args.only and part.name not in args.only:
             continue
+        # Read again before each part: a run part that just added rows makes the derived parts
+        # after it stale in this very invocation (current()).
+        done = done_commands(read_log(log))
         for index, command in enumerate(part.commands):
             key = command_key(command)
             if key in done:

@@ -280,3 +280,48 @@ def test_from_published_rebuilds_a_missing_store_and_log_once(tmp_path, monkeypa
     capsys.readouterr()
     assert publish.main(["--from-published"]) == 1  # never over an existing store
     assert "exists; --from-published only rebuilds a missing store" in capsys.readouterr().err
+
+
+def test_a_check_alone_after_new_rows_does_not_pass_for_rebuilt_tables():
+    """The check must follow every tables command rerun after the last rows, not only be the last line."""
+    tables = ["plot", "report"]
+    published = [attempt("agents", "run a"), *(attempt("tables", c) for c in tables),
+                 attempt("tables", publish.REBUILD_CHECK)]  # fmt: skip
+    assert publish.rebuild_checked(published, tables)
+    # new agents flew, best-known ran, and a check was logged without the tables being rebuilt
+    stale = [
+        *published,
+        attempt("agents", "run b"),
+        attempt("best-known", "bk"),
+        attempt("tables", publish.REBUILD_CHECK),
+    ]
+    assert not publish.rebuild_checked(stale, tables)
+    assert publish.rebuild_checked(stale)  # what the check alone would have said
+    rebuilt = [*stale, *(attempt("tables", c) for c in tables), attempt("tables", publish.REBUILD_CHECK)]
+    assert publish.rebuild_checked(rebuilt, tables)
+
+
+def test_derived_parts_rerun_in_the_same_invocation_after_new_rows(tmp_path, monkeypatch):
+    monkeypatch.setattr(publish, "ROOT", tmp_path)
+    monkeypatch.setattr(publish, "programme_unfinished", lambda: [])
+    monkeypatch.setattr(publish, "dirty_files", lambda: [])
+    monkeypatch.setattr(publish, "imported_from", lambda: publish.REPO)
+    monkeypatch.setattr(publish, "compare_rebuild", lambda *args: [])
+    plan = publish.parts()
+    log = tmp_path / "compute.jsonl"
+    # everything published once; then a new agent makes the agents part's commands new
+    logged = [attempt(part.name, publish.command_key(c)) for part in plan for c in part.commands]
+    logged = [a for a in logged if a["part"] != "agents"] + [attempt("tables", publish.REBUILD_CHECK)]
+    log.write_text("".join(json.dumps(a) + "\n" for a in logged))
+    ran = []
+
+    def run_attempt(part, argv, path):
+        ran.append(part)
+        publish.append_attempt(path, attempt(part, publish.command_key(argv)))
+        return 0
+
+    monkeypatch.setattr(publish, "run_attempt", run_attempt)
+    assert publish.main([]) == 0
+    tables = next(p for p in plan if p.name == "tables")
+    assert ran == ["agents"] * len(plan[5].commands) + ["best-known"] + ["tables"] * len(tables.commands)
+    assert publish.rebuild_checked(publish.read_log(log), [publish.command_key(c) for c in tables.commands])
