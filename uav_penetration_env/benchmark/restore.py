@@ -93,9 +93,9 @@ def rebuild_scenarios(needed: Mapping[str, str]) -> dict[str, tuple[str, str]]:
         offer(build())
         missing = set(needed) - set(found)
     for scenario_hash in sorted(missing):
-        name = needed[scenario_hash]
-        if name.startswith("random-") and name[len("random-") :].isdigit():
-            offer(resolve_scenario(f"random:{name[len('random-') :]}"))
+        seed = needed[scenario_hash].removeprefix("random-")
+        if seed != needed[scenario_hash] and seed.isdigit():
+            offer(resolve_scenario(f"random:{seed}"))
     missing = sorted(set(needed) - set(found))
     if missing:
         first = missing[0]

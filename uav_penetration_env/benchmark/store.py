@@ -334,10 +334,7 @@ class ResultsStore:
                 missing, a repeated id, NULL where a value is required), or episodes whose scenario
                 no longer builds to the hash they recorded (their start rows could not be computed).
         """
-        held = sum(
-            self._connection.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
-            for table in ("runs", "episodes", "window_runs")
-        )
+        held = sum(self.count(table) for table in ("runs", "episodes", "window_runs"))
         if held:
             raise StoreError(self.path, f"holds {held} rows already; expected an empty store to import into")
         declared = {

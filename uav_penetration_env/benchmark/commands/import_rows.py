@@ -28,10 +28,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.store import StoreError
 
     store = Path(args.store)
-    if store.exists():  # refused before anything is created on the way to it
-        raise CLIError(
-            f"--store {args.store}: exists; expected a new file path (import does not merge into a store)"
-        )
+    # An existing target (refused by restore_store) has its folder already: this creates nothing then.
     check_writable_folder(store.parent, "--store", args.store)
     try:
         restored = restore_store(args.rows, store)
