@@ -131,7 +131,7 @@ class AgentWarmStartedMPC(MPCPolicy):
             plan[None],
             step=int(info["step"]),
             discount=self.discount,
-            terminal_cost=self.terminal_cost,
+            terminal_cost=self._terminal,
         )
         self.last_record.update(agent_plan=plan.tolist(), agent_plan_cost=float(cost[0]))
         return action

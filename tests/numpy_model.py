@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 
-from uav_penetration_env import rcs
+from uav_penetration_env import costtogo, rcs
 from uav_penetration_env.cost import FuelParams
+from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, UAVLimits, X, Y, Z
 from uav_penetration_env.model import (
     FAR_RANGE_RATIO,
@@ -449,7 +450,7 @@ class NumpyPenetrationModel(PenetrationModel):
             controls: (B, H, 3) control sequences.
             step: k, transitions already made in the episode.
             discount: gamma in (0, 1].
-            terminal_cost: c_T >= 0 per remaining full-speed step.
+            terminal_cost: c_T >= 0 per remaining full-speed step, or a ``TerminalCost`` (model.md §7e).
             scenario_index: pool index of the scenario flown.
 
         Returns:
@@ -474,6 +475,17 @@ class NumpyPenetrationModel(PenetrationModel):
             flying &= ~result.terminated
             states = result.state
             weight *= discount
+        if isinstance(terminal_cost, TerminalCost) and terminal_cost.kind != 1:
+            if terminal_cost.kind != 0 and step + horizon < self.max_steps:
+                goal = self.goal[scenario_index]
+                # The Dubins and value forms: the scalar definitions, row by row (model.md §7e).
+                to_go = np.array(
+                    [costtogo.terminal_value.py_func(terminal_cost, s[0], s[1], s[4], goal[0], goal[1]) for s in states]
+                )
+                total += np.where(flying, weight * to_go, 0.0)
+            return total
+        if isinstance(terminal_cost, TerminalCost):
+            terminal_cost = terminal_cost.scale
         if terminal_cost > 0.0 and step + horizon < self.max_steps:
             to_go = terminal_cost_to_go(
                 self.goal_distance(states, index), self.limits.max_step_length, terminal_cost

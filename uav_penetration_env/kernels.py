@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit, prange, vectorize
 
 from uav_penetration_env import cache
+from uav_penetration_env.costtogo import terminal_value
 
 # --- compile-cache location ----------------------------------------------------------------------
 
@@ -649,12 +650,13 @@ def transition_rows(
 
 
 @njit(parallel=True, cache=True)
-def rollout_batch(arrays, state, controls, step, discount, terminal_cost, p, total):
+def rollout_batch(arrays, state, controls, step, discount, terminal, p, total):
     """Discounted window costs of (B, H, 3) control sequences from one state (eq. 37, model.md §7-8).
 
     Each row sums gamma^j (J + penalty) until it terminates or the episode reaches K_max, then adds
-    the discounted cost-to-go ``terminal_cost d_goal / (v_max dt)`` if it is still flying when a
-    window that ends before K_max is over. Writes ``total`` (B,).
+    gamma^H times the terminal cost of its end pose (``terminal``, a :class:`costtogo.TerminalCost`:
+    none, straight-line or Dubins distance, or the lattice value function; model.md §7e) if it is
+    still flying when a window that ends before K_max is over. Writes ``total`` (B,).
     """
     params = arrays.params
     max_steps = arrays.options[O_MAX_STEPS]
@@ -700,9 +702,10 @@ def rollout_batch(arrays, state, controls, step, discount, terminal_cost, p, tot
             if flags[F_TERMINATED]:
                 flying = False
                 break
-        if flying and terminal_cost > 0.0 and step + horizon < max_steps:
-            distance = math.hypot(arrays.goal[p, 0] - current[0], arrays.goal[p, 1] - current[1])
-            cost += weight * (terminal_cost * distance / params[P_MAX_STEP_LENGTH])
+        if flying and terminal.kind != 0 and step + horizon < max_steps:
+            cost += weight * terminal_value(
+                terminal, current[0], current[1], current[4], arrays.goal[p, 0], arrays.goal[p, 1]
+            )
         total[b] = cost
 
 

@@ -29,9 +29,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from uav_penetration_env import checks, kernels
+from uav_penetration_env import checks, costtogo, kernels
 from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.cost import FuelParams, Normalisation
+from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kernels import (
     FAR_RANGE_RATIO,
     OBSERVATION_LIMIT,
@@ -627,22 +628,25 @@ class PenetrationModel:
         *,
         step: int,
         discount: float = 1.0,
-        terminal_cost: float = 0.0,
+        terminal_cost: float | TerminalCost = 0.0,
         scenario_index: int = 0,
     ) -> FloatArray:
         """Discounted window cost J^(H) of control sequences flown from one state (eq. 37, model.md §7-8).
 
         Each row accumulates gamma^j (J + penalty) of its transitions exactly as the env scores them,
         stops once it reaches the goal, fails, or the episode reaches K_max, and, if it is still flying
-        when the window ends before K_max, adds ``terminal_cost * d_goal / (v_max dt)`` discounted by
-        gamma^H (DECISION, model.md §7: MPC's cost-to-go; 0 reproduces the env's summed costs).
+        when the window ends before K_max, adds the terminal cost of its end pose discounted by gamma^H
+        (model.md §7e: a number c_T is the straight-line form ``c_T * d_goal / (v_max dt)``; a
+        :class:`~uav_penetration_env.costtogo.TerminalCost` any form, the lattice value function
+        included; 0 reproduces the env's summed costs).
 
         Args:
             state: (6,) the current exact state.
             controls: (B, H, 3) control sequences.
             step: k, transitions already made in the episode.
             discount: gamma in (0, 1].
-            terminal_cost: c_T >= 0 per remaining full-speed step.
+            terminal_cost: c_T >= 0 per remaining full-speed step (the ``distance`` form), or a
+                :class:`~uav_penetration_env.costtogo.TerminalCost`.
             scenario_index: pool index of the scenario flown.
 
         Returns:
@@ -653,28 +657,37 @@ class PenetrationModel:
                 ``discount`` or ``terminal_cost`` that is not a number.
             ValueError: ``controls`` not (B, H, 3) with H >= 1, or ``state`` not (6,); a NaN or
                 infinite entry; ``step`` outside [0, K_max]; ``discount`` outside (0, 1];
-                ``terminal_cost`` negative or not finite; ``scenario_index`` outside the pool.
+                ``terminal_cost`` negative or not finite, or a ``TerminalCost`` of an unknown kind or
+                malformed table; ``scenario_index`` outside the pool.
         """
         controls = _rollout_controls(controls)
         window = self._rollout_window(state, step, discount, terminal_cost, scenario_index)
         return self._rollout_cost(window[0], controls, *window[1:])
 
     def _rollout_window(
-        self, state: FloatArray, step: int, discount: float, terminal_cost: float, scenario_index: int
-    ) -> tuple[np.ndarray, int, float, float, int]:
+        self, state: FloatArray, step: int, discount: float, terminal_cost: float | TerminalCost, scenario_index: int
+    ) -> tuple[np.ndarray, int, float, TerminalCost, int]:
         """:meth:`rollout_cost`'s arguments other than the controls, checked and converted."""
         state = checks.finite_array(state, "state", (6,), "a (6,) state of finite numbers")
         step = checks.integer_scalar(
             step, "step", 0, self.max_steps, f"an integer in [0, {self.max_steps}] (K_max)"
         )
         discount = checks.real_scalar(discount, "discount", 0.0, 1.0, "a number in (0, 1]", open_low=True)
-        terminal_cost = checks.real_scalar(
-            terminal_cost, "terminal_cost", 0.0, sys.float_info.max, "a finite number >= 0"
-        )
+        terminal_cost = self._terminal(terminal_cost)
         scenario_index = checks.integer_scalar(
             scenario_index, "scenario_index", 0, self.pool_size - 1, f"an integer in [0, {self.pool_size})"
         )
         return state, step, discount, terminal_cost, scenario_index
+
+    def _terminal(self, terminal_cost: float | TerminalCost) -> TerminalCost:
+        """A checked :class:`TerminalCost` from a c_T number (the ``distance`` form) or a TerminalCost."""
+        if isinstance(terminal_cost, TerminalCost):
+            return costtogo.checked_terminal(terminal_cost)
+        scale = checks.real_scalar(terminal_cost, "terminal_cost", 0.0, sys.float_info.max, "a finite number >= 0")
+        limits = self.limits
+        return costtogo.analytic_terminal(
+            "distance", scale, limits.max_step_length, limits.max_step_length / limits.dheading_max
+        )
 
     def rollout_function(
         self,
@@ -682,7 +695,7 @@ class PenetrationModel:
         *,
         step: int,
         discount: float = 1.0,
-        terminal_cost: float = 0.0,
+        terminal_cost: float | TerminalCost = 0.0,
         scenario_index: int = 0,
     ) -> Callable[[FloatArray], FloatArray]:
         """:meth:`rollout_cost` from one window's state, as a function of the controls alone.
@@ -733,7 +746,7 @@ class PenetrationModel:
         controls: np.ndarray,
         step: int,
         discount: float,
-        terminal_cost: float,
+        terminal_cost: TerminalCost,
         scenario_index: int,
     ) -> FloatArray:
         """:meth:`rollout_cost` on checked arguments (contiguous float64 arrays, Python scalars)."""

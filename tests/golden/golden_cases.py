@@ -25,6 +25,12 @@ PLANNER_SEEDS = (0, 1)
 PLANNER_BUDGET = 200  # evaluations per MPC step: small, so 2 seeds x every planner stay fast
 PLANNER_HORIZON = 5
 
+# Optimisers whose results depend on the platform's linear algebra: the cmaes library
+# eigendecomposes its covariance matrix with LAPACK (numpy.linalg.eigh), whose last digits differ
+# between CPUs and builds, and CMA-ES amplifies them over its generations. Their golden values are
+# compared at the outcome level (test_golden.py); every other optimiser is bit-exact everywhere.
+PLATFORM_DEPENDENT = frozenset({"cmaes", "cmaes-default"})
+
 
 def sphere(x: np.ndarray) -> np.ndarray:
     return np.sum((x - 1.25) ** 2, axis=1)

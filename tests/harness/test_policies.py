@@ -13,13 +13,16 @@ from conftest import tiny_scenario
 from optimizers import OptimizeResult, get_optimizer
 from uav_penetration_env import PenetrationModel
 from uav_penetration_env.benchmark.policies import (
+    MPC_DEFAULTS,
     GreedyPolicy,
+    LatticePolicy,
     MPCPolicy,
     RandomPolicy,
     make_policy,
     policy_names,
 )
 from uav_penetration_env.env import UAVPenetrationEnv
+from uav_penetration_env.value_function import terminal_cost_for
 
 
 @dataclass
@@ -137,7 +140,7 @@ def test_mpc_objective_is_the_model_rollout_cost(env):
                 message="",
             )
 
-    policy = MPCPolicy(Probe(), horizon=4, discount=0.9, terminal_cost=0.2)
+    policy = MPCPolicy(Probe(), horizon=4, discount=0.9, terminal="distance", terminal_cost=0.2)
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     policy.act(obs, info)
@@ -181,14 +184,22 @@ def test_make_policy_names():
     ihpso = make_policy("ihpso", horizon=4, max_evals=123)
     assert (
         isinstance(ihpso, MPCPolicy)
-        and ihpso.terminal_cost == 0.06
+        and (ihpso.terminal, ihpso.terminal_cost) == (MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
         and ihpso.horizon == 4
         and ihpso.max_evals == 123
     )
     literal = make_policy("ihpso-eq37")
-    assert literal.terminal_cost == 0.0 and type(literal.optimizer) is type(ihpso.optimizer)
+    assert literal.terminal == "none" and type(literal.optimizer) is type(ihpso.optimizer)
     assert ihpso.config() != literal.config()
-    assert {"ihpso", "ihpso-eq37", "greedy", "random", "cem-eq37"} <= set(policy_names())
+    # A suffix fixes the terminal form (model.md §7e); c_T still comes from the arguments.
+    forms = {f: make_policy(f"hpso-ctg-{f}", terminal_cost=0.3) for f in ("distance", "dubins", "value")}
+    assert {f: (p.terminal, p.terminal_cost, p.name) for f, p in forms.items()} == {
+        f: (f, 0.3, f"hpso-ctg-{f}") for f in forms
+    }
+    assert len({str(p.config()) for p in forms.values()}) == 3
+    assert isinstance(make_policy("lattice"), LatticePolicy)
+    expected = {"ihpso", "ihpso-eq37", "greedy", "random", "lattice", "cem-eq37", "cem-ctg-value"}
+    assert expected <= set(policy_names())
     with pytest.raises(KeyError, match="did you mean 'ihpso'"):
         make_policy("ihspo")
 
@@ -235,20 +246,16 @@ def test_mpc_defaults_live_in_one_place():
     from uav_penetration_env.benchmark.commands.run import RUN_DEFAULTS
     from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
 
-    # Paper §5: H = 5, 10 000 evaluations per step; c_T = 0.06 (model.md §7), gamma = 1.
-    assert (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals, MPC_DEFAULTS.terminal_cost) == (5, 10_000, 0.06)
+    # Paper §5: H = 5, 10 000 evaluations per step, gamma = 1; the terminal form (model.md §7e).
+    assert (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals, MPC_DEFAULTS.discount) == (5, 10_000, 1.0)
     built = make_policy("pso")
     plain = MPCPolicy(get_optimizer("pso"))
+    keys = ("horizon", "discount", "max_evals", "terminal", "terminal_cost")
     for policy in (built, plain):
-        assert (policy.horizon, policy.discount, policy.max_evals, policy.terminal_cost) == (
-            MPC_DEFAULTS.horizon,
-            MPC_DEFAULTS.discount,
-            MPC_DEFAULTS.max_evals,
-            MPC_DEFAULTS.terminal_cost,
-        )
-    assert {k: RUN_DEFAULTS[k] for k in ("horizon", "discount", "max_evals", "terminal_cost")} == (
-        dataclasses.asdict(MPC_DEFAULTS)
-    )
+        assert tuple(getattr(policy, k) for k in keys) == tuple(getattr(MPC_DEFAULTS, k) for k in keys)
+    assert {k: RUN_DEFAULTS[k] for k in keys} == dataclasses.asdict(MPC_DEFAULTS)
+    with pytest.raises(ValueError, match="terminal: got 'euclid'"):
+        MPCPolicy(get_optimizer("pso"), terminal="euclid")
 
 
 def test_trace_summary_of_a_hand_made_trace():
@@ -291,6 +298,6 @@ def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
         info["state"],
         plans.reshape(4, policy.horizon, 3),
         step=info["step"],
-        terminal_cost=policy.terminal_cost,
+        terminal_cost=terminal_cost_for(env.unwrapped.model, policy.terminal, policy.terminal_cost),
     )
     np.testing.assert_array_equal(cost(plans), expected)

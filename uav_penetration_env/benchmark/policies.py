@@ -12,7 +12,7 @@ import functools
 import inspect
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
@@ -20,10 +20,24 @@ import numpy as np
 from scipy.optimize import Bounds
 
 from uav_penetration_env.benchmark.plugins import POLICY_GROUP, Plugin, PluginUnavailable, policy_kinds
-from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
+from uav_penetration_env.costtogo import TERMINAL_FORMS, TerminalCost
+from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.types import FloatArray
+from uav_penetration_env.value_function import (
+    ALGORITHM_VERSION as VALUE_ALGORITHM_VERSION,
+)
+from uav_penetration_env.value_function import (
+    LATTICE_DEFAULTS,
+    LATTICE_GUIDANCE,
+    LatticeGuidance,
+    ValueFunction,
+    lattice_action,
+    terminal_cost_for,
+    terrain_following_dtheta,
+    value_function,
+)
 
 
 @dataclass(frozen=True)
@@ -37,14 +51,26 @@ class MPCSettings:
         horizon: H, control steps per plan (paper §5: 5).
         discount: gamma of eq. 37.
         max_evals: objective evaluations per planning step (paper §5: 10 000).
-        terminal_cost: c_T, cost-to-go per remaining step at v_max (DECISION, model.md §7: 0.06; 0 is
-            the paper's literal eq. 37, the ``NAME-eq37`` policies).
+        terminal: the form of the terminal cost that prices the state a window ends in
+            (model.md §7e: ``none``, the paper's literal eq. 37 and the ``NAME-eq37`` policies;
+            ``distance``; ``dubins``; ``value``, the lattice value function).
+        terminal_cost: c_T of the ``distance`` and ``dubins`` forms; None takes the form's default
+            (``distance``: 0.06; ``dubins``: the scenario's calibrated J per step).
     """
 
     horizon: int = 5
     discount: float = 1.0
     max_evals: int = 10_000
-    terminal_cost: float = 0.06
+    terminal: str = "distance"
+    terminal_cost: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.terminal not in TERMINAL_FORMS:
+            raise ValueError(f"terminal: got {self.terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
+        if self.terminal_cost is not None and not (
+            isinstance(self.terminal_cost, (int, float)) and math.isfinite(self.terminal_cost) and self.terminal_cost >= 0
+        ):
+            raise ValueError(f"terminal_cost: got {self.terminal_cost!r}, expected None or a finite number >= 0")
 
 
 MPC_DEFAULTS = MPCSettings()
@@ -109,21 +135,54 @@ def greedy_action(
 ) -> FloatArray:
     """The greedy floor's action for one state (see :class:`GreedyPolicy`)."""
     limits = model.limits
-    x, y, z = state[:3]
+    x, y = state[:2]
     goal = model.goal[0]
     bearing = math.atan2(goal[1] - y, goal[0] - x)
     dphi = float(np.clip(wrap_angle(bearing - state[HEADING]), -limits.dheading_max, limits.dheading_max))
     dv = float(np.clip(limits.speed_max - state[SPEED], -limits.dv_max, limits.dv_max))
     heading = state[HEADING] + dphi
     speed = min(limits.speed_max, state[SPEED] + dv)
-    reach = lookahead_steps * limits.max_step_length
-    distance = np.linspace(0.0, reach, max(2, math.ceil(reach / (0.5 * model.grid.dx_m)) + 1))
-    ground = model.height(x + distance * math.cos(heading), y + distance * math.sin(heading))
-    target = float(ground.max()) + clearance_m
-    climb = np.clip((target - z) / (speed * limits.dt), -1.0, 1.0)
-    pitch = float(np.clip(math.asin(climb), -limits.pitch_max, limits.pitch_max))
-    dtheta = float(np.clip(pitch - state[PITCH], -limits.dpitch_max, limits.dpitch_max))
+    dtheta = terrain_following_dtheta(model, state, heading, speed, clearance_m, lookahead_steps)
     return np.array([dv, dphi, dtheta])
+
+
+@dataclass
+class LatticePolicy:
+    """The lattice planner: each step, the turn that minimises J(k) + V(next pose) (model.md §7e).
+
+    V is the scenario's lattice value function (:func:`value_function.value_function`, built once
+    and cached); the altitude follows the terrain at the lattice's clearance. The classical global
+    planner next to the swarm planners and the agents: no online optimisation, a few model steps
+    per decision.
+    """
+
+    deterministic: ClassVar[bool] = True
+    guidance: LatticeGuidance = LATTICE_GUIDANCE
+    model: PenetrationModel | None = field(default=None, repr=False)
+    _value: ValueFunction | None = field(default=None, repr=False)
+
+    def config(self) -> dict[str, Any]:
+        """The lattice and guidance settings (hashed into the results store key)."""
+        return {
+            "kind": "lattice",
+            "lattice": dataclasses.asdict(LATTICE_DEFAULTS),
+            "guidance": dataclasses.asdict(self.guidance),
+            "algorithm": VALUE_ALGORITHM_VERSION,
+            "deterministic": True,
+        }
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Bind the model and load (or build) its value function; ``seed`` is unused."""
+        del seed
+        self.model = model
+        self._value = value_function(model)
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The lattice planner's control from the exact state in ``info``."""
+        if self.model is None or self._value is None:
+            raise RuntimeError("LatticePolicy.act() before reset(model, seed)")
+        state = np.asarray(info["state"], dtype=np.float64)
+        return lattice_action(self.model, self._value, state, int(info["step"]), self.guidance)
 
 
 @dataclass
@@ -161,7 +220,8 @@ class MPCPolicy:
         horizon: H, control steps per plan (default: :data:`MPC_DEFAULTS`, as the next three).
         discount: gamma of eq. 37.
         max_evals: objective evaluations (control sequences) per planning step.
-        terminal_cost: c_T of the cost-to-go (DECISION, model.md §7); 0 is the paper's literal eq. 37.
+        terminal: the terminal cost's form (model.md §7e; ``none`` is the paper's literal eq. 37).
+        terminal_cost: c_T of the ``distance`` and ``dubins`` forms (None: the form's default).
         warm_start: pass the shifted previous plan as ``x0``.
         name: a label for tables (the registry name when built by :func:`make_policy`).
 
@@ -175,13 +235,15 @@ class MPCPolicy:
     horizon: int = MPC_DEFAULTS.horizon
     discount: float = MPC_DEFAULTS.discount
     max_evals: int = MPC_DEFAULTS.max_evals
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost
+    terminal: str = MPC_DEFAULTS.terminal
+    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost
     warm_start: bool = True
     name: str | None = None
     model: PenetrationModel | None = field(default=None, repr=False)
     rng: np.random.Generator | None = field(default=None, repr=False)
     last_record: dict[str, Any] = field(default_factory=dict, repr=False)
     _plan: FloatArray | None = field(default=None, repr=False)
+    _terminal: TerminalCost | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if not hasattr(self.optimizer, "minimize"):
@@ -194,8 +256,8 @@ class MPCPolicy:
             raise ValueError(f"discount: got {self.discount!r}, expected a number in (0, 1]")
         if not (isinstance(self.max_evals, int) and self.max_evals >= 1):
             raise ValueError(f"max_evals: got {self.max_evals!r}, expected an integer >= 1")
-        if not self.terminal_cost >= 0.0:
-            raise ValueError(f"terminal_cost: got {self.terminal_cost!r}, expected a number >= 0")
+        # The settings' own checks name the field and the expected value.
+        MPCSettings(self.horizon, self.discount, self.max_evals, self.terminal, self.terminal_cost)
         self._accepts_x0 = "x0" in inspect.signature(self.optimizer.minimize).parameters
 
     def config(self) -> dict[str, Any]:
@@ -209,6 +271,7 @@ class MPCPolicy:
             "horizon": self.horizon,
             "discount": self.discount,
             "max_evals": self.max_evals,
+            "terminal": self.terminal,
             "terminal_cost": self.terminal_cost,
             "warm_start": self.warm_start,
         }
@@ -219,6 +282,7 @@ class MPCPolicy:
         self.rng = np.random.default_rng(seed)
         self._plan = None
         self.last_record = {}
+        self._terminal = terminal_cost_for(model, self.terminal, self.terminal_cost)
 
     def initial_guess(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray | None:
         """The (H, 3) plan the optimiser starts from (its ``x0``), or None for no warm start.
@@ -237,7 +301,7 @@ class MPCPolicy:
 
         The planning seconds include building the initial guess.
         """
-        if self.model is None or self.rng is None:
+        if self.model is None or self.rng is None or self._terminal is None:
             raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
         state = np.asarray(info["state"], dtype=np.float64)
         inside = [0.0]
@@ -247,7 +311,7 @@ class MPCPolicy:
             int(info["step"]),
             horizon=self.horizon,
             discount=self.discount,
-            terminal_cost=self.terminal_cost,
+            terminal_cost=self._terminal,
         )
 
         def objective(flat: FloatArray) -> FloatArray:
@@ -292,7 +356,8 @@ class MPCObjective:
         step: the step index k of that state (the third term and the horizon's clock read it).
         horizon: H, control steps per plan.
         discount: gamma of eq. 37.
-        terminal_cost: c_T of the cost-to-go (model.md §7).
+        terminal_cost: the terminal cost (model.md §7e): a :class:`TerminalCost`, or a number c_T
+            of the ``distance`` form.
     """
 
     model: PenetrationModel
@@ -300,7 +365,7 @@ class MPCObjective:
     step: int
     horizon: int = MPC_DEFAULTS.horizon
     discount: float = MPC_DEFAULTS.discount
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost
+    terminal_cost: float | TerminalCost = 0.0
 
     @property
     def bounds(self) -> Bounds:
@@ -331,7 +396,7 @@ def mpc_objective(
     *,
     horizon: int = MPC_DEFAULTS.horizon,
     discount: float = MPC_DEFAULTS.discount,
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
+    terminal_cost: float | TerminalCost | None = None,
 ) -> MPCObjective:
     """The objective MPC minimises at ``state`` (step ``step``): the one function planners and window runs share.
 
@@ -341,11 +406,15 @@ def mpc_objective(
         step: its step index k.
         horizon: H.
         discount: gamma of eq. 37.
-        terminal_cost: c_T (model.md §7).
+        terminal_cost: the terminal cost (model.md §7e): a :class:`TerminalCost` (as
+            ``value_function.terminal_cost_for`` builds), a number c_T of the ``distance`` form,
+            or None for :data:`MPC_DEFAULTS`' form.
 
     Returns:
         A callable ``(n, 3H) -> (n,)`` with its ``bounds``.
     """
+    if terminal_cost is None:
+        terminal_cost = terminal_cost_for(model, MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
     return MPCObjective(
         model,
         np.asarray(state, dtype=np.float64).copy(),
@@ -389,7 +458,26 @@ def trace_summary(trace: Any, nfev: int, max_evals: int) -> dict[str, Any]:
 
 
 FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}
+# Named policies that are neither floors nor MPC planners: the classical global planner.
+BASELINE_POLICIES = {"lattice": LatticePolicy}
 EQ37_SUFFIX = "-eq37"
+# An MPC planner's name with one of these suffixes fixes its terminal cost's form (model.md §7e).
+TERMINAL_SUFFIXES = {
+    EQ37_SUFFIX: "none",
+    "-ctg-distance": "distance",
+    "-ctg-dubins": "dubins",
+    "-ctg-value": "value",
+}
+
+
+def split_terminal(spec: str, names: Sequence[str]) -> tuple[str, str | None]:
+    """``NAME-SUFFIX`` -> (``NAME``, its terminal form); a plain or unknown name -> (spec, None)."""
+    if spec in names:
+        return spec, None
+    for suffix, form in TERMINAL_SUFFIXES.items():
+        if spec.endswith(suffix) and spec[: -len(suffix)] in names:
+            return spec[: -len(suffix)], form
+    return spec, None
 
 
 def policy_names() -> list[str]:
@@ -397,7 +485,8 @@ def policy_names() -> list[str]:
     from optimizers import available_optimizers
 
     names = available_optimizers()
-    return sorted([*FLOOR_POLICIES, *names, *(f"{n}{EQ37_SUFFIX}" for n in names)])
+    suffixed = [f"{n}{suffix}" for n in names for suffix in TERMINAL_SUFFIXES]
+    return sorted([*FLOOR_POLICIES, *BASELINE_POLICIES, *names, *suffixed])
 
 
 def plugin_policy_forms() -> list[str]:
@@ -454,12 +543,15 @@ def make_policy(
     horizon: int = MPC_DEFAULTS.horizon,
     max_evals: int = MPC_DEFAULTS.max_evals,
     discount: float = MPC_DEFAULTS.discount,
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
+    terminal: str = MPC_DEFAULTS.terminal,
+    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
 ) -> Any:
     """A policy from its CLI name (api.md).
 
-    Names: an optimiser name (an MPC planner), ``NAME-eq37`` (the same with ``terminal_cost=0``,
-    the paper's literal eq. 37), ``greedy``, ``random``, ``PREFIX:ARGUMENT`` of a plug-in
+    Names: an optimiser name (an MPC planner with the ``terminal`` form), the same with a suffix
+    that fixes the form (``NAME-eq37``: none, the paper's literal eq. 37; ``NAME-ctg-distance``,
+    ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e), ``greedy``, ``random``, ``lattice``
+    (the lattice planner), ``PREFIX:ARGUMENT`` of a plug-in
     policy kind (entry-point group ``uav_penetration.policies``; the ``rl`` extra's ``baselines``
     adds ``sb3:PATH.zip``), or ``PLANNER+PREFIX:ARGUMENT``: the MPC planner warm-started by the
     plug-in policy, when its kind offers that (``ihpso+sb3:PATH.zip``, docs/rl-statistics.md §3).
@@ -475,9 +567,12 @@ def make_policy(
 
     if spec in FLOOR_POLICIES:
         return FLOOR_POLICIES[spec]()
+    if spec in BASELINE_POLICIES:
+        return BASELINE_POLICIES[spec]()
     hybrid = split_hybrid(spec)
     if hybrid is not None:
-        return _make_hybrid(spec, *hybrid, horizon, max_evals, discount, terminal_cost)
+        settings = MPCSettings(horizon, discount, max_evals, terminal, terminal_cost)
+        return _make_hybrid(spec, *hybrid, settings)
     prefix, colon, argument = spec.partition(":")
     kinds = policy_kinds() if colon else {}
     if prefix in kinds:
@@ -487,14 +582,13 @@ def make_policy(
         kind.needs.check(f"policy {spec!r}")
         return kind.load(argument)
     names = available_optimizers()
-    literal = spec not in names and spec.endswith(EQ37_SUFFIX) and spec[: -len(EQ37_SUFFIX)] in names
-    base = spec[: -len(EQ37_SUFFIX)] if literal else spec
+    base, form = split_terminal(spec, names)
     if base not in names:
         # A prefix is compared with the plug-in prefixes, a plain name with the plain names.
         hint = did_you_mean(prefix, kinds) if colon else did_you_mean(spec, policy_names())
         if colon:  # name the mechanism: the kind may belong to a package that is not installed
             hint = f"no installed plug-in provides the kind {prefix!r} (entry points {POLICY_GROUP}); {hint}"
-        known = ", ".join(["greedy", "random", "NAME-eq37", *plugin_policy_forms()])
+        known = ", ".join(["greedy", "random", "lattice", "NAME-eq37", "NAME-ctg-FORM", *plugin_policy_forms()])
         raise KeyError(
             f"unknown policy {spec!r} — {hint}known: {known} and the optimisers {', '.join(names)}"
         )
@@ -503,16 +597,15 @@ def make_policy(
         horizon=horizon,
         discount=discount,
         max_evals=max_evals,
-        terminal_cost=0.0 if literal else terminal_cost,
+        terminal=terminal if form is None else form,
+        terminal_cost=None if form == "none" else terminal_cost,
         name=spec,
     )
 
 
-def _make_hybrid(
-    spec: str, planner: str, plugin: str, horizon: int, max_evals: int, discount: float, terminal_cost: float
-) -> Any:
+def _make_hybrid(spec: str, planner: str, plugin: str, settings: MPCSettings) -> Any:
     """``PLANNER+PREFIX:ARGUMENT``: the planner built here, warm-started by the plug-in kind's ``hybrid``."""
-    if planner in FLOOR_POLICIES or split_hybrid(plugin) is not None:
+    if planner in FLOOR_POLICIES or planner in BASELINE_POLICIES or split_hybrid(plugin) is not None:
         raise KeyError(
             f"unknown policy {spec!r} — a hybrid is PLANNER+PREFIX:ARGUMENT with an MPC planner "
             f"(an optimiser name or NAME-eq37) before the '+', got {planner!r}"
@@ -528,7 +621,12 @@ def _make_hybrid(
         raise KeyError(f"unknown policy {spec!r} — the plug-in kind {prefix!r} cannot warm-start a planner")
     kind.needs.check(f"policy {spec!r}")
     mpc = make_policy(
-        planner, horizon=horizon, max_evals=max_evals, discount=discount, terminal_cost=terminal_cost
+        planner,
+        horizon=settings.horizon,
+        max_evals=settings.max_evals,
+        discount=settings.discount,
+        terminal=settings.terminal,
+        terminal_cost=settings.terminal_cost,
     )
     if not isinstance(mpc, MPCPolicy):
         raise KeyError(f"unknown policy {spec!r} — {planner!r} is not an MPC planner")

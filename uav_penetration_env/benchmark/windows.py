@@ -36,6 +36,7 @@ from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.scenario import Scenario
 from uav_penetration_env.types import FloatArray
+from uav_penetration_env.value_function import terminal_cost_for
 
 ACTION_COLUMNS = ("action_dv", "action_dphi", "action_dtheta")
 # Replayed positions must match the stored track to this relative tolerance (km columns are x / 1000).
@@ -54,12 +55,16 @@ class Window:
             to the box (DECISION api.md §4.8).
         scenario: the scenario's name; ``scenario_hash``: the hash the episode was seeded with.
         source_policy, source_policy_hash, episode_seed: the stored episode the state comes from.
+        terminal, terminal_cost: the objective's terminal-cost form and c_T as the planner names
+            them (model.md §7e; they enter the optimiser configuration's hash).
     """
 
     step: int
     state: FloatArray
     objective: MPCObjective
     x0: FloatArray
+    terminal: str = MPC_DEFAULTS.terminal
+    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost
     scenario: str = ""
     scenario_hash: str = ""
     source_policy: str = ""
@@ -75,7 +80,8 @@ def window_at(
     *,
     horizon: int = MPC_DEFAULTS.horizon,
     discount: float = MPC_DEFAULTS.discount,
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
+    terminal: str = MPC_DEFAULTS.terminal,
+    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
     **source: Any,
 ) -> Window:
     """The window at ``state`` (step ``step``), warm-started with the actions that followed it.
@@ -88,18 +94,24 @@ def window_at(
             are used, zeros past the episode's end).
         horizon: H (:class:`MPCPolicy`).
         discount: gamma of eq. 37.
-        terminal_cost: c_T (model.md §7).
+        terminal: the terminal cost's form (model.md §7e).
+        terminal_cost: c_T of the ``distance`` / ``dubins`` forms (None: the form's default).
         **source: the :class:`Window`'s provenance fields.
     """
     objective = mpc_objective(
-        model, state, step, horizon=horizon, discount=discount, terminal_cost=terminal_cost
+        model,
+        state,
+        step,
+        horizon=horizon,
+        discount=discount,
+        terminal_cost=terminal_cost_for(model, terminal, terminal_cost),
     )
     plan = np.zeros((horizon, 3))
     taken = np.asarray(list(following)[:horizon], dtype=np.float64).reshape(-1, 3)
     plan[: len(taken)] = taken
     high = np.asarray(objective.bounds.ub, dtype=np.float64)
     x0 = np.clip(plan.reshape(-1), -high, high)
-    return Window(int(step), objective.state, objective, x0, **source)
+    return Window(int(step), objective.state, objective, x0, terminal, terminal_cost, **source)
 
 
 def replay(
@@ -138,7 +150,8 @@ def collect_windows(
     episode_seeds: Sequence[int] | None = None,
     horizon: int = MPC_DEFAULTS.horizon,
     discount: float = MPC_DEFAULTS.discount,
-    terminal_cost: float = MPC_DEFAULTS.terminal_cost,
+    terminal: str = MPC_DEFAULTS.terminal,
+    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
 ) -> list[Window]:
     """Window states at ``steps`` of the stored episodes of ``source_policy`` on ``scenario``.
 
@@ -150,7 +163,8 @@ def collect_windows(
         episode_seeds: the episodes' seeds (default: the smallest seed that finished).
         horizon: H of the objective.
         discount: gamma of eq. 37.
-        terminal_cost: c_T (model.md §7).
+        terminal: the terminal cost's form (model.md §7e).
+        terminal_cost: c_T of the ``distance`` / ``dubins`` forms (None: the form's default).
 
     Returns:
         One window per (episode seed, step), in that order.
@@ -224,6 +238,7 @@ def collect_windows(
                     actions[k:],
                     horizon=horizon,
                     discount=discount,
+                    terminal=terminal,
                     terminal_cost=terminal_cost,
                     scenario=name,
                     scenario_hash=scenario_hash,
@@ -294,7 +309,8 @@ def run_windows(
                     horizon=horizon,
                     discount=window.objective.discount,
                     max_evals=int(max_evals),
-                    terminal_cost=window.objective.terminal_cost,
+                    terminal=window.terminal,
+                    terminal_cost=window.terminal_cost,
                 )
             )
             for seed in seeds:

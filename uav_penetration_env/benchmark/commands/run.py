@@ -37,6 +37,7 @@ from uav_penetration_env.benchmark.commands.common import (
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
 from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
 from uav_penetration_env.catalogue import SCENARIO_HELP
+from uav_penetration_env.costtogo import TERMINAL_FORMS
 from uav_penetration_env.suggest import did_you_mean
 
 MAIN_JOB_POLICIES = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "greedy")
@@ -54,6 +55,7 @@ RUN_DEFAULTS: dict[str, Any] = {
     "max_evals": MPC_DEFAULTS.max_evals,
     "horizon": MPC_DEFAULTS.horizon,
     "discount": MPC_DEFAULTS.discount,
+    "terminal": MPC_DEFAULTS.terminal,
     "terminal_cost": MPC_DEFAULTS.terminal_cost,
     "difficulty": 0.5,
     "import": [],
@@ -103,10 +105,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--discount", type=float, help=f"MPC discount gamma (default: {MPC_DEFAULTS.discount})"
     )
     parser.add_argument(
+        "--terminal",
+        help=f"form of the MPC terminal cost: {', '.join(TERMINAL_FORMS)} (docs/model.md §7e; "
+        f"default: {MPC_DEFAULTS.terminal})",
+    )
+    parser.add_argument(
         "--terminal-cost",
         dest="terminal_cost",
         type=float,
-        help=f"MPC cost-to-go per remaining step (default: {MPC_DEFAULTS.terminal_cost})",
+        help="c_T of the distance and dubins terminal forms (default: 0.06 for distance, "
+        "the scenario's calibrated J per step for dubins)",
     )
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
     parser.add_argument(
@@ -216,6 +224,9 @@ def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
         if not ok:
             raise CLIError(f"{flag}: got {value!r}, expected {expected}")
         checked[key] = converted
+    terminal = settings.get("terminal")
+    if terminal is not None and terminal not in TERMINAL_FORMS:
+        raise CLIError(f"--terminal: got {terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
     for key in ("backend", "store", "out", "seeds", "profile", "scheduler", "suite"):
         value = settings[key]
         if value is not None and not isinstance(value, (str, int, float)):
@@ -239,7 +250,8 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
                 horizon=int(settings["horizon"]),
                 max_evals=int(settings["max_evals"]),
                 discount=float(settings["discount"]),
-                terminal_cost=float(settings["terminal_cost"]),
+                terminal=settings["terminal"],
+                terminal_cost=None if settings["terminal_cost"] is None else float(settings["terminal_cost"]),
             )
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None

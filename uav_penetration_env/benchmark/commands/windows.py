@@ -11,6 +11,7 @@ and the runtime-ECDF figure (:mod:`uav_penetration_env.benchmark.fixedtarget`).
 from __future__ import annotations
 
 import argparse
+import math
 
 from uav_penetration_env.benchmark.commands.common import (
     CLIError,
@@ -25,6 +26,7 @@ from uav_penetration_env.benchmark.commands.common import (
 from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
 from uav_penetration_env.catalogue import UnknownScenarioError
 from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+from uav_penetration_env.costtogo import TERMINAL_FORMS
 from uav_penetration_env.scenario import ScenarioError
 from uav_penetration_env.suggest import did_you_mean
 
@@ -66,10 +68,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--discount", type=float, default=MPC_DEFAULTS.discount, help="gamma of eq. 37 (default: 1.0)"
     )
     parser.add_argument(
+        "--terminal",
+        default=MPC_DEFAULTS.terminal,
+        help=f"terminal-cost form: {', '.join(TERMINAL_FORMS)} (docs/model.md §7e; default: {MPC_DEFAULTS.terminal})",
+    )
+    parser.add_argument(
         "--terminal-cost",
         type=float,
         default=MPC_DEFAULTS.terminal_cost,
-        help=f"c_T (default: {MPC_DEFAULTS.terminal_cost})",
+        help="c_T of the distance and dubins forms (default: 0.06 for distance, the calibrated J per step for dubins)",
     )
 
 
@@ -107,8 +114,10 @@ def run(args: argparse.Namespace) -> int:
             )
     if not 0.0 < args.discount <= 1.0:
         raise CLIError(f"--discount: got {args.discount}, expected a number in (0, 1]")
-    if not args.terminal_cost >= 0.0:
-        raise CLIError(f"--terminal-cost: got {args.terminal_cost}, expected a number >= 0")
+    if args.terminal not in TERMINAL_FORMS:
+        raise CLIError(f"--terminal: got {args.terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
+    if args.terminal_cost is not None and not (math.isfinite(args.terminal_cost) and args.terminal_cost >= 0.0):
+        raise CLIError(f"--terminal-cost: got {args.terminal_cost}, expected a finite number >= 0")
     with ResultsStore(existing_store(args.store)) as store:
         scenario = args.scenario
         if scenario not in set(store.episodes()["scenario"].astype(str)):
@@ -127,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
                 episode_seeds=episode_seeds,
                 horizon=args.horizon,
                 discount=args.discount,
+                terminal=args.terminal,
                 terminal_cost=args.terminal_cost,
             )
         except ValueError as error:

@@ -1,0 +1,249 @@
+"""The MPC window's terminal cost: what the state a window ends in still costs to the goal (model.md §7e).
+
+Eq. 37 prices only the H steps of a window. A receding-horizon planner needs a price for where a
+window leaves the UAV, or it defers threat past the horizon: a window that ends pointing away from
+the goal, or with the goal inside the turning circle, looks as cheap as one lined up for it. This
+module holds the compiled pieces of the four forms a window's end state can be priced by:
+
+========  =====  ==================================================================================
+form      kind   terminal cost of an end state (x, y, psi)
+========  =====  ==================================================================================
+none      0      0 (the paper's literal eq. 37)
+distance  1      c_T d_goal / (v_max dt): the straight-line steps left, c_T each
+dubins    2      c_T L_dubins / (v_max dt): the steps of the shortest forward path at the turning
+                 radius v_max dt / dphi_max (a circle arc, then a straight line to the goal)
+value     3      V(x, y, psi): the lattice value function, the cheapest cost to the goal over a
+                 lattice of positions and headings whose moves are the model's own transitions
+========  =====  ==================================================================================
+
+The same scalar functions serve the rollout kernel (``kernels.rollout_batch``), the value
+iteration that builds V (:func:`value_iteration`) and the lattice planner. V is built by
+:mod:`uav_penetration_env.value_function`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+TERMINAL_FORMS = {"none": 0, "distance": 1, "dubins": 2, "value": 3}
+
+# Slots of TerminalCost.grid (float64): the value table's lattice and its fallback.
+G_X0, G_Y0, G_DX, G_DY, G_MISSING, G_STEP_LENGTH, G_TURN_RADIUS, N_GRID = range(8)
+
+
+class TerminalCost(NamedTuple):
+    """The terminal cost of MPC windows, as the rollout kernel reads it (model.md §7e).
+
+    Attributes:
+        kind: the form's code in :data:`TERMINAL_FORMS` (int).
+        scale: c_T for ``distance`` and ``dubins`` [J per step]; 1 for ``value``.
+        table: (nx, ny, nh) V on the lattice nodes, ``inf`` where no move sequence reaches the
+            goal; a (1, 1, 1) placeholder for the other forms.
+        grid: (N_GRID,) float slots ``G_*``: lattice origin and spacing [m], the value taken where
+            no lattice corner around a point is finite, the step length v_max dt [m] and the
+            turning radius v_max dt / dphi_max [m].
+    """
+
+    kind: int
+    scale: float
+    table: np.ndarray
+    grid: np.ndarray
+
+
+def analytic_terminal(form: str, scale: float, step_length: float, turn_radius: float) -> TerminalCost:
+    """A ``none``, ``distance`` or ``dubins`` terminal cost (no value table).
+
+    Args:
+        form: ``none``, ``distance`` or ``dubins``.
+        scale: c_T >= 0 [J per step at v_max].
+        step_length: v_max dt [m].
+        turn_radius: v_max dt / dphi_max [m].
+
+    Raises:
+        ValueError: an unknown form, or ``value`` (which needs a table: ``ValueFunction.terminal``).
+    """
+    if form not in ("none", "distance", "dubins"):
+        raise ValueError(f"terminal form: got {form!r}, expected 'none', 'distance' or 'dubins' here")
+    grid = np.zeros(N_GRID)
+    grid[G_STEP_LENGTH] = step_length
+    grid[G_TURN_RADIUS] = turn_radius
+    kind = TERMINAL_FORMS[form] if scale > 0.0 else 0
+    return TerminalCost(kind, float(scale), np.zeros((1, 1, 1)), grid)
+
+
+def checked_terminal(terminal: TerminalCost) -> TerminalCost:
+    """``terminal`` with its fields as the kernel reads them (int kind, float scale, contiguous float64 arrays).
+
+    Raises:
+        ValueError: an unknown kind, a negative or non-finite scale, a table that is not 3-D, or a
+            grid of the wrong length.
+    """
+    kind = terminal.kind
+    if not (isinstance(kind, (int, np.integer)) and int(kind) in TERMINAL_FORMS.values()):
+        raise ValueError(f"terminal_cost.kind: got {kind!r}, expected one of {sorted(TERMINAL_FORMS.values())}")
+    scale = float(terminal.scale)
+    if not (math.isfinite(scale) and scale >= 0.0):
+        raise ValueError(f"terminal_cost.scale: got {terminal.scale!r}, expected a finite number >= 0")
+    table = np.ascontiguousarray(terminal.table, dtype=np.float64)
+    if table.ndim != 3 or min(table.shape) < 1 or (int(kind) == 3 and min(table.shape[:2]) < 2):
+        raise ValueError(f"terminal_cost.table: got shape {table.shape}, expected (nx >= 2, ny >= 2, nh >= 1)")
+    grid = np.ascontiguousarray(terminal.grid, dtype=np.float64)
+    if grid.shape != (N_GRID,):
+        raise ValueError(f"terminal_cost.grid: got shape {grid.shape}, expected ({N_GRID},)")
+    return TerminalCost(int(kind), scale, table, grid)
+
+
+NO_TERMINAL = TerminalCost(0, 0.0, np.zeros((1, 1, 1)), np.zeros(N_GRID))
+
+
+@njit(inline="always", cache=True)
+def dubins_length(x, y, heading, goal_x, goal_y, radius):
+    """Shortest forward path [m] from a pose to a point: an arc of ``radius``, then a straight line.
+
+    For each turn direction s (+1 left, -1 right) the turning circle is centred at
+    c = p + s R (-sin psi, cos psi); when the goal lies outside it at distance d from c, the path
+    is the arc to the tangent point (angle beta - s acos(R/d) on the circle, beta the bearing of
+    the goal from c) followed by the tangent of length sqrt(d^2 - R^2). The shorter direction wins;
+    the goal cannot lie inside both circles unless it is the start itself (length 0).
+    """
+    best = math.inf
+    for side in (1.0, -1.0):
+        cx = x - side * radius * math.sin(heading)
+        cy = y + side * radius * math.cos(heading)
+        dx = goal_x - cx
+        dy = goal_y - cy
+        d = math.hypot(dx, dy)
+        if d < radius:
+            continue
+        tangent = math.sqrt(max(d * d - radius * radius, 0.0))
+        start_angle = heading - side * 0.5 * math.pi
+        touch_angle = math.atan2(dy, dx) - side * math.acos(min(radius / max(d, 1e-300), 1.0))
+        arc = (side * (touch_angle - start_angle)) % (2.0 * math.pi)
+        length = radius * arc + tangent
+        if length < best:
+            best = length
+    if best == math.inf:
+        return math.hypot(goal_x - x, goal_y - y)
+    return best
+
+
+@njit(inline="always", cache=True)
+def value_lookup(table, grid, x, y, heading, missing):
+    """V at a continuous pose: bilinear in (x, y), linear and periodic in the heading.
+
+    Corners that are ``inf`` (no route to the goal) are left out and the weights of the others
+    renormalised, so a point beside a forbidden node takes its finite neighbours' value; a point
+    outside the lattice, or with no finite corner, gets ``missing``.
+    """
+    nx = table.shape[0]
+    ny = table.shape[1]
+    nh = table.shape[2]
+    fx = (x - grid[G_X0]) / grid[G_DX]
+    fy = (y - grid[G_Y0]) / grid[G_DY]
+    if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
+        return missing
+    i0 = min(int(fx), nx - 2)
+    j0 = min(int(fy), ny - 2)
+    tx = fx - i0
+    ty = fy - j0
+    fh = (heading % (2.0 * math.pi)) * nh / (2.0 * math.pi)
+    k0 = int(fh)
+    th = fh - k0
+    k0 = k0 % nh
+    k1 = (k0 + 1) % nh
+    total = 0.0
+    weights = 0.0
+    for di in range(2):
+        wx = tx if di == 1 else 1.0 - tx
+        for dj in range(2):
+            wy = ty if dj == 1 else 1.0 - ty
+            for dk in range(2):
+                wh = th if dk == 1 else 1.0 - th
+                w = wx * wy * wh
+                if w <= 0.0:
+                    continue
+                v = table[i0 + di, j0 + dj, k1 if dk == 1 else k0]
+                if v < math.inf:
+                    total += w * v
+                    weights += w
+    if weights <= 1e-12:
+        return missing
+    return total / weights
+
+
+@njit(inline="always", cache=True)
+def terminal_value(terminal, x, y, heading, goal_x, goal_y):
+    """The terminal cost of a window that ends at (x, y, heading) still flying (see the module table)."""
+    kind = terminal.kind
+    grid = terminal.grid
+    if kind == 1:
+        return terminal.scale * math.hypot(goal_x - x, goal_y - y) / grid[G_STEP_LENGTH]
+    if kind == 2:
+        length = dubins_length(x, y, heading, goal_x, goal_y, grid[G_TURN_RADIUS])
+        return terminal.scale * length / grid[G_STEP_LENGTH]
+    if kind == 3:
+        return terminal.scale * value_lookup(terminal.table, grid, x, y, heading, grid[G_MISSING])
+    return 0.0
+
+
+@njit(cache=True)
+def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal, table, grid, tolerance, max_sweeps):
+    """Gauss-Seidel value iteration of V(n) = min_a [c(n, a) + (0 if a reaches the goal else V(f(n, a)))].
+
+    Nodes inside the goal disc are terminal (the env's episode has ended there): V = 0, never updated.
+
+    Args:
+        cost: (N, A) move costs J(k) of each lattice node's moves; ``inf`` for a forbidden move.
+        reached: (N, A) whether the move reaches the goal (its successor's value is then 0).
+        end_x: (N, A) the move's end x [m].
+        end_y: (N, A) the move's end y [m].
+        end_heading: (N, A) the move's end heading [rad].
+        order: (N,) node visiting order (nearest the goal first); odd sweeps run it backwards.
+        inside_goal: (N,) nodes within r_goal of the goal (V = 0).
+        table: (nx, ny, nh) in/out V, flat node n = (ix ny + iy) nh + ih; start from ``inf``.
+        grid: the lattice slots ``G_*`` (``G_MISSING`` is not read: unknown values stay ``inf``).
+        tolerance: stop when no node changes by more than this and no node became finite.
+        max_sweeps: the most sweeps.
+
+    Returns:
+        The number of sweeps made (``max_sweeps + 1`` if it did not converge).
+    """
+    flat = table.reshape(-1)
+    nodes = cost.shape[0]
+    moves = cost.shape[1]
+    for n in range(nodes):
+        if inside_goal[n]:
+            flat[n] = 0.0
+    for sweep in range(max_sweeps):
+        change = 0.0
+        for position in range(nodes):
+            n = order[position] if sweep % 2 == 0 else order[nodes - 1 - position]
+            if inside_goal[n]:
+                continue
+            best = math.inf
+            for a in range(moves):
+                c = cost[n, a]
+                if c == math.inf:
+                    continue
+                if reached[n, a]:
+                    q = c
+                else:
+                    q = c + value_lookup(table, grid, end_x[n, a], end_y[n, a], end_heading[n, a], math.inf)
+                if q < best:
+                    best = q
+            old = flat[n]
+            if best < math.inf:
+                if old == math.inf:
+                    change = math.inf
+                else:
+                    delta = abs(best - old)
+                    if delta > change:
+                        change = delta
+            flat[n] = best
+        if change <= tolerance:
+            return sweep + 1
+    return max_sweeps + 1
