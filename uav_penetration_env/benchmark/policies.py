@@ -61,7 +61,9 @@ class MPCSettings:
     horizon: int = 5
     discount: float = 1.0
     max_evals: int = 10_000
-    terminal: str = "distance"
+    # DECISION (model.md §7e.4): the lattice value function, chosen on procedural scenarios
+    # outside every published table.
+    terminal: str = "value"
     terminal_cost: float | None = None
 
     def __post_init__(self) -> None:
