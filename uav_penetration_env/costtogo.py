@@ -132,12 +132,16 @@ def dubins_length(x, y, heading, goal_x, goal_y, radius):
 
 
 @njit(inline="always", cache=True)
-def value_lookup(table, grid, x, y, heading, missing):
+def value_lookup(table, grid, x, y, heading, empty):
     """V at a continuous pose: bilinear in (x, y), linear and periodic in the heading.
 
-    Corners that are ``inf`` (no route to the goal) are left out and the weights of the others
-    renormalised, so a point beside a forbidden node takes its finite neighbours' value; a point
-    outside the lattice, or with no finite corner, gets ``missing``.
+    Nodes no route leaves are of two kinds (DECISION, model.md §7e.2). ``+inf``: every move leaves
+    the map or ends in its edge margin; such a corner counts as ``grid[G_MISSING]`` (the price of a
+    crash), so a pose between a feasible and an edge-doomed node pays its share of the doom and
+    interpolation never lends a cornered pose its neighbours' value. ``-inf``: every move clips the
+    terrain at the lattice's clearance; such a corner is left out and the others' weights
+    renormalised, since a flight above the lattice's height may still pass there. A pose outside
+    the lattice, or with no usable corner, gets ``empty``.
     """
     nx = table.shape[0]
     ny = table.shape[1]
@@ -145,7 +149,8 @@ def value_lookup(table, grid, x, y, heading, missing):
     fx = (x - grid[G_X0]) / grid[G_DX]
     fy = (y - grid[G_Y0]) / grid[G_DY]
     if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
-        return missing
+        return empty
+    missing = grid[G_MISSING]
     i0 = min(int(fx), nx - 2)
     j0 = min(int(fy), ny - 2)
     tx = fx - i0
@@ -167,11 +172,12 @@ def value_lookup(table, grid, x, y, heading, missing):
                 if w <= 0.0:
                     continue
                 v = table[i0 + di, j0 + dj, k1 if dk == 1 else k0]
-                if v < math.inf:
-                    total += w * v
-                    weights += w
+                if v == -math.inf:
+                    continue
+                total += w * (v if v < math.inf else missing)
+                weights += w
     if weights <= 1e-12:
-        return missing
+        return empty
     return total / weights
 
 
@@ -204,8 +210,11 @@ def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal
         end_heading: (N, A) the move's end heading [rad].
         order: (N,) node visiting order (nearest the goal first); odd sweeps run it backwards.
         inside_goal: (N,) nodes within r_goal of the goal (V = 0).
-        table: (nx, ny, nh) in/out V, flat node n = (ix ny + iy) nh + ih; start from ``inf``.
-        grid: the lattice slots ``G_*`` (``G_MISSING`` is not read: unknown values stay ``inf``).
+        table: (nx, ny, nh) in/out V: ``+inf`` to be computed, ``-inf`` for nodes whose every move
+            clips the terrain (never updated, left out of interpolation).
+        (flat node n = (ix ny + iy) nh + ih)
+        grid: the lattice slots ``G_*``; a corner not yet finite counts as ``G_MISSING``, a pose
+            with no finite corner is not a move (``inf``).
         tolerance: stop when no node changes by more than this and no node became finite.
         max_sweeps: the most sweeps.
 
@@ -222,7 +231,7 @@ def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal
         change = 0.0
         for position in range(nodes):
             n = order[position] if sweep % 2 == 0 else order[nodes - 1 - position]
-            if inside_goal[n]:
+            if inside_goal[n] or flat[n] == -math.inf:
                 continue
             best = math.inf
             for a in range(moves):

@@ -68,7 +68,7 @@ from uav_penetration_env.types import FloatArray
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
-ALGORITHM_VERSION = 1
+ALGORITHM_VERSION = 3
 _CHUNK_ROWS = 131_072  # transitions scored per model.costs call while building (bounds memory)
 
 
@@ -123,7 +123,8 @@ class ValueFunction:
     """V(x, y, psi) of one scenario on its lattice (model.md §7e).
 
     Attributes:
-        table: (nx, ny, nh) V at the nodes, ``inf`` where no move sequence reaches the goal.
+        table: (nx, ny, nh) V at the nodes; ``+inf`` where every move leaves the map or ends in
+            its margin, ``-inf`` where every move clips the terrain (costtogo.value_lookup).
         grid: (costtogo.N_GRID,) the lattice slots (origin, spacing, fallback, step length, turning
             radius).
         settings: the lattice it was built on.
@@ -281,7 +282,7 @@ def lattice_moves(
 def move_costs(
     model: PenetrationModel, starts: np.ndarray, ends: np.ndarray, scenario_index: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The model's J of each move (``inf`` when it collides, leaves the map or breaks the ceiling), and whether it reaches the goal.
+    """The model's J of each move (``inf`` when it collides, leaves the map or breaks the ceiling), whether it reaches the goal, whether it leaves the map.
 
     Args:
         model: the scenario's model.
@@ -290,13 +291,14 @@ def move_costs(
         scenario_index: the pool member.
 
     Returns:
-        cost (N, A), reached (N, A).
+        cost (N, A), reached (N, A), and whether the move leaves the map (N, A).
     """
     shape = starts.shape[:2]
     flat_starts = starts.reshape(-1, 6)
     flat_ends = ends.reshape(-1, 6)
     cost = np.empty(flat_starts.shape[0])
     reached = np.empty(flat_starts.shape[0], dtype=bool)
+    outside = np.empty(flat_starts.shape[0], dtype=bool)
     for lo in range(0, flat_starts.shape[0], _CHUNK_ROWS):
         hi = min(lo + _CHUNK_ROWS, flat_starts.shape[0])
         result = model.costs(
@@ -305,7 +307,8 @@ def move_costs(
         failed = result.collided | result.out_of_area
         cost[lo:hi] = np.where(failed, np.inf, result.J)
         reached[lo:hi] = result.reached_goal
-    return cost.reshape(shape), reached.reshape(shape)
+        outside[lo:hi] = result.out_of_area
+    return cost.reshape(shape), reached.reshape(shape), outside.reshape(shape)
 
 
 def _grid_slots(model: PenetrationModel, settings: LatticeSettings) -> np.ndarray:
@@ -326,7 +329,7 @@ def _grid_slots(model: PenetrationModel, settings: LatticeSettings) -> np.ndarra
 def _iterate(model: PenetrationModel, settings: LatticeSettings, scenario_index: int) -> dict[str, np.ndarray]:
     start_time = time.perf_counter()
     starts, ends, _ = lattice_moves(model, settings, scenario_index)
-    cost, reached = move_costs(model, starts, ends, scenario_index)
+    cost, reached, edge = move_costs(model, starts, ends, scenario_index)
     x_min, x_max, y_min, y_max = model.bounds
     margin = settings.edge_margin_m
     near_edge = (
@@ -335,13 +338,18 @@ def _iterate(model: PenetrationModel, settings: LatticeSettings, scenario_index:
         | (ends[..., 1] < y_min + margin)
         | (ends[..., 1] > y_max - margin)
     )
-    cost = np.where(near_edge & ~reached, np.inf, cost)
+    edge = (edge | near_edge) & ~reached
+    cost = np.where(edge, np.inf, cost)
     xs, ys, headings = lattice_nodes(model, settings)
     grid = _grid_slots(model, settings)
     goal = model.goal[scenario_index]
     node_distance = np.hypot(starts[:, 0, 0] - goal[0], starts[:, 0, 1] - goal[1])
     order = np.argsort(node_distance, kind="stable").astype(np.int64)
     table = np.full((xs.size, ys.size, headings.size), np.inf)
+    # Nodes whose every move clips the terrain (none ends at the edge): -inf, left out of
+    # interpolation (costtogo.value_lookup).
+    terrain_doomed = np.all(~np.isfinite(cost), axis=1) & ~np.any(edge, axis=1)
+    table.reshape(-1)[terrain_doomed] = -np.inf
     sweeps = value_iteration(
         cost,
         reached,
