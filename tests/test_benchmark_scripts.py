@@ -217,3 +217,49 @@ def test_goal_misses_measures_the_closest_approach_and_the_end_at_the_edge(tmp_p
     assert "1 failed of 2 MPC episodes; 1 failures ended within 5 km of the map edge" in capsys.readouterr().out
     assert module.scenario_group("random-30006") == "uavpen-v1 d0.25"
     assert module.scenario_group("random-10049") == "uavpen-heldout-v1"
+
+
+def _terminal_store(path, rows, scenario):
+    """A store of hand-made episodes: rows of (policy, seed, outcome, total_cost, closest distance [km])."""
+    import yaml
+
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    with ResultsStore(path) as s:
+        s.register({}, {scenario.hash: (scenario.name, yaml.safe_dump(scenario.to_dict(), sort_keys=False))})
+        for policy, seed, outcome, cost, closest in rows:
+            steps = [{"step": 1, "x_km": 0.0, "y_km": 0.0, "distance_to_goal": closest, "J": cost, "penalty": 0.0}]
+            s.write_episode({"policy": policy, "policy_hash": f"{policy:0<16}"[:16], "scenario": scenario.name,
+                             "scenario_hash": scenario.hash, "seed": seed, "outcome": outcome, "total_J": cost,
+                             "total_penalty": 0.0, "total_cost": cost, "steps": 1, "error": ""}, steps)  # fmt: skip
+
+
+def test_terminal_cost_sensitivity_pairs_ihpso_with_hpso_per_form(tmp_path, capsys):
+    from conftest import tiny_scenario
+
+    module = load("terminal_cost_sensitivity")
+    rows = [(f"{p}-ctg-{f}", seed, "success", base + seed, 1.0)
+            for f, offset in (("value", 0.0), ("distance", 5.0))
+            for p, base in (("ihpso", 10.0 + offset), ("hpso", 11.0 + offset)) for seed in range(4)]  # fmt: skip
+    _terminal_store(tmp_path / "s.sqlite", rows, tiny_scenario())
+    assert module.main(["--store", str(tmp_path / "s.sqlite"), "--summary-only"]) == 0
+    out = capsys.readouterr().out
+    # IHPSO is exactly 1.0 cheaper on every seed under both forms.
+    assert "value    n= 4: mean -1.000 [-1.000, -1.000]" in out and "IHPSO cheaper on 4" in out
+    assert "distance n= 4: mean -1.000" in out
+    assert module.iqm([1.0, 2.0, 3.0, 100.0]) == 2.5
+
+
+def test_terminal_cost_selection_counts_failures_and_pairs_forms(tmp_path, capsys):
+    from conftest import tiny_scenario
+
+    module = load("terminal_cost_selection")
+    rows = [("hpso-ctg-value", 0, "success", 10.0, 2.0), ("hpso-ctg-distance", 0, "collided", 90.0, 7.5),
+            ("hpso-ctg-dubins", 0, "success", 11.0, 2.5), ("greedy", 0, "success", 15.0, 1.0)]  # fmt: skip
+    _terminal_store(tmp_path / "select-d0.5.sqlite", rows, tiny_scenario())
+    table = module.episodes(tmp_path)
+    assert dict(zip(table.policy, table.form, strict=True))["hpso-ctg-value"] == "value"
+    assert set(table.planner) == {"hpso", "greedy"}
+    module.summary(table)
+    out = capsys.readouterr().out
+    assert "failures (1):" in out and "value - distance: mean -80.000" in out
