@@ -7,6 +7,9 @@ the project's model specification.
 
 from __future__ import annotations
 
+# First: numba's cache folder must be set before any compiled module is imported.
+from uav_penetration_env import compile_cache  # noqa: F401  isort: skip
+
 from gymnasium.envs.registration import register, registry
 
 from uav_penetration_env._version import __version__

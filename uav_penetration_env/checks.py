@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from uav_penetration_env import kernels  # noqa: F401  (configures numba's compile cache first)
+from uav_penetration_env import kernels  # noqa: F401  (the compiled physics; the package set its cache folder first)
 
 
 @njit(cache=True)

@@ -17,61 +17,25 @@ x86) where compiled code calls the C library; both are within an ulp of the exac
 ``fastmath``: every row is computed alone in a fixed order, so results do not depend on the number
 of threads.
 
-Compile cache: ``cache=True``. When the package folder is not writable (a system install) and
-``NUMBA_CACHE_DIR`` is unset, the compiled code is cached under the project's cache folder
-(``$UAV_PENETRATION_CACHE/numba`` or the user cache folder, :func:`cache.cache_dir`).
+Compile cache: ``cache=True``, in a folder named by a digest of the compiled sources
+(:mod:`uav_penetration_env.compile_cache`).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import tempfile
-from pathlib import Path
 from typing import NamedTuple
 
 import numba
 import numpy as np
 from numba import njit, prange, vectorize
 
-from uav_penetration_env import cache
+from uav_penetration_env import compile_cache
 from uav_penetration_env.costtogo import terminal_value
 
-# --- compile-cache location ----------------------------------------------------------------------
-
-
-def _package_cache_writable(folder: Path) -> bool:
-    """Whether numba can write its cache next to the sources (``__pycache__`` in the package)."""
-    target = folder / "__pycache__"
-    try:
-        target.mkdir(exist_ok=True)
-        handle, name = tempfile.mkstemp(dir=target, prefix=".numba-probe-")
-        os.close(handle)
-        os.unlink(name)
-    except OSError:
-        return False
-    return True
-
-
-def configure_compile_cache() -> str | None:
-    """Point numba's cache at the project's cache folder when the package folder is read-only.
-
-    Must run before the kernels are decorated (it runs on import of this module). A user's
-    ``NUMBA_CACHE_DIR`` always wins.
-
-    Returns:
-        The folder chosen, or ``None`` when numba's default (next to the sources) is used.
-    """
-    if os.environ.get("NUMBA_CACHE_DIR") or numba.config.CACHE_DIR:
-        return numba.config.CACHE_DIR or None
-    if _package_cache_writable(Path(__file__).resolve().parent):
-        return None
-    folder = str(cache.cache_dir() / "numba")
-    numba.config.CACHE_DIR = folder
-    return folder
-
-
-COMPILE_CACHE_DIR = configure_compile_cache()
+# The compile cache's folder is set by ``compile_cache`` (imported first by the package).
+COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 
 
 # DECISION (issue 10, model.md §8): batches smaller than this run on the calling thread alone (the serial twin

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from numpy_model import NumpyPenetrationModel
 
-from uav_penetration_env import PenetrationModel, kernels, paper_scenario, random_scenario
+from uav_penetration_env import PenetrationModel, paper_scenario, random_scenario
 from uav_penetration_env.model import StepResult
 
 RTOL = 1e-12
@@ -225,20 +225,40 @@ def test_pool_model_requires_a_valid_scenario_index():
 
 
 def test_compile_cache_falls_back_to_the_project_cache_folder(monkeypatch, tmp_path):
-    """A read-only package folder sends numba's cache to $UAV_PENETRATION_CACHE/numba."""
+    """A read-only package folder sends numba's cache to $UAV_PENETRATION_CACHE/numba/DIGEST."""
+    from uav_penetration_env import compile_cache
+
     monkeypatch.setenv("UAV_PENETRATION_CACHE", str(tmp_path))
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
-    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
-    monkeypatch.setattr(kernels, "_package_cache_writable", lambda folder: False)
-    assert kernels.configure_compile_cache() == str(tmp_path / "numba")
-    assert numba.config.CACHE_DIR == str(tmp_path / "numba")
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
+    monkeypatch.setattr(compile_cache, "_package_cache_writable", lambda folder: False)
+    (tmp_path / "numba" / "0123456789abcdef").mkdir(parents=True)  # an older version's cache
+    folder = compile_cache.configure_compile_cache()
+    assert folder == str(tmp_path / "numba" / compile_cache.source_digest())
+    assert numba.config.CACHE_DIR == folder
+    assert not (tmp_path / "numba" / "0123456789abcdef").exists()
     # A user's own NUMBA_CACHE_DIR wins.
-    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "mine"))
-    assert kernels.configure_compile_cache() == str(tmp_path / "mine")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert compile_cache.configure_compile_cache() == str(tmp_path / "mine")
+
+
+def test_the_cache_digest_follows_every_compiled_source(tmp_path):
+    """A change to a compiled function's file, even one only called from another file, moves the cache."""
+    from uav_penetration_env import compile_cache
+
+    (tmp_path / "a.py").write_text("import numba\n@numba.njit\ndef f(x):\n    return x\n")
+    (tmp_path / "b.py").write_text("x = 1\n")  # no numba: not part of the digest
+    before = compile_cache.source_digest(tmp_path)
+    (tmp_path / "b.py").write_text("x = 2\n")
+    assert compile_cache.source_digest(tmp_path) == before
+    (tmp_path / "a.py").write_text("import numba\n@numba.njit\ndef f(x):\n    return x + 1\n")
+    assert compile_cache.source_digest(tmp_path) != before
 
 
 def test_package_cache_probe_detects_an_unwritable_folder(tmp_path):
-    assert kernels._package_cache_writable(tmp_path)
+    from uav_penetration_env import compile_cache
+
+    assert compile_cache._package_cache_writable(tmp_path)
     blocked = tmp_path / "blocked"
     blocked.write_text("a file where the package folder should be")
-    assert not kernels._package_cache_writable(blocked)
+    assert not compile_cache._package_cache_writable(blocked)
