@@ -323,6 +323,25 @@ def test_plugin_import_flag_reaches_workers(tmp_path, tiny_yaml, monkeypatch):
     assert (rows["error"] == "").all() and (rows["nfev"] > 0).all()
 
 
+def test_import_finds_a_module_in_the_current_folder_without_pythonpath(tmp_path, tiny_yaml):
+    """``uav-bench run --import mod`` as a user types it: the console script, the module beside them."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    shutil.copy(HERE / "plugin_optimizer.py", tmp_path / "my_local_optimizer.py")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    script = Path(sys.executable).parent / "uav-bench"
+    command = [str(script), "run", "--import", "my_local_optimizer", "--policies", "test-random-search",
+               "--scenarios", str(tiny_yaml), "--seeds", "2", "--max-evals", "100", "--jobs", "2",
+               "--store", str(tmp_path / "s.sqlite"), "--no-report", "--no-progress"]  # fmt: skip
+    done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = stored_rows(tmp_path / "s.sqlite")
+    assert len(rows) == 2 and (rows["error"] == "").all()
+
+
 # --- plug-ins: policy kinds and commands found through entry points ---------------------------------
 
 MISSING_EXTRA = Needs(

@@ -18,6 +18,8 @@ import datetime as dt
 import hashlib
 import importlib
 import json
+import os
+import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -76,7 +78,16 @@ class EpisodeTask:
 
 
 def import_plugins(modules: Iterable[str]) -> None:
-    """Import plug-in modules (``--import``) so their registrations exist in this process."""
+    """Import plug-in modules (``--import``) so their registrations exist in this process.
+
+    A module in the current folder is found as ``python -m`` finds it: the folder joins
+    ``sys.path`` (an installed console script such as ``uav-bench`` does not put it there), in this
+    process and in every worker, which imports the same list from the same folder.
+    """
+    modules = list(modules)
+    here = os.getcwd()
+    if modules and here not in sys.path and "" not in sys.path:
+        sys.path.insert(0, here)
     for module in modules:
         importlib.import_module(module)
 
