@@ -7,9 +7,10 @@ by a digest of every package source that uses numba: any change to any of them s
 cache, and no process ever mixes two versions of the physics.
 
 The folder is ``__pycache__/numba-DIGEST`` next to the package when the package folder is
-writable, else ``$UAV_PENETRATION_CACHE/numba/DIGEST`` (the project's cache folder,
-:func:`cache.cache_dir`); a user's ``NUMBA_CACHE_DIR`` always wins. Folders of other digests beside
-the new one are removed (best effort), so the cache does not grow with every upgrade.
+writable (older digests' folders there, this install's own, are removed, so the cache does not
+grow with every edit), else ``$UAV_PENETRATION_CACHE/numba/DIGEST`` (the project's cache folder,
+:func:`cache.cache_dir`, which other installed versions may share: nothing is removed there); a
+user's ``NUMBA_CACHE_DIR`` is honoured as the parent, ``NUMBA_CACHE_DIR/uav-penetration-DIGEST``.
 
 This module must be imported before any compiled module is (``uav_penetration_env/__init__.py``
 imports it first).
@@ -69,16 +70,17 @@ def configure_compile_cache() -> str:
     Returns:
         The folder in force.
     """
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return os.environ["NUMBA_CACHE_DIR"]
     digest = source_digest()
-    if _package_cache_writable(PACKAGE):
-        parent, name, prefix = PACKAGE / "__pycache__", f"numba-{digest}", "numba-"
+    user = os.environ.get("NUMBA_CACHE_DIR")
+    if user:
+        folder = Path(user) / f"uav-penetration-{digest}"
+    elif _package_cache_writable(PACKAGE):
+        folder = PACKAGE / "__pycache__" / f"numba-{digest}"
+        if not folder.exists():  # this install's own folder: older digests are of this install only
+            _remove_other_digests(folder.parent, folder, "numba-")
     else:
-        parent, name, prefix = cache.cache_dir() / "numba", digest, ""
-    folder = parent / name
-    if not folder.exists():
-        _remove_other_digests(parent, folder, prefix)
+        # A shared folder another installed version may be using: nothing is removed there.
+        folder = cache.cache_dir() / "numba" / digest
     numba.config.CACHE_DIR = str(folder)
     return str(folder)
 

@@ -94,6 +94,10 @@ def checked_terminal(terminal: TerminalCost) -> TerminalCost:
     grid = np.ascontiguousarray(terminal.grid, dtype=np.float64)
     if grid.shape != (N_GRID,):
         raise ValueError(f"terminal_cost.grid: got shape {grid.shape}, expected ({N_GRID},)")
+    needed = {1: (G_STEP_LENGTH,), 2: (G_STEP_LENGTH, G_TURN_RADIUS), 3: (G_DX, G_DY)}.get(int(kind), ())
+    for slot in needed:
+        if not (math.isfinite(grid[slot]) and grid[slot] > 0.0):
+            raise ValueError(f"terminal_cost.grid[{slot}]: got {grid[slot]!r}, expected a finite length > 0 [m]")
     return TerminalCost(int(kind), scale, table, grid)
 
 
@@ -102,7 +106,7 @@ NO_TERMINAL = TerminalCost(0, 0.0, np.zeros((1, 1, 1)), np.zeros(N_GRID))
 
 @njit(inline="always", cache=True)
 def dubins_length(x, y, heading, goal_x, goal_y, radius):
-    """Shortest forward path [m] from a pose to a point: an arc of ``radius``, then a straight line.
+    """Arc-then-tangent path length [m] from a pose to a point at turning radius ``radius`` (model.md §7e.1).
 
     For each turn direction s (+1 left, -1 right) the turning circle is centred at
     c = p + s R (-sin psi, cos psi); when the goal lies outside it at distance d from c, the path
@@ -244,6 +248,10 @@ def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal
                     q = c + value_lookup(table, grid, end_x[n, a], end_y[n, a], end_heading[n, a], math.inf)
                 if q < best:
                     best = q
+            # No pose costs more than a crash now: a region that reaches neither the goal nor the
+            # edge (walled in by terrain) converges to that price instead of growing every sweep.
+            if best < math.inf and best > grid[G_MISSING]:
+                best = grid[G_MISSING]
             old = flat[n]
             if best < math.inf:
                 if old == math.inf:

@@ -68,7 +68,7 @@ from uav_penetration_env.types import FloatArray
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
-ALGORITHM_VERSION = 3
+ALGORITHM_VERSION = 4
 _CHUNK_ROWS = 131_072  # transitions scored per model.costs call while building (bounds memory)
 
 
@@ -407,6 +407,9 @@ def value_function(
         "content": _content_digest(model, int(scenario_index)),
         "settings": asdict(settings),
         "algorithm": ALGORITHM_VERSION,
+        # The route calibration (route_j_per_step) flies the lattice planner from the fixed start.
+        "start": [float(v) for v in model.initial_state(None, int(scenario_index))],
+        "guidance": asdict(LATTICE_GUIDANCE),
     }
     built_now: list[bool] = []
 

@@ -232,14 +232,15 @@ def test_compile_cache_falls_back_to_the_project_cache_folder(monkeypatch, tmp_p
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
     monkeypatch.setattr(compile_cache, "_package_cache_writable", lambda folder: False)
-    (tmp_path / "numba" / "0123456789abcdef").mkdir(parents=True)  # an older version's cache
+    (tmp_path / "numba" / "0123456789abcdef").mkdir(parents=True)  # another version's cache
     folder = compile_cache.configure_compile_cache()
     assert folder == str(tmp_path / "numba" / compile_cache.source_digest())
     assert numba.config.CACHE_DIR == folder
-    assert not (tmp_path / "numba" / "0123456789abcdef").exists()
-    # A user's own NUMBA_CACHE_DIR wins.
+    assert (tmp_path / "numba" / "0123456789abcdef").exists()  # a shared folder: nothing removed
+    # A user's own NUMBA_CACHE_DIR is the parent, still keyed by the sources.
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
-    assert compile_cache.configure_compile_cache() == str(tmp_path / "mine")
+    digest = compile_cache.source_digest()
+    assert compile_cache.configure_compile_cache() == str(tmp_path / "mine" / f"uav-penetration-{digest}")
 
 
 def test_the_cache_digest_follows_every_compiled_source(tmp_path):

@@ -194,9 +194,17 @@ def test_make_policy_names():
     # A suffix fixes the terminal form (model.md §7e); c_T still comes from the arguments.
     forms = {f: make_policy(f"hpso-ctg-{f}", terminal_cost=0.3) for f in ("distance", "dubins", "value")}
     assert {f: (p.terminal, p.terminal_cost, p.name) for f, p in forms.items()} == {
-        f: (f, 0.3, f"hpso-ctg-{f}") for f in forms
+        "distance": ("distance", 0.3, "hpso-ctg-distance"),
+        "dubins": ("dubins", 0.3, "hpso-ctg-dubins"),
+        "value": ("value", None, "hpso-ctg-value"),  # the value form has no c_T
     }
     assert len({str(p.config()) for p in forms.values()}) == 3
+    # A c_T given with the value form (the default) is refused, never silently ignored.
+    with pytest.raises(ValueError, match=r"terminal_cost: got 0\.25 with the 'value' terminal form"):
+        make_policy("hpso", terminal="value", terminal_cost=0.25)
+    # The value form's configuration names the lattice, so a changed V is a new store key.
+    assert forms["value"].config()["value_algorithm"] >= 1 and "lattice" in forms["value"].config()
+    assert "lattice" not in forms["distance"].config()
     assert isinstance(make_policy("lattice"), LatticePolicy)
     expected = {"ihpso", "ihpso-eq37", "greedy", "random", "lattice", "cem-eq37", "cem-ctg-value"}
     assert expected <= set(policy_names())

@@ -105,12 +105,16 @@ def test_the_default_ihpso_reaches_the_goal_from_the_seed_0_decision_state(model
 # the goal already inside the turning circle) HPSO's loop drifts north into the band where the
 # edge-doomed nodes of V begin, and it crashes at the north edge; 4 of 6 other policy seeds reach
 # the goal. V prices the loop at 6.1 there and the band ahead only one window later (model.md §7e.4).
-KNOWN = {(8, "hpso"): "HPSO's loop from ihpso-2022v0 seed 11's state runs into the north edge (model.md §7e.4)"}
+KNOWN = {
+    ("ihpso-2022v0", 11, "hpso"): "HPSO's loop from ihpso-2022v0 seed 11's state runs into the north edge (model.md §7e.4)"
+}
 
 
 def _case(case: int, planner: str):
-    reason = KNOWN.get((case, planner))
-    return pytest.param(case, planner, marks=pytest.mark.xfail(strict=True, reason=reason)) if reason else (case, planner)
+    policy, seed, _, _ = FAILURES[case]
+    reason = KNOWN.get((policy, seed, planner))
+    # Not strict: a chaotic closed-loop flight may succeed on another machine's last digits.
+    return pytest.param(case, planner, marks=pytest.mark.xfail(strict=False, reason=reason)) if reason else (case, planner)
 
 
 @pytest.mark.slow

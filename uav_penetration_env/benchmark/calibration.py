@@ -135,7 +135,7 @@ def payoff_table(
 
     base = raw_term_scenario(scenario)
     policy = MPCPolicy(
-        get_optimizer(optimizer), horizon=horizon, max_evals=max_evals, terminal_cost=0.0, name=optimizer
+        get_optimizer(optimizer), horizon=horizon, max_evals=max_evals, terminal="none", name=optimizer
     )
     per_objective: list[dict[str, np.ndarray]] = []
     with tempfile.TemporaryDirectory() as folder:

@@ -73,6 +73,11 @@ class MPCSettings:
             isinstance(self.terminal_cost, (int, float)) and math.isfinite(self.terminal_cost) and self.terminal_cost >= 0
         ):
             raise ValueError(f"terminal_cost: got {self.terminal_cost!r}, expected None or a finite number >= 0")
+        if self.terminal_cost is not None and self.terminal in ("none", "value"):
+            raise ValueError(
+                f"terminal_cost: got {self.terminal_cost!r} with the {self.terminal!r} terminal form, expected "
+                "None (c_T belongs to the 'distance' and 'dubins' forms: --terminal distance or dubins)"
+            )
 
 
 MPC_DEFAULTS = MPCSettings()
@@ -275,8 +280,15 @@ class MPCPolicy:
             "max_evals": self.max_evals,
             "terminal": self.terminal,
             "terminal_cost": self.terminal_cost,
+            **self._value_function_config(),
             "warm_start": self.warm_start,
         }
+
+    def _value_function_config(self) -> dict[str, Any]:
+        """The lattice behind the terminal cost, when the form reads it (so a changed V is a new policy)."""
+        if self.terminal == "value" or (self.terminal == "dubins" and self.terminal_cost is None):
+            return {"lattice": dataclasses.asdict(LATTICE_DEFAULTS), "value_algorithm": VALUE_ALGORITHM_VERSION}
+        return {}
 
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
         """Bind the scenario's model and seed the optimiser's generator for the episode."""
@@ -600,7 +612,9 @@ def make_policy(
         discount=discount,
         max_evals=max_evals,
         terminal=terminal if form is None else form,
-        terminal_cost=None if form == "none" else terminal_cost,
+        # A suffix fixes the form, and c_T then reaches only the suffixes that have one; with a plain
+        # name c_T goes through, so a c_T given with the 'value' form is refused, not ignored.
+        terminal_cost=terminal_cost if form in (None, "distance", "dubins") else None,
         name=spec,
     )
 
