@@ -318,7 +318,17 @@ class UAVPenetrationEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode; ``seed`` seeds the env generator (and picks the Random id's scenario)."""
+        """Start an episode; ``seed`` seeds the env generator (and picks the Random id's scenario).
+
+        Raises:
+            ValueError: ``options`` with any key: the env takes no reset options, and a key it
+                silently ignored (a start state, a scenario) would fly something else than asked.
+        """
+        if options:
+            raise ValueError(
+                f"options: got the key(s) {', '.join(map(repr, options))}, expected none "
+                "(UAVPenetrationEnv.reset takes no options; choose the scenario with gym.make(..., scenario=...))"
+            )
         super().reset(seed=seed)
         self._use(self.source.choose(seed, self.np_random))
         self.state = self.model.initial_state(self.np_random)

@@ -258,3 +258,17 @@ def test_render_coverage_is_the_models_coverage_level(profile):
     )
     states = np.column_stack((states, np.full(gx.size, 0.4), np.zeros(gx.size)))
     np.testing.assert_array_equal(level, model.coverage_level(states).reshape(7, 7))
+
+
+def test_reset_refuses_options_it_would_ignore(tiny):
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny)
+    with pytest.raises(ValueError, match=r"options: got the key\(s\) 'state', expected none"):
+        env.reset(seed=0, options={"state": [0, 0, 100, 10, 0, 0]})
+    env.reset(seed=0, options={})  # what Gymnasium's vector envs pass after taking their own keys
+    env.reset(seed=0, options=None)
+    # Gymnasium's vector env takes its reset_mask and hands the sub-envs what is left.
+    envs = gym.vector.SyncVectorEnv([lambda: UAVPenetrationEnv(tiny)] * 2)
+    envs.reset(seed=0)
+    envs.reset(options={"reset_mask": np.array([True, False])})
