@@ -483,3 +483,14 @@ def test_run_help_needs_no_plugin_and_no_rl_extra(monkeypatch, capsys):
             run_cli(*argv)
         assert exit_info.value.code == 0
     assert "--policies" in capsys.readouterr().out
+
+
+def test_a_usage_error_names_uav_bench_once(capsys):
+    from uav_penetration_env.benchmark.cli import main
+
+    assert main(["run", "--no-such-flag"]) == 2
+    top = capsys.readouterr().err.strip()
+    assert top.startswith("uav-bench: error: unrecognized arguments: --no-such-flag") and top.count("uav-bench:") == 1
+    assert main(["run", "--horizon", "x"]) == 2
+    sub = capsys.readouterr().err.strip()
+    assert sub.startswith("uav-bench: error: uav-bench run: argument --horizon") and "(see uav-bench run --help)" in sub

@@ -39,8 +39,13 @@ class OneLineParser(argparse.ArgumentParser):
     """
 
     def error(self, message: str) -> NoReturn:
-        """Raise :class:`UsageError` naming the (sub-)command and pointing at its ``--help``."""
-        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+        """Raise :class:`UsageError` naming the (sub-)command and pointing at its ``--help``.
+
+        The top-level parser's own name is the line's prefix already (``uav-bench: error:``), so
+        only a sub-command names itself (``uav-bench: error: uav-bench run: ...``).
+        """
+        where = "" if self.prog == "uav-bench" else f"{self.prog}: "
+        raise UsageError(f"{where}{message} (see {self.prog} --help)")
 
 
 def build_parser() -> argparse.ArgumentParser:
