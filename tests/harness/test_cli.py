@@ -494,3 +494,10 @@ def test_a_usage_error_names_uav_bench_once(capsys):
     assert main(["run", "--horizon", "x"]) == 2
     sub = capsys.readouterr().err.strip()
     assert sub.startswith("uav-bench: error: uav-bench run: argument --horizon") and "(see uav-bench run --help)" in sub
+
+
+def test_counts_name_their_noun_in_the_right_number():
+    from uav_penetration_env.benchmark.commands.run import counted
+
+    assert counted(1, "scenario") == "1 scenario" and counted(3, "scenario") == "3 scenarios"
+    assert counted(1, "policy", "policies") == "1 policy" and counted(0, "policy", "policies") == "0 policies"

@@ -191,6 +191,11 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
     return settings
 
 
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``1 scenario``, ``2 scenarios``: a count with its noun in the right number."""
+    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
+
+
 def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
     """The numeric settings (from flags or ``--config``) checked against their domains and converted.
 
@@ -359,7 +364,8 @@ def run(args: argparse.Namespace) -> int:
     if include is None:
         episodes = len(policies) * len(scenarios) * len(seeds)
         print(
-            f"uav-bench run: {len(policies)} policies x {len(scenarios)} scenarios x {len(seeds)} seeds = {episodes} episodes -> {store_path}"
+            f"uav-bench run: {counted(len(policies), 'policy', 'policies')} x {counted(len(scenarios), 'scenario')} "
+            f"x {counted(len(seeds), 'seed')} = {counted(episodes, 'episode')} -> {store_path}"
         )
     else:
         episodes = sum(
@@ -374,8 +380,8 @@ def run(args: argparse.Namespace) -> int:
             else "the suite's seed rule"
         )
         print(
-            f"uav-bench run: suite {settings['suite']}: {len(policies)} policies x {len(scenarios)} members "
-            f"({rule}) = {episodes} episodes -> {store_path}"
+            f"uav-bench run: suite {settings['suite']}: {counted(len(policies), 'policy', 'policies')} x "
+            f"{counted(len(scenarios), 'member')} ({rule}) = {counted(episodes, 'episode')} -> {store_path}"
         )
     command = command_line(args)
     try:
