@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from baselines.install import RL_INSTALL
 from uav_penetration_env.suggest import did_you_mean
 
 # Continuous-action SB3 algorithms (DQN needs a discrete action space, so it is not offered).
@@ -44,7 +45,7 @@ def algorithm_class(name: str) -> type:
     try:
         import stable_baselines3
     except ImportError as error:  # pragma: no cover - depends on the installed extras
-        raise ImportError(f"training needs the RL extra: pip install -e '.[rl]' ({error})") from error
+        raise ImportError(f"training needs the RL extra: {RL_INSTALL} ({error})") from error
     return getattr(stable_baselines3, KNOWN_ALGORITHMS[key])
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 from baselines.cli import add_train_arguments, train_command
 from baselines.curves import add_curve_arguments, curves_command
 from baselines.hybrid import load_hybrid
+from baselines.install import RL_INSTALL
 from baselines.policy import load_policy, sb3_label
 from baselines.tune import add_tune_arguments, tune_command
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
@@ -23,7 +24,7 @@ from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
-    install="the rl extra: pip install 'uav-penetration[rl]' (in a checkout: pip install -e '.[rl]')",
+    install=f"the rl extra: {RL_INSTALL}",
 )
 
 

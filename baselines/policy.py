@@ -18,6 +18,7 @@ import numpy as np
 from gymnasium.wrappers.utils import rescale_box
 
 from baselines.artifacts import ModelFiles, read_sidecar, sha256_file, verify_artifacts
+from baselines.install import RL_INSTALL
 from uav_penetration_env.env import action_space
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -172,7 +173,7 @@ class SB3Policy:
 
             from baselines.hyperparameters import algorithm_class
         except ImportError as error:  # pragma: no cover - depends on the installed extras
-            raise ImportError(f"sb3 policies need the RL extra: pip install -e '.[rl]' ({error})") from error
+            raise ImportError(f"sb3 policies need the RL extra: {RL_INSTALL} ({error})") from error
         # One intra-op thread: evaluation workers run one per core, and a 64x64 MLP gains nothing
         # from more.
         torch.set_num_threads(1)
