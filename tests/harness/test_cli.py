@@ -501,3 +501,15 @@ def test_counts_name_their_noun_in_the_right_number():
 
     assert counted(1, "scenario") == "1 scenario" and counted(3, "scenario") == "3 scenarios"
     assert counted(1, "policy", "policies") == "1 policy" and counted(0, "policy", "policies") == "0 policies"
+
+
+def test_run_writes_its_report_next_to_its_store_unless_out_says_otherwise(tmp_path, tiny_yaml, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "index.html").write_text("the main job's report")
+    store = tmp_path / "elsewhere" / "s.sqlite"
+    code = run_cli("run", "--policies", "greedy", "--scenarios", tiny_yaml, "--seeds", 1, "--jobs", 1,
+                   "--store", store, "--no-progress")  # fmt: skip
+    assert code == 0
+    assert (tmp_path / "results" / "index.html").read_text() == "the main job's report"
+    assert (store.parent / "index.html").exists()

@@ -93,7 +93,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--scheduler", help="dask scheduler address (backend dask; none starts a local cluster)"
     )
     add_store_argument(parser, default=None)
-    parser.add_argument("--out", help=f"folder for the leaderboard and figures (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--out", help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)"
+    )
     parser.add_argument(
         "--max-evals",
         dest="max_evals",
@@ -348,7 +350,9 @@ def run(args: argparse.Namespace) -> int:
     if not scenarios:
         raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
     store_path = Path(settings["store"])
-    out = Path(settings["out"])
+    # The report goes next to the store it reads unless --out says where: a run on another store
+    # never replaces the main job's report in ./results.
+    out = Path(settings["out"]) if "out" in settings["explicit"] else store_path.parent
     try:
         inspect_store_file(store_path)  # before anything is written: a bad store is left as it is
     except StoreError as error:
