@@ -101,9 +101,6 @@ def checked_terminal(terminal: TerminalCost) -> TerminalCost:
     return TerminalCost(int(kind), scale, table, grid)
 
 
-NO_TERMINAL = TerminalCost(0, 0.0, np.zeros((1, 1, 1)), np.zeros(N_GRID))
-
-
 @njit(inline="always", cache=True)
 def dubins_length(x, y, heading, goal_x, goal_y, radius):
     """Arc-then-tangent path length [m] from a pose to a point at turning radius ``radius`` (model.md §7e.1).
