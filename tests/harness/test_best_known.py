@@ -11,6 +11,7 @@ import pytest
 from conftest import tiny_scenario
 
 from uav_penetration_env.benchmark.bestknown import record as record_module
+from uav_penetration_env.benchmark.bestknown.checkpoint import checkpoint_path
 from uav_penetration_env.benchmark.bestknown.compute import (
     _record_from,
     compute_record,
@@ -22,7 +23,6 @@ from uav_penetration_env.benchmark.bestknown.planner import (
     EpisodeObjective,
     SearchSettings,
     Start,
-    checkpoint_path,
     search,
 )
 from uav_penetration_env.benchmark.bestknown.record import (
@@ -167,20 +167,33 @@ def test_search_improves_on_greedy_and_is_seeded(objective, greedy):
     )
 
 
+def killed_after(generations: int):
+    """A progress callback that interrupts the search after ``generations`` generations, as Ctrl-C would."""
+    calls = iter(range(1, generations + 1))
+
+    def progress(state, share) -> None:
+        if next(calls, None) is None:
+            raise KeyboardInterrupt(f"killed after {generations} generations")
+
+    return progress
+
+
 def test_an_interrupted_search_continues_to_the_uninterrupted_result(objective, greedy, tmp_path):
     starts = [Start("greedy", objective.normalise(greedy[0]))]
     settings = SearchSettings(max_evals=300, seed=4, **TINY_SEARCH)
     whole = search(objective, starts, settings, scenario_hash=SCENARIO.hash)
     path = checkpoint_path(tmp_path, SCENARIO.hash, "unseeded")
+    # A checkpoint after every generation; each kill loses the generation it interrupts.
+    every = SearchSettings(max_evals=300, seed=4, **(TINY_SEARCH | {"checkpoint_seconds": 0.0}))
     for generations in (7, 11):  # two interruptions, each after a checkpoint
         with pytest.raises(KeyboardInterrupt):
             search(
                 objective,
                 starts,
-                settings,
+                every,
                 scenario_hash=SCENARIO.hash,
                 checkpoint=path,
-                stop_after_generations=generations,
+                progress=killed_after(generations),
             )
     resumed = search(objective, starts, settings, scenario_hash=SCENARIO.hash, checkpoint=path)
     assert resumed.total == whole.total and resumed.evals == whole.evals
@@ -194,6 +207,9 @@ def test_an_interrupted_search_continues_to_the_uninterrupted_result(objective, 
             scenario_hash=SCENARIO.hash,
             checkpoint=path,
         )
+    path.write_bytes(b"not a pickle")
+    with pytest.raises(ValueError, match=r"--work .*not a best-known search checkpoint"):
+        search(objective, starts, settings, scenario_hash=SCENARIO.hash, checkpoint=path)
 
 
 def test_settings_errors_name_the_field():

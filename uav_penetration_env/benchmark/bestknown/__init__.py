@@ -2,8 +2,9 @@
 
 * :mod:`.record`: :class:`BestKnownRecord`, one JSON file per scenario hash in ``records/``
   (package data), :func:`load_record`, :func:`best_known_total`, :func:`replay_record`.
-* :mod:`.planner`: the offline search over a whole episode's controls (separable CMA-ES restarts
-  and a refinement, checkpointed and resumable).
+* :mod:`.planner`: the offline search over a whole episode's controls (the separable CMA-ES
+  restarts and refinement of :mod:`optimizers.sep_cma_restarts`, resumable).
+* :mod:`.checkpoint`: the search's state saved to and found again in the ``--work`` folder.
 * :mod:`.compute`: the starts (greedy episode, stored tracks, the record), the seeded and unseeded
   searches, and the rule that a record is only ever replaced by a cheaper one.
 

@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from uav_penetration_env.benchmark.bestknown.checkpoint import checkpoint_path
 from uav_penetration_env.benchmark.bestknown.planner import (
     EpisodeObjective,
     SearchResult,
     SearchSettings,
     Start,
-    checkpoint_path,
     search,
 )
 from uav_penetration_env.benchmark.bestknown.record import (
@@ -266,6 +266,22 @@ def _search_found_by(settings: SearchSettings, result: SearchResult, mode: str) 
     }
 
 
+def _what_to_record(
+    settings: SearchSettings, best: SearchResult, mode: str, tracks: list[StoredTrack]
+) -> tuple[FloatArray, float, dict[str, Any], str]:
+    """The controls, expected total, ``found_by`` and source line of the search's best track."""
+    found_by = _search_found_by(settings, best, mode)
+    track = next((t for t in tracks if best.label == f"start:{t.label}"), None)
+    if mode == "seeded" and track is not None:
+        # The search found nothing cheaper than a stored episode: record that episode as stored
+        # (its exact controls, not their normalised round trip) and say the search confirmed it.
+        source = (
+            f"stored episode: {track.policy}, seed {track.seed}, run {track.run_id}; no cheaper track found"
+        )
+        return track.controls, track.total_cost, {**track.found_by(), "confirmed_by": found_by}, source
+    return best.controls, best.total, found_by, f"offline search ({mode})"
+
+
 def compute_record(
     scenario: Scenario,
     settings: SearchSettings,
@@ -298,14 +314,18 @@ def compute_record(
     model = PenetrationModel(scenario)
     objective = EpisodeObjective(model, model.initial_state(None))
     greedy, _ = greedy_track(scenario)
-    unseeded = search(
-        objective,
-        [Start("greedy", objective.normalise(greedy))],
-        settings,
-        scenario_hash=scenario.hash,
-        checkpoint=None if work is None else checkpoint_path(work, scenario.hash, "unseeded"),
-        progress=None if progress is None else (lambda state, share: progress("unseeded", state, share)),
-    )
+
+    def run(mode: str, starts: list[Start]) -> SearchResult:
+        return search(
+            objective,
+            starts,
+            settings,
+            scenario_hash=scenario.hash,
+            checkpoint=None if work is None else checkpoint_path(work, scenario.hash, mode),
+            progress=None if progress is None else (lambda state, share: progress(mode, state, share)),
+        )
+
+    unseeded = run("unseeded", [Start("greedy", objective.normalise(greedy))])
     best, best_mode = unseeded, "unseeded"
     tracks: list[StoredTrack] = []
     budget = {"seconds": unseeded.seconds, "evaluations": unseeded.evals}
@@ -318,16 +338,7 @@ def compute_record(
             starts += [Start(t.label, objective.normalise(t.controls)) for t in tracks]
         starts.append(Start("greedy", objective.normalise(greedy)))
         if len(starts) > 2:  # something beyond the unseeded search's own starts
-            seeded = search(
-                objective,
-                starts,
-                settings,
-                scenario_hash=scenario.hash,
-                checkpoint=None if work is None else checkpoint_path(work, scenario.hash, "seeded"),
-                progress=None
-                if progress is None
-                else (lambda state, share: progress("seeded", state, share)),
-            )
+            seeded = run("seeded", starts)
             budget = {
                 "seconds": unseeded.seconds + seeded.seconds,
                 "evaluations": unseeded.evals + seeded.evals,
@@ -342,18 +353,7 @@ def compute_record(
             kept = replace(previous, unseeded_total=unseeded_info[0], unseeded_budget=unseeded_info[1])
             write_record(kept, folder)
         return Outcome(kept, previous.total_cost, False, best.total, f"offline search ({best_mode})")
-    found_by = _search_found_by(settings, best, best_mode)
-    controls, expected = best.controls, best.total
-    source = f"offline search ({best_mode})"
-    track = next((t for t in tracks if best.label == f"start:{t.label}"), None)
-    if best_mode == "seeded" and track is not None:
-        # The search found nothing cheaper than a stored episode: record that episode as stored
-        # (its exact controls, not their normalised round trip) and say the search confirmed it.
-        controls, expected = track.controls, track.total_cost
-        found_by = {**track.found_by(), "confirmed_by": found_by}
-        source = (
-            f"stored episode: {track.policy}, seed {track.seed}, run {track.run_id}; no cheaper track found"
-        )
+    controls, expected, found_by, source = _what_to_record(settings, best, best_mode, tracks)
     record = _record_from(scenario, controls, expected, found_by, budget, previous, unseeded_info)
     if previous is not None and not beats(record.total_cost, previous.total_cost):
         return Outcome(previous, previous.total_cost, False, record.total_cost, source)

@@ -7,45 +7,40 @@ whole sequence from the start state with no discount and no cost-to-go: the sum 
 of the transitions flown until the goal, a failure or K_max, which is the evaluator's
 ``total_cost`` of the same controls (docs/best-known.md §1; a test pins the equality).
 
-The search is a schedule of separable CMA-ES runs (``cmaes.SepCMA``, Ros & Hansen 2008: a
-diagonal covariance, linear in the dimension, for hundreds of variables), one run per start:
-
-1. *exploration*: first one run from each given start (stored tracks, the existing record, the
-   greedy episode), then runs alternating between a restart around the incumbent and a random
-   start drawn from the search's generator, until ``1 - refine_fraction`` of the budget is used;
-2. *refinement*: runs around the incumbent with a decreasing step size (``refine_sigmas``) until
-   the budget is spent: a local search that polishes the best track.
-
-A run ends when its best has not improved for ``stall_generations`` generations, when CMA-ES
-itself stops, or when its phase ends. The budget is wall seconds and/or evaluations; with an
-evaluation budget alone the result depends only on the seed (the compiled model does not depend
-on the thread count). The whole search state (optimiser, incumbent, generator, budget used) is
-pickled atomically to the work folder every ``checkpoint_seconds``, so an interrupted search
-continues where its last checkpoint stood.
+The search is :class:`optimizers.sep_cma_restarts.SepCMARestarts` on that box: separable CMA-ES
+runs from each given start (stored tracks, the existing record, the greedy episode), then restarts
+around the incumbent and from random starts, then a refinement around the incumbent with
+decreasing step sizes. The budget is wall seconds and/or evaluations; with an evaluation budget
+alone the result depends only on the seed (the compiled model does not depend on the thread
+count). The search state is saved every ``checkpoint_seconds`` (:mod:`.checkpoint`), so an
+interrupted search continues where its last checkpoint stood.
 """
 
 from __future__ import annotations
 
 import math
-import pickle
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from uav_penetration_env.atomic import write_bytes_atomic
+from optimizers.sep_cma_restarts import RestartState, SepCMARestarts, Start, check_starts
+from uav_penetration_env.benchmark.bestknown.checkpoint import Checkpoints
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
-CHECKPOINT_FORMAT = "uav-penetration-best-known-search/2"
+__all__ = ["EpisodeObjective", "SearchResult", "SearchSettings", "Start", "search"]
 
 
 @dataclass(frozen=True)
 class SearchSettings:
-    """The offline search's settings (docs/best-known.md §1).
+    """The offline search's settings (docs/best-known.md §1): its budget, seed and optimiser.
+
+    The fields from ``population`` to ``refine_sigmas`` are those of
+    :class:`~optimizers.sep_cma_restarts.SepCMARestarts` (checked there); on the action box a step
+    size is a fraction of each control's limit.
 
     Attributes:
         seconds: wall-clock budget of the search [s] (``None``: evaluations only).
@@ -83,18 +78,7 @@ class SearchSettings:
             raise ValueError(f"seconds: got {self.seconds!r}, expected a number of seconds > 0")
         if self.max_evals is not None and self.max_evals < 1:
             raise ValueError(f"max_evals: got {self.max_evals!r}, expected an integer >= 1")
-        if self.population is not None and self.population < 2:
-            raise ValueError(f"population: got {self.population!r}, expected None or an integer >= 2")
-        for name in ("start_sigma", "random_sigma", "random_scale"):
-            value = getattr(self, name)
-            if not 0 < value <= 1:
-                raise ValueError(f"{name}: got {value!r}, expected a number in (0, 1]")
-        if not 0 <= self.refine_fraction < 1:
-            raise ValueError(f"refine_fraction: got {self.refine_fraction!r}, expected a number in [0, 1)")
-        if not self.refine_sigmas or not all(0 < s <= 1 for s in self.refine_sigmas):
-            raise ValueError(f"refine_sigmas: got {self.refine_sigmas!r}, expected numbers in (0, 1]")
-        if self.stall_generations < 1:
-            raise ValueError(f"stall_generations: got {self.stall_generations!r}, expected an integer >= 1")
+        self.optimizer()  # checks the optimiser's settings, naming the field
 
     def key(self) -> dict[str, Any]:
         """The settings a checkpoint must share to be continued (everything but the budget)."""
@@ -104,39 +88,17 @@ class SearchSettings:
         data["refine_sigmas"] = list(self.refine_sigmas)
         return data
 
-
-@dataclass(frozen=True)
-class Start:
-    """One start of the search: a (K_max, 3) normalised control sequence and where it came from."""
-
-    label: str
-    x: FloatArray
-
-
-@dataclass
-class SearchState:
-    """Everything a checkpoint holds: the search continues from it exactly."""
-
-    scenario_hash: str
-    key: dict[str, Any]
-    starts: list[Start]
-    rng_state: dict[str, Any]
-    best_x: FloatArray
-    best_f: float
-    best_label: str
-    evals: int = 0
-    seconds: float = 0.0
-    generations: int = 0
-    phase: str = "explore"
-    explore_runs: int = 0
-    refine_runs: int = 0
-    optimizer: Any = None
-    run_label: str = ""
-    run_best: float = math.inf
-    run_stall: int = 0
-    runs: list[dict[str, Any]] = field(default_factory=list)
-    trace: list[tuple[int, float, float]] = field(default_factory=list)
-    finished: bool = False
+    def optimizer(self) -> SepCMARestarts:
+        """The search's optimiser with these settings (its step sizes are in action-box units)."""
+        return SepCMARestarts(
+            population=self.population,
+            start_sigma=self.start_sigma,
+            random_sigma=self.random_sigma,
+            random_scale=self.random_scale,
+            stall_generations=self.stall_generations,
+            refine_fraction=self.refine_fraction,
+            refine_sigmas=tuple(self.refine_sigmas),
+        )
 
 
 @dataclass(frozen=True)
@@ -198,41 +160,6 @@ class EpisodeObjective:
         return self.model.rollout_cost(self.state, controls, step=0)
 
 
-def checkpoint_path(work: str | Path, scenario_hash: str, mode: str) -> Path:
-    """The checkpoint file of one search: ``<work>/<scenario_hash>-<mode>.pkl``."""
-    return Path(work) / f"{scenario_hash}-{mode}.pkl"
-
-
-def _load_checkpoint(path: Path, scenario_hash: str, key: dict[str, Any]) -> SearchState | None:
-    if not path.is_file():
-        return None
-    with path.open("rb") as handle:
-        data = pickle.load(handle)
-    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
-        raise ValueError(f"--work {path}: not a best-known search checkpoint; expected {CHECKPOINT_FORMAT}")
-    state: SearchState = data["state"]
-    if state.optimizer is not None:
-        state.optimizer._rng.set_state(data["optimizer_rng"])
-    if state.scenario_hash != scenario_hash or state.key != key:
-        raise ValueError(
-            f"--work {path}: holds a search with settings {state.key} of scenario {state.scenario_hash}, "
-            f"expected {key} of {scenario_hash}; remove the file or choose another --work folder"
-        )
-    return state
-
-
-def _save_checkpoint(path: Path, state: SearchState) -> None:
-    """Pickle the search state atomically.
-
-    ``cmaes`` optimisers leave their random generator out of a pickle (``__getstate__`` drops
-    ``_rng``), so its state is saved beside them and restored on load; without it a continued run
-    would draw other samples than an uninterrupted one.
-    """
-    optimizer_rng = None if state.optimizer is None else state.optimizer._rng.get_state()
-    data = {"format": CHECKPOINT_FORMAT, "state": state, "optimizer_rng": optimizer_rng}
-    write_bytes_atomic(path, pickle.dumps(data))
-
-
 def search(
     objective: EpisodeObjective,
     starts: Sequence[Start],
@@ -240,8 +167,7 @@ def search(
     *,
     scenario_hash: str,
     checkpoint: str | Path | None = None,
-    progress: Callable[[SearchState, float], None] | None = None,
-    stop_after_generations: int | None = None,
+    progress: Callable[[RestartState, float], None] | None = None,
 ) -> SearchResult:
     """Minimise the whole-episode cost from ``starts`` (module docstring; docs/best-known.md).
 
@@ -252,9 +178,8 @@ def search(
         scenario_hash: the scenario's hash (checkpoints of another scenario are refused).
         checkpoint: the checkpoint file; an existing one with the same settings is continued
             (its starts are the ones used), ``None`` keeps everything in memory.
-        progress: called after every generation with the state and the share of the budget used.
-        stop_after_generations: testing hook: checkpoint and raise ``KeyboardInterrupt`` after
-            this many generations of this session, as a kill after a checkpoint would.
+        progress: called after every generation with the search state and the share of the
+            budget used (before that generation's checkpoint is saved).
 
     Returns:
         The :class:`SearchResult`.
@@ -262,145 +187,30 @@ def search(
     Raises:
         ValueError: no start, a start of the wrong size, or a checkpoint of another search.
     """
-    from cmaes import SepCMA
-
     if not starts:
         raise ValueError("starts: got none, expected at least one start (e.g. the greedy episode)")
-    for start in starts:
-        if np.shape(start.x) != (objective.dimension,):
-            raise ValueError(
-                f"starts[{start.label!r}]: got shape {np.shape(start.x)}, expected ({objective.dimension},)"
-            )
-    path = None if checkpoint is None else Path(checkpoint)
-    key = settings.key()
-    state = None if path is None else _load_checkpoint(path, scenario_hash, key)
+    check_starts(starts, objective.dimension)
+    optimizer = settings.optimizer()
+    saver = Checkpoints(
+        None if checkpoint is None else Path(checkpoint),
+        scenario_hash,
+        settings.key(),
+        settings.checkpoint_seconds,
+    )
+    state = saver.load()
     if state is None:
-        starts = [Start(s.label, np.clip(np.asarray(s.x, dtype=np.float64), -1.0, 1.0)) for s in starts]
-        values = objective(np.stack([s.x for s in starts]))
-        first = int(np.argmin(values))
-        state = SearchState(
-            scenario_hash=scenario_hash,
-            key=key,
-            starts=starts,
-            rng_state=np.random.default_rng(settings.seed).bit_generator.state,
-            best_x=starts[first].x.copy(),
-            best_f=float(values[first]),
-            best_label=f"start:{starts[first].label}",
-            evals=len(starts),
-        )
-        state.runs = [
-            {"label": f"start:{s.label}", "evals": 1, "best": float(v)}
-            for s, v in zip(starts, values, strict=True)
-        ]
-        state.trace.append((state.evals, 0.0, state.best_f))
-    rng = np.random.default_rng()
-    rng.bit_generator.state = state.rng_state
-    session_start = time.perf_counter()
-    seconds_before = state.seconds
-    last_checkpoint = session_start
-    session_generations = 0
-
-    def elapsed() -> float:
-        return seconds_before + (time.perf_counter() - session_start)
-
-    def used(seconds: float) -> float:
-        shares = []
-        if settings.max_evals is not None:
-            shares.append(state.evals / settings.max_evals)
-        if settings.seconds is not None:
-            shares.append(seconds / settings.seconds)
-        return max(shares)
-
-    def new_run() -> None:
-        """Start the next run of the schedule (module docstring)."""
-        if state.phase == "explore":
-            r = state.explore_runs
-            state.explore_runs += 1
-            if r < len(state.starts):
-                mean, sigma, label = state.starts[r].x, settings.start_sigma, f"start:{state.starts[r].label}"
-            elif (r - len(state.starts)) % 2 == 0:
-                mean, sigma, label = state.best_x, settings.start_sigma, "incumbent"
-            else:
-                scale = settings.random_scale
-                mean = rng.uniform(-scale, scale, objective.dimension)
-                sigma, label = settings.random_sigma, "random"
-        else:
-            r = state.refine_runs
-            state.refine_runs += 1
-            sigma = settings.refine_sigmas[r % len(settings.refine_sigmas)]
-            mean, label = state.best_x, f"refine(sigma={sigma:g})"
         bounds = np.tile([-1.0, 1.0], (objective.dimension, 1))
-        state.optimizer = SepCMA(
-            mean=np.clip(mean, -1.0, 1.0).copy(),
-            sigma=float(sigma),
-            bounds=bounds,
-            seed=int(rng.integers(2**31 - 1)),
-            population_size=settings.population,
-            # Clip an out-of-box sample (cmaes' repair) instead of resampling it up to 100 times:
-            # tracks sit on the box (greedy turns at the maximum rate), so nearly every sample of
-            # 450 variables leaves it, and resampling cost more than the evaluations (measured:
-            # 917 against 375 evaluations/s on the paper scenario).
-            n_max_resampling=1,
-        )
-        state.run_label, state.run_best, state.run_stall = label, math.inf, 0
-        state.runs.append({"label": label, "evals": 0, "best": math.inf})
+        state = optimizer.begin(objective, bounds, starts, np.random.default_rng(settings.seed))
 
-    default_population = settings.population or 4 + math.floor(3 * math.log(objective.dimension))
-    state.finished = False  # a finished search continues when it is given a larger budget
-    while True:
-        population = default_population if state.optimizer is None else state.optimizer.population_size
-        if (settings.max_evals is not None and state.evals + population > settings.max_evals) or (
-            settings.seconds is not None and elapsed() >= settings.seconds
-        ):
-            state.finished = True
-            break
-        if state.phase == "explore" and used(elapsed()) >= 1.0 - settings.refine_fraction:
-            state.phase, state.optimizer = "refine", None
-        if state.optimizer is None:
-            new_run()
-        optimizer = state.optimizer
-        population = optimizer.population_size
-        candidates = np.stack([optimizer.ask() for _ in range(population)])
-        values = objective(candidates)
-        optimizer.tell(list(zip(candidates, values.tolist(), strict=True)))
-        state.evals += population
-        state.generations += 1
-        session_generations += 1
-        run = state.runs[-1]
-        run["evals"] += population
-        best = int(np.argmin(values))
-        if values[best] < state.run_best - 1e-12 * abs(
-            state.run_best if math.isfinite(state.run_best) else 0
-        ):
-            state.run_best, state.run_stall = float(values[best]), 0
-            run["best"] = state.run_best
-        else:
-            state.run_stall += 1
-        if values[best] < state.best_f:
-            state.best_f = float(values[best])
-            state.best_x = candidates[best].copy()
-            state.best_label = state.run_label
-            state.trace.append((state.evals, elapsed(), state.best_f))
-        if state.run_stall >= settings.stall_generations or optimizer.should_stop():
-            state.optimizer = None
-        state.rng_state = rng.bit_generator.state
-        now = time.perf_counter()
+    def after_generation(state: RestartState, share: float) -> None:
         if progress is not None:
-            progress(state, min(1.0, used(elapsed())))
-        if path is not None and now - last_checkpoint >= settings.checkpoint_seconds:
-            state.seconds = elapsed()
-            _save_checkpoint(path, state)
-            last_checkpoint = now
-        if stop_after_generations is not None and session_generations >= stop_after_generations:
-            state.seconds = elapsed()
-            if path is not None:
-                _save_checkpoint(path, state)
-            raise KeyboardInterrupt(f"stop_after_generations={stop_after_generations} (testing hook)")
-    state.seconds = elapsed()
-    state.rng_state = rng.bit_generator.state
-    if path is not None:
-        _save_checkpoint(path, state)
-    start_costs = [{"label": r["label"], "total": r["best"]} for r in state.runs[: len(state.starts)]]
+            progress(state, share)
+        saver.maybe_save(state)
+
+    optimizer.run(
+        state, objective, max_evals=settings.max_evals, seconds=settings.seconds, callback=after_generation
+    )
+    saver.save(state)
     return SearchResult(
         controls=objective.controls(state.best_x),
         total=state.best_f,
@@ -409,5 +219,5 @@ def search(
         seconds=state.seconds,
         runs=[dict(r) for r in state.runs],
         trace=list(state.trace),
-        starts=start_costs,
+        starts=[{"label": r["label"], "total": r["best"]} for r in state.runs[: len(state.starts)]],
     )
