@@ -70,6 +70,7 @@ __all__ = [
     "fitness_slope",
     "front_size",
     "slope_is_zero",
+    "start_trace",
     "switch_condition",
     "switch_due",
     "switch_window_open",
@@ -222,7 +223,7 @@ def slope_is_zero(slope: float, level: float | None, atol: float = 1e-12, rtol: 
 # ----------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # eq=False: the labels are an array, which == cannot reduce to a bool
 class SearchState:
     """What one IHPSO iteration hands the next (§5.4): the mode, the groups and the slopes so far.
 
