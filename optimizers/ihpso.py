@@ -5,7 +5,7 @@ shared through ``swarm.py``) and replaces three things:
 
 1. random grouping, by clustering (near particles together) and information-entropy grouping (far
    particles together): ordinary complete-linkage hierarchical clustering of the distances (or of their
-   inverses) cut into G clusters (§5.1, D13, D14);
+   inverses) cut into G clusters (§5.1, D13, D14; :mod:`optimizers.ihpso_grouping`);
 2. the fixed 0.8 stage split, by the switch conditions of eqs. 25-28 on the slope of the fitness level
    (the mean of the best N/G personal-best costs, D16) (§5.2, D17, D18);
 3. the fixed iteration count, by the adaptive termination of eqs. 29-33: a relative "slope = 0" and a
@@ -13,367 +13,73 @@ shared through ``swarm.py``) and replaces three things:
 
 Scheme 4 of the paper's Table 1 is the default: entropy grouping in broad search, clustering in
 accurate search. IHPSO has no planned-iteration schedule: it runs until eq. 33 holds or the budget ends.
+One iteration reads and returns an explicit :class:`SearchState` (§5.4); the functions of the rules are
+pure.
 
-The readings used before issue 11 (equal-size cuts of an average-linkage leaf order, sums of distances,
-the mean finite pbest cost, a 1e-9 relative tolerance) are kept, bit-identical, as ``ihpso-2022v0``
-(optimizers.md §5.5).
+The first implementation's readings (equal-size cuts of an average-linkage leaf order, sums of
+distances, the mean finite pbest cost, a 1e-9 relative tolerance) are the configuration
+``ihpso-2022v0``, bit-identical to that implementation; the code only they need lives in
+:mod:`optimizers.ihpso_2022v0` (optimizers.md §5.5).
 """
 
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
-from functools import lru_cache, partial
+from dataclasses import dataclass, replace
+from functools import partial
 from itertools import count
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.cluster.hierarchy import fcluster, leaves_list, linkage
-from scipy.spatial.distance import pdist
 
 from optimizers.base import FloatArray, IntArray, coerce_pair, is_int, is_real, require
+from optimizers.ihpso_2022v0 import IHPSO_2022V0
+from optimizers.ihpso_grouping import (
+    GROUPING_CUTS,
+    LINKAGE_METHODS,
+    SPREAD_STATISTICS,
+    Clustering,
+    cluster_both_ways,
+    clustering_spreads,
+    dendrogram_groups,
+    spreads_converge,
+    termination_test,
+)
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
     Swarm,
     SwarmOptimizer,
-    group_sizes,
     holonic_attractors,
     holonic_velocity,
-    labels_from_order,
     random_equal_groups,
     validate_holonic,
 )
 
+__all__ = [
+    "FITNESS_LEVELS",
+    "GROUPING_METHODS",
+    "IHPSO",
+    "IHPSO_2022V0",
+    "MESSAGE_TERMINATED",
+    "SLOPE_RTOL_VARIANTS",
+    "SearchState",
+    "dendrogram_groups",
+    "fitness_level",
+    "fitness_slope",
+    "front_size",
+    "slope_is_zero",
+    "start_trace",
+    "switch_condition",
+    "switch_due",
+    "switch_window_open",
+    "termination_test",
+]
+
 MESSAGE_TERMINATED = "adaptive termination (eqs. 29-33)"
 GROUPING_METHODS = ("entropy", "cluster", "random")
-LINKAGE_METHODS = ("average", "single", "complete", "weighted")  # valid for any dissimilarity (D13)
-GROUPING_CUTS = ("maxclust", "equal")  # D14; "equal" is the 2022v0 reading
-SPREAD_STATISTICS = ("rms", "sum")  # D19; "sum" is the 2022v0 reading
 FITNESS_LEVELS = ("front", "mean")  # D16; "mean" is the 2022v0 reading
-
-
-# ----------------------------------------------------------------------------------------------
-# §5.1 Grouping
-# ----------------------------------------------------------------------------------------------
-
-
-def groups_from_distances(
-    distances: FloatArray,
-    n: int,
-    n_groups: int,
-    *,
-    inverse: bool,
-    method: str = "complete",
-    eps: float = 1e-12,
-    cut: str = "maxclust",
-) -> IntArray:
-    """Dendrogram grouping from condensed distances (§5.1 steps 2-4).
-
-    DECISION (optimizers.md D14): the dendrogram is cut into at most G clusters as a statistics
-    package's ``cluster(Z, maxclust=G)`` does (scipy's ``fcluster(Z, G, criterion="maxclust")``), so
-    groups have the sizes the data give them and a clump is never split or merged to equalise sizes.
-    ``cut="equal"`` is the 2022v0 reading: the leaf order cut into consecutive blocks of the §2.12 sizes.
-
-    Args:
-        distances: Condensed pairwise distances (``pdist`` order) of ``n`` points.
-        n: Number of points.
-        n_groups: Number of groups G (``1 <= G <= n``).
-        inverse: Cluster on ``1 / (distance + eps)`` (entropy grouping) instead of the distances.
-        method: Agglomerative linkage method (D13).
-        eps: Keeps coincident points finite under inversion (D14).
-        cut: ``"maxclust"`` (at most G clusters of any size) or ``"equal"`` (the 2022v0 equal blocks).
-
-    Returns:
-        (n,) labels in ``0..k-1``, ``k <= G`` (``k < G`` only when merge heights tie, e.g. coincident
-        points).
-
-    Raises:
-        ValueError: If ``n_groups`` is not between 1 and ``n``, or ``cut`` is unknown.
-    """
-    sizes = group_sizes(n, n_groups)
-    if cut not in GROUPING_CUTS:
-        raise ValueError(f"cut: got {cut!r}, expected one of {GROUPING_CUTS}")
-    if n == 1:
-        return np.zeros(1, dtype=np.int64)
-    dissimilarity = 1.0 / (distances + eps) if inverse else distances
-    tree = linkage(dissimilarity, method=method)
-    if cut == "equal":
-        return labels_from_order(leaves_list(tree), sizes)
-    return fcluster(tree, t=n_groups, criterion="maxclust").astype(np.int64) - 1
-
-
-def dendrogram_groups(
-    U: ArrayLike,
-    n_groups: int,
-    *,
-    inverse: bool,
-    method: str = "complete",
-    eps: float = 1e-12,
-    cut: str = "maxclust",
-) -> IntArray:
-    """Clustering (``inverse=False``) or information-entropy (``inverse=True``) grouping (§5.1).
-
-    Args:
-        U: (N, d) current positions in normalised coordinates (§2.1).
-        n_groups: Number of groups G.
-        inverse: Entropy grouping: far particles share a group.
-        method: Agglomerative linkage method (complete by default, D13).
-        eps: Added to distances before inversion (D14).
-        cut: ``"maxclust"`` (default, D14) or ``"equal"`` (2022v0).
-
-    Returns:
-        (N,) group labels in ``0..k-1``, ``k <= G``.
-    """
-    U = np.asarray(U, dtype=np.float64)
-    last = _last_termination()
-    if last.get("key") == _positions_key(U, n_groups, method, eps, cut):
-        return last["groups"]["entropy" if inverse else "cluster"].copy()  # eq. 33's clustering of U
-    return groups_from_distances(pdist(U), U.shape[0], n_groups, inverse=inverse, method=method, eps=eps,
-                                 cut=cut)
-
-
-@lru_cache(maxsize=8)
-def _pair_indices(n: int) -> tuple[IntArray, IntArray]:
-    """Row and column of every entry of a condensed distance vector of ``n`` points (``pdist`` order)."""
-    i, j = np.triu_indices(n, k=1)
-    return i, j
-
-
-def group_distance_sums(distances: FloatArray, labels: IntArray, n_groups: int) -> FloatArray:
-    """``SD_p`` (eq. 30 literally) from condensed distances: the sum over unordered pairs in each group.
-
-    The 2022v0 reading (D19); the default compares :func:`group_rms_distances` instead.
-
-    Args:
-        distances: Condensed pairwise distances (``pdist`` order).
-        labels: (N,) group labels in ``0..G-1``.
-        n_groups: G.
-
-    Returns:
-        (G,) within-group distance sums.
-    """
-    i, j = _pair_indices(labels.shape[0])
-    li = labels[i]
-    same = li == labels[j]
-    return np.bincount(li[same], weights=distances[same], minlength=n_groups).astype(np.float64)
-
-
-def within_group_distance_sums(U: ArrayLike, labels: ArrayLike) -> FloatArray:
-    """``SD_p = sum_{i<j in p} ||u_i - u_j||`` for every group p (eq. 30 literally; 2022v0, D19).
-
-    Args:
-        U: (N, d) positions (normalised coordinates in IHPSO).
-        labels: (N,) group labels in ``0..G-1``.
-
-    Returns:
-        (G,) sums; each unordered pair is counted once.
-    """
-    U = np.asarray(U, dtype=np.float64)
-    labels = np.asarray(labels, dtype=np.int64)
-    return group_distance_sums(pdist(U), labels, int(labels.max()) + 1)
-
-
-def group_rms_distances(distances: FloatArray, labels: IntArray) -> FloatArray:
-    """Root-mean-square distance over the unordered pairs of each group; NaN for a group of one (D19).
-
-    ``sqrt(sum_{i<j in p} ||u_i - u_j||^2 / (n_p (n_p - 1) / 2))``: a mean, so groups of different sizes
-    compare (a sum grows with the number of pairs); squared, so it is ``sqrt(2 n_p / (n_p - 1))`` times
-    the group's root-mean-square distance to its centroid. A group of one has no pair: its spread is
-    undefined (NaN), and :func:`termination_test` leaves it out.
-
-    Args:
-        distances: Condensed pairwise distances (``pdist`` order).
-        labels: (N,) group labels in ``0..k-1``.
-
-    Returns:
-        (k,) spreads.
-    """
-    n_labels = int(labels.max()) + 1
-    i, j = _pair_indices(labels.shape[0])
-    li = labels[i]
-    same = li == labels[j]
-    squares = np.bincount(li[same], weights=distances[same] ** 2, minlength=n_labels)
-    pairs = np.bincount(li[same], minlength=n_labels).astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(pairs > 0, np.sqrt(squares / np.maximum(pairs, 1.0)), np.nan)
-
-
-def within_group_rms_distances(U: ArrayLike, labels: ArrayLike) -> FloatArray:
-    """:func:`group_rms_distances` of positions (eq. 30 as read in D19).
-
-    Args:
-        U: (N, d) positions (normalised coordinates in IHPSO).
-        labels: (N,) group labels in ``0..k-1``.
-
-    Returns:
-        (k,) root-mean-square within-group distances, NaN for groups of one.
-    """
-    U = np.asarray(U, dtype=np.float64)
-    return group_rms_distances(pdist(U), np.asarray(labels, dtype=np.int64))
-
-
-def spread_threshold(n_groups: int, dim: int) -> float:
-    """The factor ``G^(1/d)`` by which eq. 33's cluster spread is scaled (D19).
-
-    A compact group holding ``N / G`` particles of one evenly filled cloud occupies about ``1 / G`` of the
-    cloud's volume, so its linear spread is about ``G^(-1/d)`` times that of a cross-section of the cloud
-    (an entropy group). Scaling the largest cluster spread by ``G^(1/d)`` makes one cloud pass; clumps
-    confine every cluster group to one clump, far smaller than that.
-
-    Args:
-        n_groups: G.
-        dim: d, the number of coordinates.
-
-    Returns:
-        ``G ** (1 / d)``: 1.71 for G = 5, d = 3; 1.11 for d = 15.
-    """
-    return float(n_groups) ** (1.0 / dim)
-
-
-def termination_spreads(
-    U: ArrayLike,
-    n_groups: int,
-    *,
-    method: str = "complete",
-    eps: float = 1e-12,
-    cut: str = "maxclust",
-    spread: str = "rms",
-) -> tuple[float, float]:
-    """Eqs. 31-32: ``(SD_pemin, SD_psmax)``, the least spread entropy group and the most spread cluster group.
-
-    Args:
-        U: (N, d) current positions in normalised coordinates.
-        n_groups: G.
-        method: Linkage method (D13).
-        eps: Inversion guard (D14).
-        cut: Dendrogram cut (D14).
-        spread: ``"rms"`` (root-mean-square distance, groups of one left out; its ``SD_psmax`` already
-            scaled by :func:`spread_threshold`) or ``"sum"`` (the 2022v0 sums, eq. 30 literally).
-
-    Returns:
-        ``(SD_pemin, SD_psmax)``; NaN when a side has no group with a pair (only when ``N == G``).
-
-    Raises:
-        ValueError: If ``spread`` or ``cut`` is unknown.
-    """
-    spreads, _ = termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut, spread=spread)
-    return spreads
-
-
-def termination_spreads_and_groups(
-    U: ArrayLike,
-    n_groups: int,
-    *,
-    method: str = "complete",
-    eps: float = 1e-12,
-    cut: str = "maxclust",
-    spread: str = "rms",
-) -> tuple[tuple[float, float], dict[str, IntArray]]:
-    """:func:`termination_spreads`, and the entropy and cluster groupings it was computed from.
-
-    The groupings are those :func:`dendrogram_groups` gives for ``U`` (same distances, linkage and cut),
-    so IHPSO regroups after a failed test without clustering the same positions again.
-
-    Returns:
-        ``((SD_pemin, SD_psmax), {"entropy": labels, "cluster": labels})``.
-
-    Raises:
-        ValueError: If ``spread`` or ``cut`` is unknown.
-    """
-    if spread not in SPREAD_STATISTICS:
-        raise ValueError(f"spread: got {spread!r}, expected one of {SPREAD_STATISTICS}")
-    U = np.asarray(U, dtype=np.float64)
-    key = _positions_key(U, n_groups, method, eps, cut)
-    last = _last_termination()
-    if last.get("key") == key and spread in last["spreads"]:
-        return last["spreads"][spread], {name: labels.copy() for name, labels in last["groups"].items()}
-    spreads, groups = _termination_spreads_and_groups(U, n_groups, method=method, eps=eps, cut=cut,
-                                                      spread=spread)
-    if last.get("key") != key:
-        last.clear()
-        last.update(key=key, spreads={}, groups={name: labels.copy() for name, labels in groups.items()})
-    last["spreads"][spread] = spreads
-    return spreads, groups
-
-
-# The last positions eq. 33 was evaluated on (per thread), with their spreads and groupings: IHPSO tests
-# eq. 33, records its spreads in the trace and regroups after a failed test, all on the same positions, so
-# the clustering is made once (pure functions of the positions: the numbers of a fresh computation).
-_TERMINATION_CACHE = threading.local()
-
-
-def _last_termination() -> dict[str, Any]:
-    """This thread's record of the last eq. 33 clustering (key, spreads by statistic, groups)."""
-    if not hasattr(_TERMINATION_CACHE, "last"):
-        _TERMINATION_CACHE.last = {}
-    return _TERMINATION_CACHE.last
-
-
-def _positions_key(U: np.ndarray, n_groups: int, method: str, eps: float, cut: str) -> tuple[Any, ...]:
-    """What a grouping of ``U`` depends on: the positions' bytes and shape, G, linkage, ε and cut."""
-    return (U.shape, U.tobytes(), int(n_groups), method, float(eps), cut)
-
-
-def _termination_spreads_and_groups(
-    U: np.ndarray, n_groups: int, *, method: str, eps: float, cut: str, spread: str
-) -> tuple[tuple[float, float], dict[str, IntArray]]:
-    """:func:`termination_spreads_and_groups` computed (no cache)."""
-    n = U.shape[0]
-    distances = pdist(U)
-    entropy = groups_from_distances(distances, n, n_groups, inverse=True, method=method, eps=eps, cut=cut)
-    cluster = groups_from_distances(distances, n, n_groups, inverse=False, method=method, eps=eps, cut=cut)
-    groups = {"entropy": entropy, "cluster": cluster}
-    if spread == "sum":
-        # Only the labels present: a maxclust cut may give fewer than G groups, and an empty group's sum
-        # of 0 would pass the test. (The equal cut always fills all G, so 2022v0 is unchanged.)
-        sd_entropy = group_distance_sums(distances, entropy, int(entropy.max()) + 1)
-        sd_cluster = group_distance_sums(distances, cluster, int(cluster.max()) + 1)
-        return (float(sd_entropy.min()), float(sd_cluster.max())), groups
-    sd_entropy = group_rms_distances(distances, entropy)
-    sd_cluster = group_rms_distances(distances, cluster)
-    if np.isnan(sd_entropy).all() or np.isnan(sd_cluster).all():
-        return (math.nan, math.nan), groups
-    spreads = float(np.nanmin(sd_entropy)), spread_threshold(n_groups, U.shape[1]) * float(np.nanmax(sd_cluster))
-    return spreads, groups
-
-
-def termination_test(
-    U: ArrayLike,
-    n_groups: int,
-    *,
-    method: str = "complete",
-    eps: float = 1e-12,
-    cut: str = "maxclust",
-    spread: str = "rms",
-) -> bool:
-    """Eqs. 31-33: ``SD_pemin <= SD_psmax`` on the current positions (:func:`termination_spreads`).
-
-    When the swarm has gathered into one cloud, grouping far particles together no longer produces
-    groups much wider than grouping near particles together; when it is split into clumps, every
-    entropy group spans clumps while every cluster group stays inside one. No evaluations are spent
-    ([S] seed §3.2.3). The printed "SD_pmin" of eq. 33 is read as SD_pemin.
-
-    DECISION (optimizers.md D19): the default compares root-mean-square within-group distances, with the
-    cluster side scaled by ``G^(1/d)`` (:func:`spread_threshold`); a group of one is left out, and a
-    side without any pair (only ``N == G``) fails the test. ``spread="sum", cut="equal",
-    method="average"`` is the 2022v0 test.
-
-    Args:
-        U: (N, d) current positions in normalised coordinates.
-        n_groups: G.
-        method: Linkage method (D13).
-        eps: Inversion guard (D14).
-        cut: Dendrogram cut (D14).
-        spread: Spread statistic (D19).
-
-    Returns:
-        Whether the swarm counts as converged.
-    """
-    entropy_min, cluster_max = termination_spreads(U, n_groups, method=method, eps=eps, cut=cut, spread=spread)
-    return bool(entropy_min <= cluster_max)  # NaN compares False
 
 
 # ----------------------------------------------------------------------------------------------
@@ -513,6 +219,49 @@ def slope_is_zero(slope: float, level: float | None, atol: float = 1e-12, rtol: 
 
 
 # ----------------------------------------------------------------------------------------------
+# §5.4 The state between iterations
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)  # eq=False: the labels are an array, which == cannot reduce to a bool
+class SearchState:
+    """What one IHPSO iteration hands the next (§5.4): the mode, the groups and the slopes so far.
+
+    Attributes:
+        labels: (N,) the current group labels.
+        level: ``J(t)`` after the last iteration, ``None`` where undefined (D16).
+        slopes: ``slopes[s] = k_s`` for ``s = 0..t``; ``k_0 = inf`` is never used.
+        accurate: Accurate search (eq. 23) rather than broad search (eq. 22).
+        locked: Accurate mode locked by a passing eq. 33 with ``terminate=False`` (D20).
+        phase_start: ``t0``, the iteration the current broad phase began (0 for the first, D18).
+        since_grouping: Iterations since the last grouping (the regrouping counter of broad mode).
+    """
+
+    labels: IntArray
+    level: float | None
+    slopes: tuple[float, ...] = (math.inf,)
+    accurate: bool = False
+    locked: bool = False
+    phase_start: int = 0
+    since_grouping: int = 0
+
+    @property
+    def mode(self) -> str:
+        """``"accurate"`` or ``"broad"``, as the trace records it."""
+        return "accurate" if self.accurate else "broad"
+
+
+def start_trace(trace: dict[str, Any]) -> dict[str, Any]:
+    """Add IHPSO's entries to a swarm's trace (docs/swarm.md §6), empty, and return it.
+
+    The lists are filled as the run goes; ``stopped_by`` is ``"max_evals"`` until eq. 33 stops the run.
+    """
+    trace.update(mode=[], switch_iterations=[], reverse_switch_iterations=[], termination_tests=[],
+                 termination_spreads=[], locked_at=None, levels=[], stopped_by="max_evals")
+    return trace
+
+
+# ----------------------------------------------------------------------------------------------
 # The optimiser
 # ----------------------------------------------------------------------------------------------
 
@@ -530,7 +279,7 @@ class IHPSO(SwarmOptimizer):
         constriction: chi (D9); 1.0 in ``ihpso-literal``.
         stage2_sign: s in eq. 23 (D10); -1 in ``ihpso-literal``.
         scheme: (broad, accurate) grouping methods, each ``"entropy"``, ``"cluster"`` or ``"random"``.
-        regroup_period: T_r, regrouping period in broad mode (D11).
+        regroup_period: T_r, the regrouping period in broad mode (§5.4).
         switch_lag: j in eqs. 25-28.
         switch_weight: ω in eqs. 26-27 (not the inertia).
         jump_factor: α in eq. 28.
@@ -548,8 +297,8 @@ class IHPSO(SwarmOptimizer):
 
     The shared swarm options are those of :class:`optimizers.swarm.SwarmOptimizer`. ``minimize`` may
     stop before the budget is spent (eq. 33, message ``"adaptive termination (eqs. 29-33)"``).
-    ``ihpso-2022v0`` is ``linkage="average", grouping_cut="equal", spread="sum", level="mean",
-    slope_rtol=1e-9`` (the readings before issue 11, bit-identical).
+    ``ihpso-2022v0`` is ``IHPSO(**IHPSO_2022V0)``: ``linkage="average", grouping_cut="equal",
+    spread="sum", level="mean", slope_rtol=1e-9``, the first implementation's readings (§5.5).
     """
 
     swarm_size: int = 100  # N, seed §5
@@ -559,7 +308,7 @@ class IHPSO(SwarmOptimizer):
     constriction: float = 0.7298  # chi, DECISION: optimizers.md D9
     stage2_sign: int = 1  # s, DECISION: optimizers.md D10
     scheme: tuple[str, str] = ("entropy", "cluster")  # Table 1, scheme 4
-    regroup_period: int = 10  # T_r in broad mode, DECISION: optimizers.md D11
+    regroup_period: int = 10  # T_r in broad mode, DECISION: optimizers.md §5.4 (HPSO's period)
     switch_lag: int = 1  # j, seed §5
     switch_weight: float = 0.8  # ω, seed §5
     jump_factor: float = 3.0  # α, seed §5
@@ -601,34 +350,43 @@ class IHPSO(SwarmOptimizer):
         require(self.spread in SPREAD_STATISTICS, name, "spread", self.spread, f"one of {SPREAD_STATISTICS}")
         require(self.level in FITNESS_LEVELS, name, "level", self.level, f"one of {FITNESS_LEVELS}")
 
-    def group(self, method: str, U: FloatArray, rng: np.random.Generator) -> IntArray:
+    def group(
+        self, method: str, U: FloatArray, rng: np.random.Generator, clustering: Clustering | None = None
+    ) -> IntArray:
         """Group the swarm with one of the scheme's methods (§5.1).
 
         Args:
             method: ``"entropy"``, ``"cluster"`` or ``"random"``.
             U: (N, d) current positions in normalised coordinates.
             rng: The run's Generator (used by ``"random"`` only).
+            clustering: ``U``'s :class:`Clustering` under this configuration, where one was already made
+                (by a termination test): its labels are taken instead of clustering ``U`` again.
 
         Returns:
             (N,) group labels.
         """
         if method == "random":
             return random_equal_groups(U.shape[0], self.n_groups, rng)
+        if clustering is not None:
+            return clustering.entropy if method == "entropy" else clustering.cluster
         return dendrogram_groups(U, self.n_groups, inverse=method == "entropy", method=self.linkage,
                                  eps=self.entropy_eps, cut=self.grouping_cut)
+
+    def clustering(self, U: FloatArray) -> Clustering:
+        """Both groupings of ``U`` under this configuration's readings (D13, D14), for eqs. 31-33."""
+        return cluster_both_ways(U, self.n_groups, method=self.linkage, eps=self.entropy_eps,
+                                 cut=self.grouping_cut)
 
     def fitness_level(self, f_pbest: FloatArray) -> float | None:
         """``J(t)`` under this configuration's reading (D16): the front's mean or the finite mean."""
         front = front_size(self.swarm_size, self.n_groups) if self.level == "front" else None
         return fitness_level(f_pbest, front)
 
-    def converged(self, U: FloatArray) -> bool:
-        """Eqs. 31-33 under this configuration's readings (D13, D14, D19)."""
-        return termination_test(U, self.n_groups, method=self.linkage, eps=self.entropy_eps,
-                                cut=self.grouping_cut, spread=self.spread)
-
     def iterate(self, swarm: Swarm, rng: np.random.Generator) -> Iterator[str | None]:
         """One iteration per ``next`` (§5.4 steps 1.1-1.5); yields the stop message on eq. 33.
+
+        Each step is a method that takes the :class:`SearchState` and returns the next one; only the
+        swarm (moved by :meth:`Swarm.fly`) and the trace change in place.
 
         The first switch test is at ``t = 2j + 1`` (3 for j = 1): eqs. 27-28 need the slopes
         ``k_{t-2j}, k_{t-j}, k_t`` of the current broad phase, and ``k_1`` is the first slope (D18). With
@@ -640,85 +398,103 @@ class IHPSO(SwarmOptimizer):
         ``"accurate"``), ``switch_iterations`` (iterations after which broad search switched to accurate,
         eqs. 25-28), ``reverse_switch_iterations`` (accurate back to broad: zero slope but eq. 33 false),
         ``termination_tests`` (``(t, passed)`` for every evaluation of eq. 33), ``termination_spreads``
-        (``(t, SD_pemin, SD_psmax)`` for each, as :func:`termination_spreads` gives them), ``locked_at``
-        (the iteration accurate mode was locked, ``ihpso-noterm`` only), ``levels`` (``J(0), J(1), ...``,
-        ``None`` where undefined) and ``stopped_by`` (``"termination"`` for eq. 33, ``"max_evals"``
-        otherwise).
+        (``(t, SD_pemin, SD_psmax)`` for each, as :func:`optimizers.ihpso_grouping.termination_spreads`
+        gives them), ``locked_at`` (the iteration accurate mode was locked, ``ihpso-noterm`` only),
+        ``levels`` (``J(0), J(1), ...``, ``None`` where undefined) and ``stopped_by`` (``"termination"``
+        for eq. 33, ``"max_evals"`` otherwise).
         """
-        n, d = swarm.n, swarm.d
-        w_low, w_high = self.inertia_range
-        broad_method, accurate_method = self.scheme
-        trace = swarm.trace
-        modes: list[str] = []
-        switches: list[int] = []
-        reverse_switches: list[int] = []
-        tests: list[tuple[int, bool]] = []
-        spreads: list[tuple[int, float, float]] = []
-        levels: list[float | None] = []
-        trace.update(mode=modes, switch_iterations=switches, reverse_switch_iterations=reverse_switches,
-                     termination_tests=tests, termination_spreads=spreads, locked_at=None, levels=levels,
-                     stopped_by="max_evals")
-
+        trace = start_trace(swarm.trace)
         # Step 0 (§5.4) after initialisation: J(0), broad mode grouped by scheme[0].
         level = self.fitness_level(swarm.f_pbest)
-        levels.append(level)
-        slopes: list[float] = [math.inf]  # slopes[t] = k_t; k_0 is never used
-        accurate = False
-        locked = False
-        labels = self.group(broad_method, swarm.normalised(), rng)
-        phase_start = 0  # t0 (D18)
-        since_grouping = 0
-
+        state = SearchState(labels=self.group(self.scheme[0], swarm.normalised(), rng), level=level)
+        trace["levels"].append(level)
         for t in count(1):
-            # Step 1.1: periodic regrouping, broad mode only.
-            if not accurate and since_grouping == self.regroup_period:
-                labels = self.group(broad_method, swarm.normalised(), rng)  # DECISION: optimizers.md D11
-                since_grouping = 0
-            # Step 1.2: attractors and velocity (eq. 22 broad, eq. 23 accurate).
-            attractors = holonic_attractors(swarm.pbest, swarm.f_pbest, labels)
-            w = rng.uniform(w_low, w_high, size=(n, 1))  # DECISION: optimizers.md D28
-            r = rng.random((3, n, d))
-            sign = float(self.stage2_sign) if accurate else 1.0
-            # Step 1.3: clamp, move, evaluate, pbest (the loop records the history), level and slope.
-            swarm.fly(holonic_velocity(swarm.v, swarm.x, attractors, r, w, acceleration=self.acceleration,
-                                       constriction=self.constriction, sign=sign))
-            modes.append("accurate" if accurate else "broad")
-            since_grouping += 1
-            previous, level = level, self.fitness_level(swarm.f_pbest)  # DECISION: optimizers.md D16
-            levels.append(level)
-            slopes.append(fitness_slope(level, previous))
+            state = self._regroup_if_due(state, swarm, rng)
+            self._fly(state, swarm, rng)
+            trace["mode"].append(state.mode)
+            state = self._measure(state, swarm)
+            trace["levels"].append(state.level)
             stop = None
-            # Step 1.4: broad -> accurate (eqs. 25-28, window D18).
-            if not accurate:
-                if self.switch and switch_due(slopes, t, phase_start, self.switch_lag, self.switch_weight,
-                                              self.jump_factor):
-                    accurate = True
-                    switches.append(t)
-                    labels = self.group(accurate_method, swarm.normalised(), rng)
-                    since_grouping = 0
-            # Step 1.5: accurate mode with a zero slope: terminate, lock, or go back to broad search.
-            elif not locked and slope_is_zero(slopes[t], level, self.slope_atol, self.slope_rtol):
-                U = swarm.normalised()
-                converged = self.converged(U)
-                tests.append((t, converged))
-                # termination_spreads reuses the clustering converged(U) just made (_last_termination).
-                spreads.append((t, *termination_spreads(U, self.n_groups, method=self.linkage,
-                                                        eps=self.entropy_eps, cut=self.grouping_cut,
-                                                        spread=self.spread)))
-                if converged:
-                    if self.terminate:
-                        trace["stopped_by"] = "termination"
-                        stop = MESSAGE_TERMINATED  # DECISION: optimizers.md D20
-                    else:
-                        locked = True
-                        trace["locked_at"] = t
-                elif self.reverse_switch:
-                    accurate = False
-                    phase_start = t
-                    reverse_switches.append(t)
-                    labels = self.group(broad_method, U, rng)  # served from _last_termination for U
-                    since_grouping = 0
+            if not state.accurate:
+                state = self._switch_if_due(t, state, swarm, rng, trace)
+            else:
+                state, stop = self._test_if_due(t, state, swarm, rng, trace)
             yield stop
+
+    def _regroup_if_due(self, state: SearchState, swarm: Swarm, rng: np.random.Generator) -> SearchState:
+        """Step 1.1: in broad mode, a fresh ``scheme[0]`` grouping every ``regroup_period`` iterations.
+
+        DECISION (optimizers.md §5.4): broad search regroups every T_r = 10 iterations, HPSO's period,
+        not at every broad iteration as the paper's flow reads (its Step 3 returns to Step 2, which
+        groups by information entropy). The paper's complexity remark counts its groupings and
+        regroupings as "far less than the number of optimization iterations", and HPSO's own step sets a
+        regrouping period; one period keeps the two comparable. Measured effect nil for the default: on
+        the published window states the periodic regrouping never fired (the first switch comes at
+        t = 3, D36), and regrouping every broad iteration (``regroup_period=1``, the paper's flow) left
+        the final cost without a significant change (p = 0.09); only ``ihpso-noswitch`` gains a little from it.
+        """
+        if state.accurate or state.since_grouping != self.regroup_period:
+            return state
+        return replace(state, labels=self.group(self.scheme[0], swarm.normalised(), rng), since_grouping=0)
+
+    def _fly(self, state: SearchState, swarm: Swarm, rng: np.random.Generator) -> None:
+        """Steps 1.2-1.3: attractors, velocity (eq. 22 broad, eq. 23 accurate), clamp, move, evaluate."""
+        n, d = swarm.n, swarm.d
+        w_low, w_high = self.inertia_range
+        attractors = holonic_attractors(swarm.pbest, swarm.f_pbest, state.labels)
+        w = rng.uniform(w_low, w_high, size=(n, 1))  # DECISION: optimizers.md D28
+        r = rng.random((3, n, d))
+        sign = float(self.stage2_sign) if state.accurate else 1.0
+        swarm.fly(holonic_velocity(swarm.v, swarm.x, attractors, r, w, acceleration=self.acceleration,
+                                   constriction=self.constriction, sign=sign))
+
+    def _measure(self, state: SearchState, swarm: Swarm) -> SearchState:
+        """The end of step 1.3: ``J(t)`` and ``k_t`` of the moved swarm; one more iteration since grouping."""
+        level = self.fitness_level(swarm.f_pbest)  # DECISION: optimizers.md D16
+        return replace(state, level=level, slopes=(*state.slopes, fitness_slope(level, state.level)),
+                       since_grouping=state.since_grouping + 1)
+
+    def _switch_if_due(
+        self, t: int, state: SearchState, swarm: Swarm, rng: np.random.Generator, trace: dict[str, Any]
+    ) -> SearchState:
+        """Step 1.4: broad -> accurate search, grouped by ``scheme[1]``, when eqs. 25-28 hold (window D18)."""
+        if not self.switch or not switch_due(state.slopes, t, state.phase_start, self.switch_lag,
+                                             self.switch_weight, self.jump_factor):
+            return state
+        trace["switch_iterations"].append(t)
+        return replace(state, accurate=True, labels=self.group(self.scheme[1], swarm.normalised(), rng),
+                       since_grouping=0)
+
+    def _test_if_due(
+        self, t: int, state: SearchState, swarm: Swarm, rng: np.random.Generator, trace: dict[str, Any]
+    ) -> tuple[SearchState, str | None]:
+        """Step 1.5: in accurate mode with a zero slope, eq. 33 stops the run, locks it or returns to broad.
+
+        The positions are clustered once: the test, its trace entry and the broad grouping after a
+        failed test all use that :class:`Clustering`.
+
+        Returns:
+            The next state and the stop message (``None`` to go on).
+        """
+        if state.locked or not slope_is_zero(state.slopes[t], state.level, self.slope_atol, self.slope_rtol):
+            return state, None
+        U = swarm.normalised()
+        clustering = self.clustering(U)
+        spreads = clustering_spreads(clustering, self.n_groups, swarm.d, spread=self.spread)
+        converged = spreads_converge(spreads)
+        trace["termination_tests"].append((t, converged))
+        trace["termination_spreads"].append((t, *spreads))
+        if converged and self.terminate:
+            trace["stopped_by"] = "termination"
+            return state, MESSAGE_TERMINATED  # DECISION: optimizers.md D20
+        if converged:
+            trace["locked_at"] = t
+            return replace(state, locked=True), None
+        if not self.reverse_switch:
+            return state, None
+        trace["reverse_switch_iterations"].append(t)
+        labels = self.group(self.scheme[0], U, rng, clustering)
+        return replace(state, accurate=False, phase_start=t, labels=labels, since_grouping=0), None
 
 
 register_optimizer("ihpso-scheme1")(partial(IHPSO, scheme=("cluster", "cluster")))
@@ -734,6 +510,5 @@ register_optimizer("ihpso-literal")(partial(IHPSO, constriction=1.0, stage2_sign
 SLOPE_RTOL_VARIANTS = {"ihpso-rtol1e-6": 1e-6, "ihpso-rtol1e-5": 1e-5, "ihpso-rtol1e-3": 1e-3, "ihpso-rtol1e-2": 1e-2}
 for _name, _rtol in SLOPE_RTOL_VARIANTS.items():
     register_optimizer(_name)(partial(IHPSO, slope_rtol=_rtol))
-IHPSO_2022V0 = {"linkage": "average", "grouping_cut": "equal", "spread": "sum", "level": "mean", "slope_rtol": 1e-9}
-"""The readings before issue 11 (optimizers.md §5.5): ``ihpso-2022v0`` reproduces the old ``ihpso`` exactly."""
+# The first implementation's readings, bit-identical (optimizers.md §5.5; optimizers/ihpso_2022v0.py).
 register_optimizer("ihpso-2022v0")(partial(IHPSO, **IHPSO_2022V0))

@@ -19,7 +19,6 @@ Shapes: ``N`` particles, ``d`` dimensions.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -70,23 +69,6 @@ def time_fraction(t: int, planned: int) -> float:
 def linear_schedule(start: float, end: float, t: int, planned: int) -> float:
     """Linear schedule from ``start`` (iteration 1) to ``end`` (iteration ``T`` and after) (§2.8)."""
     return start + (end - start) * time_fraction(t, planned)
-
-
-def constriction_factor(phi: float) -> float:
-    """Clerc–Kennedy constriction ``chi = 2 / |2 - phi - sqrt(phi^2 - 4 phi)|``.
-
-    Args:
-        phi: Sum of the acceleration coefficients; must exceed 4.
-
-    Returns:
-        ``chi``; about 0.72984 for ``phi = 4.1``.
-
-    Raises:
-        ValueError: If ``phi <= 4``.
-    """
-    if not phi > 4.0:
-        raise ValueError(f"phi: got {phi!r}, expected a value > 4 (Clerc-Kennedy constriction)")
-    return 2.0 / abs(2.0 - phi - math.sqrt(phi * phi - 4.0 * phi))
 
 
 def init_positions(

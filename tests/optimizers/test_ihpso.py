@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
+from scipy.spatial.distance import pdist
 
 import optimizers.ihpso as ihpso_module
 from optimizers import get_optimizer
@@ -19,8 +21,9 @@ from optimizers.ihpso import (
     switch_due,
     switch_window_open,
     termination_test,
-    within_group_distance_sums,
 )
+from optimizers.ihpso_2022v0 import group_distance_sums
+from optimizers.ihpso_grouping import cluster_both_ways
 
 TWO_CLUMPS = np.array([(0, 0), (0.01, 0), (0, 0.02), (1, 1), (1.01, 1), (1, 1.02)], dtype=float)
 THREE_CLUMPS = np.array([(0, 0), (0, 0.01), (1, 0), (1, 0.01), (0, 1), (0.01, 1)], dtype=float)
@@ -37,6 +40,7 @@ def sphere(x):
 
 
 BOUNDS = [(-5.0, 5.0)] * 10
+V0 = {"method": "average", "cut": "equal"}  # the 2022v0 grouping
 
 
 def test_cluster_grouping_finds_two_clumps():
@@ -78,21 +82,42 @@ def test_coincident_particles_stay_finite():
     assert labels.min() == 0 and labels.max() <= 2 and np.array_equal(np.unique(labels), np.arange(labels.max() + 1))
 
 
+def within_group_distance_sums(U, labels):
+    """Oracle: eq. 30's sums (the 2022v0 statistic), one unordered pair at a time."""
+    U, labels = np.asarray(U, dtype=float), np.asarray(labels)
+    sums = np.zeros(labels.max() + 1)
+    for i, j in itertools.combinations(range(len(U)), 2):
+        if labels[i] == labels[j]:
+            sums[labels[i]] += math.dist(U[i], U[j])
+    return sums
+
+
 def test_within_group_distance_sums():
     assert within_group_distance_sums([(0, 0), (3, 0), (0, 4)], [0, 0, 0]).tolist() == [12.0]
     sums = within_group_distance_sums([(0, 0), (3, 0), (0, 4), (0, 5)], [0, 1, 0, 1])
     assert sums == pytest.approx([4.0, math.hypot(3, 5)])
+    U = np.random.default_rng(1).random((30, 4))
+    labels = np.random.default_rng(2).integers(0, 4, size=30)
+    assert group_distance_sums(pdist(U), labels, 4) == pytest.approx(within_group_distance_sums(U, labels))
+    assert group_distance_sums(pdist(U[:3]), np.zeros(3, dtype=np.int64), 2).tolist()[1] == 0.0  # empty group
 
 
-V0 = {"method": "average", "cut": "equal"}  # the 2022v0 grouping
+def test_both_groupings_are_the_dendrogram_groupings():
+    """One distance computation gives exactly the groupings each method gives alone, under either cut."""
+    U = np.random.default_rng(3).random((40, 5))
+    for kwargs in ({}, V0):
+        clustering = cluster_both_ways(U, 5, **kwargs)
+        assert np.array_equal(clustering.entropy, dendrogram_groups(U, 5, inverse=True, **kwargs))
+        assert np.array_equal(clustering.cluster, dendrogram_groups(U, 5, inverse=False, **kwargs))
+        assert np.array_equal(clustering.distances, pdist(U))
 
 
 def test_termination_test_2022v0():
     assert termination_test(TWO_CLUMPS, 2, spread="sum", **V0) is False
     labels_e = dendrogram_groups(TWO_CLUMPS, 2, inverse=True, **V0)
     labels_c = dendrogram_groups(TWO_CLUMPS, 2, inverse=False, **V0)
-    assert within_group_distance_sums(TWO_CLUMPS, labels_e).min() == pytest.approx(2.83, abs=0.01)
-    assert within_group_distance_sums(TWO_CLUMPS, labels_c).max() == pytest.approx(0.052, abs=0.001)
+    assert group_distance_sums(pdist(TWO_CLUMPS), labels_e, 2).min() == pytest.approx(2.83, abs=0.01)
+    assert group_distance_sums(pdist(TWO_CLUMPS), labels_c, 2).max() == pytest.approx(0.052, abs=0.001)
     assert termination_test(np.full((6, 2), 0.3), 3, spread="sum", **V0) is True
 
 
@@ -224,13 +249,21 @@ def test_mode_state_machine(monkeypatch):
         labels.append(np.array(group_labels))
         return real_attractors(pbest, f_pbest, group_labels)
 
-    def termination(U, n_groups, **kwargs):
+    def termination(spreads):
         tests.append(len(signs))  # the iteration t at which the test is made
         return len(tests) > 1
 
+    tested_positions = []
+    real_clustering = ihpso_module.cluster_both_ways
+
+    def clustering(U, n_groups, **kwargs):
+        tested_positions.append(np.array(U))
+        return real_clustering(U, n_groups, **kwargs)
+
     monkeypatch.setattr(ihpso_module, "holonic_velocity", velocity)
     monkeypatch.setattr(ihpso_module, "holonic_attractors", attractors)
-    monkeypatch.setattr(ihpso_module, "termination_test", termination)
+    monkeypatch.setattr(ihpso_module, "spreads_converge", termination)
+    monkeypatch.setattr(ihpso_module, "cluster_both_ways", clustering)
     groupings = spy_on_grouping(monkeypatch)
     res = IHPSO(stage2_sign=-1).minimize(floor_sum, BOUNDS, rng=0, max_evals=30_000)
 
@@ -239,6 +272,9 @@ def test_mode_state_machine(monkeypatch):
     t1 = tests[0]
     assert signs[t1 - 1] == -1.0  # the failed test was made in accurate mode ...
     assert signs[t1 : t1 + 3] == [1.0, 1.0, 1.0]  # ... then broad, with no switch before t1 + 2j + 1
+    # The broad groups after the failed test are the entropy grouping of the tested positions.
+    assert len(tested_positions) == 2
+    assert np.array_equal(labels[t1], dendrogram_groups(tested_positions[0], 5, inverse=True))  # not the spy
     assert -1.0 in signs[t1:]  # and a second switch to accurate search
     assert groupings.count("cluster") == 2 and groupings[-1] == "cluster"
     for t in range(1, len(signs)):

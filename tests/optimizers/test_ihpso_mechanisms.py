@@ -17,21 +17,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.distance import pdist
 
 import optimizers.ihpso as ihpso_module
 from optimizers import get_optimizer
-from optimizers.ihpso import (
-    IHPSO,
-    IHPSO_2022V0,
+from optimizers.ihpso import IHPSO, fitness_level, front_size, switch_condition, switch_due
+from optimizers.ihpso_2022v0 import IHPSO_2022V0
+from optimizers.ihpso_grouping import (
     dendrogram_groups,
-    fitness_level,
-    front_size,
+    group_rms_distances,
     spread_threshold,
-    switch_condition,
-    switch_due,
     termination_spreads,
     termination_test,
-    within_group_rms_distances,
 )
 from tests.golden import golden_cases
 
@@ -174,9 +171,25 @@ def test_entropy_grouping_spans_clumps(dim):
     assert mixed / total >= 0.9
 
 
+def within_group_rms_distances(U, labels):
+    """Oracle: eq. 30 as read in D19, the root-mean-square distance over each group's pairs, one pair at a time."""
+    U, labels = np.asarray(U, dtype=float), np.asarray(labels)
+    squares, pairs = np.zeros(labels.max() + 1), np.zeros(labels.max() + 1)
+    for i, j in itertools.combinations(range(len(U)), 2):
+        if labels[i] == labels[j]:
+            squares[labels[i]] += math.dist(U[i], U[j]) ** 2
+            pairs[labels[i]] += 1
+    return np.array([math.sqrt(s / p) if p else math.nan for s, p in zip(squares, pairs, strict=True)])
+
+
 def test_group_rms_distances_and_groups_of_one():
-    rms = within_group_rms_distances([(0, 0), (3, 0), (0, 4), (9, 9)], [0, 0, 0, 1])
+    points, labels = [(0, 0), (3, 0), (0, 4), (9, 9)], np.array([0, 0, 0, 1])
+    rms = within_group_rms_distances(points, labels)
     assert rms[0] == pytest.approx(math.sqrt((9 + 16 + 25) / 3)) and math.isnan(rms[1])
+    assert group_rms_distances(pdist(points), labels) == pytest.approx(rms, nan_ok=True)
+    U = np.random.default_rng(9).random((40, 6))
+    labels = np.random.default_rng(10).integers(0, 5, size=40)
+    assert group_rms_distances(pdist(U), labels) == pytest.approx(within_group_rms_distances(U, labels))
     # A group of one is left out of eqs. 31-32; with N == G no group has a pair and the test fails.
     assert all(math.isnan(v) for v in termination_spreads(np.eye(3), 3))
     assert termination_test(np.eye(3), 3) is False
@@ -275,7 +288,7 @@ def test_noreverse_stays_in_accurate_search(monkeypatch):
     converged = iter([False, False, True])
     monkeypatch.setattr(ihpso_module, "switch_due", lambda slopes, t, *args: t == 3)
     monkeypatch.setattr(ihpso_module, "slope_is_zero", lambda *args: next(zero))
-    monkeypatch.setattr(ihpso_module, "termination_test", lambda *args, **kwargs: next(converged))
+    monkeypatch.setattr(ihpso_module, "spreads_converge", lambda *args: next(converged))
     res = get_optimizer("ihpso-noreverse").minimize(sphere, BOUNDS, rng=0, max_evals=5_000)
     assert res.trace["mode"] == ("broad",) * 3 + ("accurate",) * 4
     assert res.trace["reverse_switch_iterations"] == ()

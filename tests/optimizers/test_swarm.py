@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from optimizers import get_optimizer
 from optimizers.swarm import (
     attractor_velocity,
     clamp_velocity,
-    constriction_factor,
     cost_rank,
     group_best_index,
     group_sizes,
@@ -79,10 +81,23 @@ def test_planned_iterations_and_schedule():
     assert linear_schedule(0.9, 0.4, 50, 99) == pytest.approx(0.65)
 
 
+def constriction_factor(phi: float) -> float:
+    """Oracle: the Clerc-Kennedy constriction ``chi = 2 / |2 - phi - sqrt(phi^2 - 4 phi)|``, for ``phi > 4``."""
+    if not phi > 4.0:
+        raise ValueError(f"phi: got {phi!r}, expected a value > 4 (Clerc-Kennedy constriction)")
+    return 2.0 / abs(2.0 - phi - math.sqrt(phi * phi - 4.0 * phi))
+
+
 def test_constriction_factor():
     assert constriction_factor(4.1) == pytest.approx(0.72984, abs=1e-5)
     with pytest.raises(ValueError, match="phi"):
         constriction_factor(4.0)
+
+
+@pytest.mark.parametrize("name", ["pso", "hpso", "ihpso", "ps2o"])
+def test_default_constrictions_are_clerc_kennedy_for_phi_4_1(name):
+    """D9: the swarms' chi is the Clerc-Kennedy value of phi = 4.1 (to its printed digits)."""
+    assert get_optimizer(name).constriction == pytest.approx(constriction_factor(4.1), abs=1e-4)
 
 
 def test_init_positions_uniform_and_warm_start():

@@ -73,7 +73,7 @@ def scripted_ihpso(monkeypatch, switch_at, zero_slopes, converged):
     zero_slopes, converged = iter(zero_slopes), iter(converged)
     monkeypatch.setattr(ihpso_module, "switch_due", lambda slopes, t, *args: t in switch_at)
     monkeypatch.setattr(ihpso_module, "slope_is_zero", lambda *args: next(zero_slopes))
-    monkeypatch.setattr(ihpso_module, "termination_test", lambda *args, **kwargs: next(converged))
+    monkeypatch.setattr(ihpso_module, "spreads_converge", lambda *args: next(converged))
 
 
 def test_ihpso_trace_of_a_scripted_run(monkeypatch):
