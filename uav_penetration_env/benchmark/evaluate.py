@@ -99,7 +99,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         The episode row (the ``episodes`` columns) and one dict per track point, the start state's
         step-0 row first (no step rows for an ``error`` row).
     """
-    limit_worker_threads()  # issue 10: one compiled thread per worker process unless NUMBA_NUM_THREADS is set
+    limit_worker_threads()  # workers share the cores: one compiled thread each unless NUMBA_NUM_THREADS is set
     started = time.perf_counter()
     scenario = task.scenario
     row: dict[str, Any] = {

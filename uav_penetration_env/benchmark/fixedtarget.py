@@ -1,4 +1,4 @@
-"""Fixed-target and fixed-budget comparison of optimisers on identical MPC windows (api.md §4.8, issue 11).
+"""Fixed-target and fixed-budget comparison of optimisers on identical MPC windows (api.md §4.8).
 
 The COCO view of "fewer iterations": on each window (a stored MPC state, ``window_runs`` rows of
 ``uav-bench windows``) the reference cost f* is the best cost any run of any optimiser found; the

@@ -7,7 +7,7 @@ policy names are (long names wrap inside their cell).
 
 DECISION (api.md §4.6): the columns are policy, success rate, mean total J with its bootstrap CI,
 the IQM of total J, the gap to the best-known solution when the leaderboard CSV carries one (a
-column whose name starts with ``gap``; issue 14 adds it through the column table), the Friedman
+column whose name starts with ``gap``, added through the column table), the Friedman
 rank, and the mean paired difference to the reference with its Holm-corrected p. The reference
 row shows "reference" in that column.
 """

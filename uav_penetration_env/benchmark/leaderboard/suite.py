@@ -357,7 +357,7 @@ def members_markdown(suite: Suite, frame: pd.DataFrame, stacked: pd.DataFrame, c
     group = suite_group(frame, f"{suite.name} per member")
     matrices = [("total_cost_mean", "Mean total J (incl. penalty); the lowest of each member in bold")]
     gap = gap_column(list(stacked.columns))
-    if gap is not None:  # the column table's gap to the best-known solution (issue 14)
+    if gap is not None:  # the column table's gap to the best-known solution
         matrices.append(
             (
                 gap,
