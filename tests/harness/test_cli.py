@@ -23,6 +23,7 @@ from uav_penetration_env.benchmark.commands.common import Command, CommandExtens
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
 from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.benchmark.store import ResultsStore
+from uav_penetration_env.mpc import MPC_DEFAULTS
 
 HERE = Path(__file__).parent
 TIMING = ["planning_seconds", "objective_seconds", "episode_seconds", "finished", "run_id", "episode_id"]
@@ -57,7 +58,8 @@ def test_no_flags_is_the_main_job():
     assert settings["scenarios"] == ["paper"]
     assert common.parse_seeds(settings["seeds"]) == [0, 1, 2, 3, 4]
     assert settings["store"] == "results/uav-bench.sqlite" and settings["out"] == "results"
-    assert settings["jobs"] is None and settings["max_evals"] == 10_000 and settings["horizon"] == 5
+    assert settings["jobs"] is None and settings["mpc"] == MPC_DEFAULTS
+    assert (settings["mpc"].max_evals, settings["mpc"].horizon) == (10_000, 5)
 
 
 def test_seed_and_scenario_grammar():
@@ -113,6 +115,43 @@ def test_config_file_and_flags(tmp_path, tiny_yaml):
     ]
     config.write_text(yaml.safe_dump({"policy": ["greedy"]}))
     assert run_cli("run", "--config", config, "--store", store) == 2
+
+
+def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path, capsys):
+    from uav_penetration_env.benchmark.commands.mpc_flags import mpc_settings
+    from uav_penetration_env.mpc import MPCSettings
+
+    given = ["--horizon", "4", "--discount", "0.5", "--max-evals", "9", "--terminal", "dubins", "--terminal-cost", "2"]
+    for command in (["run"], ["windows", "--steps", "3"]):
+        args = cli.build_parser().parse_args([*command, *given])
+        assert mpc_settings(args) == MPCSettings(4, 0.5, 9, "dubins", 2.0)
+    assert set(run_command.SETTING_FIELDS) <= set(run_command.CONFIG_KEYS)
+    # A config file's values are converted and checked as the flags are; the error names the flag.
+    config = tmp_path / "bad.yaml"
+    for text, message in (
+        ("max_evals: lots\n", "--max-evals: got 'lots', expected an integer >= 1"),
+        ("horizon: 2.5\n", "--horizon: got 2.5, expected an integer >= 1"),
+        ("discount: 0\n", "--discount: got 0, expected a number in (0, 1]"),
+        ("terminal: euclid\n", "--terminal: got 'euclid', expected one of none, distance, dubins, value"),
+        ("terminal_cost: -1\n", "--terminal-cost: got -1, expected a finite number >= 0"),
+    ):
+        config.write_text(text)
+        assert run_cli("run", "--config", config, "--store", tmp_path / "s.sqlite") == 2
+        assert capsys.readouterr().err.strip() == f"uav-bench: error: {message}"
+    # Flags override the file, field by field.
+    config.write_text("horizon: 3\nterminal: distance\n")
+    args = cli.build_parser().parse_args(["run", "--config", str(config), "--terminal-cost", "0.2"])
+    settings = run_command.run_settings(args)["mpc"]
+    assert settings == MPCSettings(horizon=3, terminal="distance", terminal_cost=0.2)
+    # windows refuses, before opening a store, what a planner would refuse mid-way.
+    for argv, message in (
+        (["--terminal-cost", "0.3"], "--terminal-cost: got 0.3 with the 'value' terminal form"),
+        (["--max-evals", "0"], "--max-evals: got 0, expected an integer >= 1"),
+        (["--discount", "2"], "--discount: got 2.0, expected a number in (0, 1]"),
+    ):
+        assert run_cli("windows", "--steps", "3", "--store", tmp_path / "none.sqlite", *argv) == 2
+        assert capsys.readouterr().err.strip().startswith(f"uav-bench: error: {message}")
+    assert not (tmp_path / "none.sqlite").exists() and not (tmp_path / "s.sqlite").exists()
 
 
 @pytest.mark.parametrize(

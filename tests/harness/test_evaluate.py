@@ -171,9 +171,9 @@ def test_a_raising_planner_becomes_an_error_row_and_is_retried(scenario, tmp_pat
 def test_plugins_imported_in_workers(scenario):
     plugin = pytest.importorskip("plugin_optimizer")
     from optimizers import get_optimizer
-    from uav_penetration_env.benchmark.policies import MPCPolicy
+    from uav_penetration_env.benchmark.policies import MPCPolicy, MPCSettings
 
-    policy = MPCPolicy(get_optimizer("test-random-search"), max_evals=100)
+    policy = MPCPolicy(get_optimizer("test-random-search"), MPCSettings(max_evals=100))
     frame = evaluate(
         {"plugin": policy}, [scenario], range(2), n_jobs=2, imports=("plugin_optimizer",), progress=False
     )

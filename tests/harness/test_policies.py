@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -17,6 +16,7 @@ from uav_penetration_env.benchmark.policies import (
     GreedyPolicy,
     LatticePolicy,
     MPCPolicy,
+    MPCSettings,
     RandomPolicy,
     make_policy,
     policy_names,
@@ -83,7 +83,7 @@ def env():
 
 def test_mpc_plans_on_the_box_and_warm_starts_from_the_shifted_plan(env):
     spy = SpyOptimizer()
-    policy = MPCPolicy(spy, horizon=3, max_evals=77)
+    policy = MPCPolicy(spy, MPCSettings(horizon=3, max_evals=77))
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     first = policy.act(obs, info)
@@ -102,7 +102,7 @@ def test_mpc_plans_on_the_box_and_warm_starts_from_the_shifted_plan(env):
 
 
 def test_mpc_applies_zeros_without_a_finite_plan(env):
-    policy = MPCPolicy(SpyOptimizer(finite=False), horizon=2)
+    policy = MPCPolicy(SpyOptimizer(finite=False), MPCSettings(horizon=2))
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     np.testing.assert_array_equal(policy.act(obs, info), np.zeros(3))
@@ -112,7 +112,7 @@ def test_mpc_applies_zeros_without_a_finite_plan(env):
 
 
 def test_optimizer_without_x0_is_never_given_one(env):
-    policy = MPCPolicy(NoWarmStart(), horizon=2)
+    policy = MPCPolicy(NoWarmStart(), MPCSettings(horizon=2))
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     for _ in range(2):
@@ -140,7 +140,7 @@ def test_mpc_objective_is_the_model_rollout_cost(env):
                 message="",
             )
 
-    policy = MPCPolicy(Probe(), horizon=4, discount=0.9, terminal="distance", terminal_cost=0.2)
+    policy = MPCPolicy(Probe(), MPCSettings(horizon=4, discount=0.9, terminal="distance", terminal_cost=0.2))
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     policy.act(obs, info)
@@ -153,7 +153,7 @@ def test_mpc_objective_is_the_model_rollout_cost(env):
 
 def test_mpc_is_reproducible_for_a_seed(env):
     def actions(seed):
-        policy = MPCPolicy(get_optimizer("pso"), max_evals=300)
+        policy = MPCPolicy(get_optimizer("pso"), MPCSettings(max_evals=300))
         obs, info = env.reset(seed=0)
         policy.reset(env.model, seed)
         out = []
@@ -168,14 +168,29 @@ def test_mpc_is_reproducible_for_a_seed(env):
 
 
 def test_mpc_validates_its_settings():
-    with pytest.raises(ValueError, match="horizon"):
-        MPCPolicy(get_optimizer("pso"), horizon=0)
-    with pytest.raises(ValueError, match="discount"):
-        MPCPolicy(get_optimizer("pso"), discount=1.5)
-    with pytest.raises(ValueError, match="max_evals"):
-        MPCPolicy(get_optimizer("pso"), max_evals=0)
+    with pytest.raises(ValueError, match=r"^horizon: got 0, expected an integer >= 1$"):
+        MPCSettings(horizon=0)
+    with pytest.raises(ValueError, match=r"^discount: got 1\.5, expected a number in \(0, 1\]$"):
+        MPCSettings(discount=1.5)
+    with pytest.raises(ValueError, match=r"^max_evals: got 0, expected an integer >= 1$"):
+        make_policy("pso", max_evals=0)
+    with pytest.raises(ValueError, match=r"^max_evals: got 2\.0, expected an integer >= 1$"):
+        MPCSettings(max_evals=2.0)  # an integer setting refuses a float, as it always has
+    with pytest.raises(ValueError, match="horizon: got True"):
+        MPCSettings(horizon=True)  # a bool is no number
+    with pytest.raises(ValueError, match=r"terminal_cost: got -1\.0, expected None or a finite number >= 0"):
+        MPCSettings(terminal="distance", terminal_cost=-1.0)
     with pytest.raises(TypeError, match="minimize"):
         MPCPolicy(object())
+    with pytest.raises(TypeError, match="settings: got 5, expected an MPCSettings"):
+        MPCPolicy(get_optimizer("pso"), 5)
+    with pytest.raises(TypeError, match="horizont"):
+        make_policy("pso", horizont=3)  # a change that names no setting
+    # A c_T with a form that has none is refused where a planner is built, not in the request.
+    request = MPCSettings(terminal="value", terminal_cost=0.25)
+    with pytest.raises(ValueError, match=r"terminal_cost: got 0\.25 with the 'value' terminal form"):
+        MPCPolicy(get_optimizer("pso"), request)
+    assert make_policy("pso-ctg-distance", request).settings == MPCSettings(terminal="distance", terminal_cost=0.25)
 
 
 def test_make_policy_names():
@@ -253,6 +268,7 @@ def test_random_policy_is_uniform_in_the_box_and_seeded():
 def test_mpc_defaults_live_in_one_place():
     from uav_penetration_env.benchmark.commands.run import RUN_DEFAULTS
     from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+    from uav_penetration_env.mpc import SETTING_FIELDS
 
     # Paper §5: H = 5, 10 000 evaluations per step, gamma = 1; the terminal form (model.md §7e).
     assert (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals, MPC_DEFAULTS.discount) == (5, 10_000, 1.0)
@@ -260,10 +276,11 @@ def test_mpc_defaults_live_in_one_place():
     plain = MPCPolicy(get_optimizer("pso"))
     keys = ("horizon", "discount", "max_evals", "terminal", "terminal_cost")
     for policy in (built, plain):
+        assert policy.settings is MPC_DEFAULTS
         assert tuple(getattr(policy, k) for k in keys) == tuple(getattr(MPC_DEFAULTS, k) for k in keys)
-    assert {k: RUN_DEFAULTS[k] for k in keys} == dataclasses.asdict(MPC_DEFAULTS)
+    assert SETTING_FIELDS == keys and not set(keys) & set(RUN_DEFAULTS)  # the CLI reads the dataclass
     with pytest.raises(ValueError, match="terminal: got 'euclid'"):
-        MPCPolicy(get_optimizer("pso"), terminal="euclid")
+        MPCPolicy(get_optimizer("pso"), MPCSettings(terminal="euclid"))
 
 
 def test_trace_summary_of_a_hand_made_trace():
@@ -300,7 +317,7 @@ def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
     assert isinstance(record["switches"], int) and isinstance(record["reverse_switches"], int)
     assert record["extinctions"] is None
     # The objective MPCPolicy plans on is mpc_objective's: the same cost for the same sequences.
-    cost = mpc_objective(env.unwrapped.model, info["state"], info["step"], horizon=policy.horizon)
+    cost = mpc_objective(env.unwrapped.model, info["state"], info["step"], policy.settings)
     plans = np.random.default_rng(0).uniform(cost.bounds.lb, cost.bounds.ub, size=(4, 3 * policy.horizon))
     expected = env.unwrapped.model.rollout_cost(
         info["state"],

@@ -125,49 +125,15 @@ def payoff_table(
     single-objective planner never ends an episode on purpose; constants are calibrated once
     per scenario and frozen in its file (A29).
     """
-    import tempfile
-    from pathlib import Path
-
     from optimizers import get_optimizer
-    from uav_penetration_env.benchmark.evaluate import evaluate
     from uav_penetration_env.benchmark.policies import MPCPolicy
-    from uav_penetration_env.benchmark.store import ResultsStore
+    from uav_penetration_env.mpc import MPCSettings
 
-    base = raw_term_scenario(scenario)
-    policy = MPCPolicy(
-        get_optimizer(optimizer), horizon=horizon, max_evals=max_evals, terminal="none", name=optimizer
+    settings = MPCSettings(horizon=horizon, max_evals=max_evals, terminal="none")
+    policy = MPCPolicy(get_optimizer(optimizer), settings, name=optimizer)
+    per_objective = _single_objective_terms(
+        scenario, policy, runs, n_jobs=n_jobs, imports=imports, progress=progress, command=command
     )
-    per_objective: list[dict[str, np.ndarray]] = []
-    with tempfile.TemporaryDirectory() as folder:
-        store_path = Path(folder) / "calibration.sqlite"
-        for index, weights in enumerate(SINGLE_OBJECTIVE_WEIGHTS):
-            single = base.updated(
-                {
-                    "name": f"{scenario.name}-calibrate-{RAW_TERMS[index]}",
-                    "cost": {"weights": list(weights), "crash_penalty_per_step": CALIBRATION_CRASH_PENALTY},
-                }
-            )
-            evaluate(
-                {f"calibrate-{RAW_TERMS[index]}": policy},
-                [single],
-                range(runs),
-                n_jobs=n_jobs,
-                store=store_path,
-                imports=imports,
-                progress=progress,
-                command=command,
-            )
-            with ResultsStore(store_path) as store:
-                episodes = store.episodes()
-                ids = episodes.loc[episodes["scenario_hash"] == single.hash, "episode_id"]
-                errors = episodes.loc[episodes["scenario_hash"] == single.hash, "error"]
-                if (errors != "").any():
-                    raise CalibrationFailed(
-                        f"{int((errors != '').sum())} of {len(errors)} calibration episodes failed; "
-                        f"first error: {errors[errors != ''].iloc[0].splitlines()[0]}"
-                    )
-                steps = store.steps(ids)
-            per_objective.append({term: steps[term].to_numpy() for term in RAW_TERMS})
     bounds = []
     for j, term in enumerate(RAW_TERMS):
         low = float(per_objective[j][term].min())
@@ -196,6 +162,52 @@ def payoff_table(
         terrain=bounds[0], radar=bounds[1], third=bounds[2], crash_penalty_per_step=largest
     )
     return PayoffNormalisation(constants=constants, provenance=provenance)
+
+
+def _single_objective_terms(
+    scenario: Scenario, policy: Any, runs: int, **evaluate_options: Any
+) -> list[dict[str, np.ndarray]]:
+    """The raw per-step terms of :func:`payoff_table`'s runs, one dict per single-objective weight vector.
+
+    Raises:
+        CalibrationFailed: some of the runs ended in an error.
+    """
+    import tempfile
+    from pathlib import Path
+
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    base = raw_term_scenario(scenario)
+    per_objective: list[dict[str, np.ndarray]] = []
+    with tempfile.TemporaryDirectory() as folder:
+        store_path = Path(folder) / "calibration.sqlite"
+        for index, weights in enumerate(SINGLE_OBJECTIVE_WEIGHTS):
+            single = base.updated(
+                {
+                    "name": f"{scenario.name}-calibrate-{RAW_TERMS[index]}",
+                    "cost": {"weights": list(weights), "crash_penalty_per_step": CALIBRATION_CRASH_PENALTY},
+                }
+            )
+            evaluate(
+                {f"calibrate-{RAW_TERMS[index]}": policy},
+                [single],
+                range(runs),
+                store=store_path,
+                **evaluate_options,
+            )
+            with ResultsStore(store_path) as store:
+                episodes = store.episodes()
+                ids = episodes.loc[episodes["scenario_hash"] == single.hash, "episode_id"]
+                errors = episodes.loc[episodes["scenario_hash"] == single.hash, "error"]
+                if (errors != "").any():
+                    raise CalibrationFailed(
+                        f"{int((errors != '').sum())} of {len(errors)} calibration episodes failed; "
+                        f"first error: {errors[errors != ''].iloc[0].splitlines()[0]}"
+                    )
+                steps = store.steps(ids)
+            per_objective.append({term: steps[term].to_numpy() for term in RAW_TERMS})
+    return per_objective
 
 
 def with_payoff(scenario: Scenario, payoff: PayoffNormalisation) -> Scenario:

@@ -20,9 +20,10 @@ import numpy as np
 from scipy.optimize import Bounds
 
 from uav_penetration_env.benchmark.plugins import POLICY_GROUP, Plugin, PluginUnavailable, policy_kinds
-from uav_penetration_env.costtogo import TERMINAL_FORMS, TerminalCost
+from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.types import FloatArray
 from uav_penetration_env.value_function import (
@@ -38,49 +39,6 @@ from uav_penetration_env.value_function import (
     terrain_following_dtheta,
     value_function,
 )
-
-
-@dataclass(frozen=True)
-class MPCSettings:
-    """The MPC planner's settings; :data:`MPC_DEFAULTS` is the benchmark's one set of defaults.
-
-    :class:`MPCPolicy`, :func:`make_policy` and ``uav-bench run`` all take their defaults from
-    :data:`MPC_DEFAULTS` (model.md §7).
-
-    Attributes:
-        horizon: H, control steps per plan (paper §5: 5).
-        discount: gamma of eq. 37.
-        max_evals: objective evaluations per planning step (paper §5: 10 000).
-        terminal: the form of the terminal cost that prices the state a window ends in
-            (model.md §7e: ``none``, the paper's literal eq. 37 and the ``NAME-eq37`` policies;
-            ``distance``; ``dubins``; ``value``, the lattice value function).
-        terminal_cost: c_T of the ``distance`` and ``dubins`` forms; None takes the form's default
-            (``distance``: 0.06; ``dubins``: the scenario's calibrated J per step).
-    """
-
-    horizon: int = 5
-    discount: float = 1.0
-    max_evals: int = 10_000
-    # DECISION (model.md §7e.4): the lattice value function, chosen on procedural scenarios
-    # outside every published table.
-    terminal: str = "value"
-    terminal_cost: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.terminal not in TERMINAL_FORMS:
-            raise ValueError(f"terminal: got {self.terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
-        if self.terminal_cost is not None and not (
-            isinstance(self.terminal_cost, (int, float)) and math.isfinite(self.terminal_cost) and self.terminal_cost >= 0
-        ):
-            raise ValueError(f"terminal_cost: got {self.terminal_cost!r}, expected None or a finite number >= 0")
-        if self.terminal_cost is not None and self.terminal in ("none", "value"):
-            raise ValueError(
-                f"terminal_cost: got {self.terminal_cost!r} with the {self.terminal!r} terminal form, expected "
-                "None (c_T belongs to the 'distance' and 'dubins' forms: --terminal distance or dubins)"
-            )
-
-
-MPC_DEFAULTS = MPCSettings()
 
 
 @runtime_checkable
@@ -224,11 +182,9 @@ class MPCPolicy:
 
     Args:
         optimizer: anything with ``minimize(fun, bounds, *, rng, max_evals[, x0])``.
-        horizon: H, control steps per plan (default: :data:`MPC_DEFAULTS`, as the next three).
-        discount: gamma of eq. 37.
-        max_evals: objective evaluations (control sequences) per planning step.
-        terminal: the terminal cost's form (model.md §7e; ``none`` is the paper's literal eq. 37).
-        terminal_cost: c_T of the ``distance`` and ``dubins`` forms (None: the form's default).
+        settings: the horizon, discount, budget and terminal cost (:class:`MPCSettings`; default
+            :data:`MPC_DEFAULTS`). ``horizon``, ``discount``, ``max_evals``, ``terminal`` and
+            ``terminal_cost`` read them.
         warm_start: pass the shifted previous plan as ``x0``.
         name: a label for tables (the registry name when built by :func:`make_policy`).
 
@@ -236,14 +192,14 @@ class MPCPolicy:
         last_record: per-step diagnostics of the last ``act`` (evaluations, planning seconds,
             seconds inside ``rollout_cost``, the optimiser's ``history``/``history_nfev`` and the
             :func:`trace_summary` of its trace).
+
+    Raises:
+        TypeError: an optimiser without ``minimize``; settings that are not an :class:`MPCSettings`.
+        ValueError: a c_T with a form that has none (:meth:`MPCSettings.check_terminal_pair`).
     """
 
     optimizer: Any
-    horizon: int = MPC_DEFAULTS.horizon
-    discount: float = MPC_DEFAULTS.discount
-    max_evals: int = MPC_DEFAULTS.max_evals
-    terminal: str = MPC_DEFAULTS.terminal
-    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost
+    settings: MPCSettings = MPC_DEFAULTS
     warm_start: bool = True
     name: str | None = None
     model: PenetrationModel | None = field(default=None, repr=False)
@@ -257,15 +213,35 @@ class MPCPolicy:
             raise TypeError(
                 f"optimizer: got {self.optimizer!r}, expected an object with a minimize(fun, bounds, ...) method"
             )
-        if not (isinstance(self.horizon, int) and self.horizon >= 1):
-            raise ValueError(f"horizon: got {self.horizon!r}, expected an integer >= 1")
-        if not 0.0 < self.discount <= 1.0:
-            raise ValueError(f"discount: got {self.discount!r}, expected a number in (0, 1]")
-        if not (isinstance(self.max_evals, int) and self.max_evals >= 1):
-            raise ValueError(f"max_evals: got {self.max_evals!r}, expected an integer >= 1")
-        # The settings' own checks name the field and the expected value.
-        MPCSettings(self.horizon, self.discount, self.max_evals, self.terminal, self.terminal_cost)
+        if not isinstance(self.settings, MPCSettings):
+            raise TypeError(f"settings: got {self.settings!r}, expected an MPCSettings")
+        self.settings.check_terminal_pair()
         self._accepts_x0 = "x0" in inspect.signature(self.optimizer.minimize).parameters
+
+    @property
+    def horizon(self) -> int:
+        """H, control steps per plan (``settings.horizon``)."""
+        return self.settings.horizon
+
+    @property
+    def discount(self) -> float:
+        """Gamma of eq. 37 (``settings.discount``)."""
+        return self.settings.discount
+
+    @property
+    def max_evals(self) -> int:
+        """Objective evaluations per planning step (``settings.max_evals``)."""
+        return self.settings.max_evals
+
+    @property
+    def terminal(self) -> str:
+        """The terminal cost's form (``settings.terminal``; model.md §7e)."""
+        return self.settings.terminal
+
+    @property
+    def terminal_cost(self) -> float | None:
+        """c_T of the ``distance`` and ``dubins`` forms, None for the form's default (``settings.terminal_cost``)."""
+        return self.settings.terminal_cost
 
     def config(self) -> dict[str, Any]:
         """Everything that determines this policy's behaviour (hashed into the results store key)."""
@@ -319,14 +295,7 @@ class MPCPolicy:
             raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
         state = np.asarray(info["state"], dtype=np.float64)
         inside = [0.0]
-        cost = mpc_objective(
-            self.model,
-            state,
-            int(info["step"]),
-            horizon=self.horizon,
-            discount=self.discount,
-            terminal_cost=self._terminal,
-        )
+        cost = mpc_objective(self.model, state, int(info["step"]), self.settings, terminal_cost=self._terminal)
 
         def objective(flat: FloatArray) -> FloatArray:
             start = time.perf_counter()
@@ -334,7 +303,7 @@ class MPCPolicy:
             inside[0] += time.perf_counter() - start
             return costs
 
-        kwargs: dict[str, Any] = {"rng": self.rng, "max_evals": self.max_evals}
+        kwargs: dict[str, Any] = {"rng": self.rng, "max_evals": self.settings.max_evals}
         start = time.perf_counter()
         guess = self.initial_guess(observation, info)
         if guess is not None:
@@ -368,18 +337,22 @@ class MPCObjective:
         model: the scenario's model.
         state: (6,) the exact state the window starts from.
         step: the step index k of that state (the third term and the horizon's clock read it).
-        horizon: H, control steps per plan.
-        discount: gamma of eq. 37.
-        terminal_cost: the terminal cost (model.md §7e): a :class:`TerminalCost`, or a number c_T
-            of the ``distance`` form.
+        settings: the planner's settings; the objective reads ``horizon`` and ``discount``, and a
+            window run its budget ``max_evals``.
+        terminal_cost: the terminal cost built from ``settings``' form (model.md §7e): a
+            :class:`TerminalCost`, or a number c_T of the ``distance`` form.
     """
 
     model: PenetrationModel
     state: FloatArray
     step: int
-    horizon: int = MPC_DEFAULTS.horizon
-    discount: float = MPC_DEFAULTS.discount
+    settings: MPCSettings = MPC_DEFAULTS
     terminal_cost: float | TerminalCost = 0.0
+
+    @property
+    def horizon(self) -> int:
+        """H, control steps per plan (``settings.horizon``)."""
+        return self.settings.horizon
 
     @property
     def bounds(self) -> Bounds:
@@ -397,9 +370,9 @@ class MPCObjective:
 
     @functools.cached_property
     def _costs(self) -> Callable[[FloatArray], FloatArray]:
-        """``model.rollout_cost`` with this window's state and scalars bound (checked once)."""
+        """``model.rollout_cost`` with this window's state, discount and terminal cost bound (checked once)."""
         return self.model.rollout_function(
-            self.state, step=self.step, discount=self.discount, terminal_cost=self.terminal_cost
+            self.state, step=self.step, discount=self.settings.discount, terminal_cost=self.terminal_cost
         )
 
 
@@ -407,9 +380,8 @@ def mpc_objective(
     model: PenetrationModel,
     state: FloatArray,
     step: int,
+    settings: MPCSettings = MPC_DEFAULTS,
     *,
-    horizon: int = MPC_DEFAULTS.horizon,
-    discount: float = MPC_DEFAULTS.discount,
     terminal_cost: float | TerminalCost | None = None,
 ) -> MPCObjective:
     """The objective MPC minimises at ``state`` (step ``step``): the one function planners and window runs share.
@@ -418,24 +390,18 @@ def mpc_objective(
         model: the scenario's model.
         state: (6,) the exact state.
         step: its step index k.
-        horizon: H.
-        discount: gamma of eq. 37.
-        terminal_cost: the terminal cost (model.md §7e): a :class:`TerminalCost` (as
-            ``value_function.terminal_cost_for`` builds), a number c_T of the ``distance`` form,
-            or None for :data:`MPC_DEFAULTS`' form.
+        settings: the planner's settings (horizon H, gamma of eq. 37, the terminal form and c_T).
+        terminal_cost: the terminal cost already built from ``settings``' form (a planner builds
+            it once per episode), a number c_T of the ``distance`` form, or None: built here
+            (``value_function.terminal_cost_for``).
 
     Returns:
         A callable ``(n, 3H) -> (n,)`` with its ``bounds``.
     """
     if terminal_cost is None:
-        terminal_cost = terminal_cost_for(model, MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
+        terminal_cost = terminal_cost_for(model, settings.terminal, settings.terminal_cost)
     return MPCObjective(
-        model,
-        np.asarray(state, dtype=np.float64).copy(),
-        int(step),
-        horizon=horizon,
-        discount=discount,
-        terminal_cost=terminal_cost,
+        model, np.asarray(state, dtype=np.float64).copy(), int(step), settings, terminal_cost=terminal_cost
     )
 
 
@@ -551,18 +517,12 @@ def policy_label(spec: str) -> str:
     return kind.label(argument)
 
 
-def make_policy(
-    spec: str,
-    *,
-    horizon: int = MPC_DEFAULTS.horizon,
-    max_evals: int = MPC_DEFAULTS.max_evals,
-    discount: float = MPC_DEFAULTS.discount,
-    terminal: str = MPC_DEFAULTS.terminal,
-    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
-) -> Any:
-    """A policy from its CLI name (api.md).
+def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any) -> Any:
+    """A policy from its CLI name (api.md), MPC planners with ``settings``.
 
-    Names: an optimiser name (an MPC planner with the ``terminal`` form), the same with a suffix
+    ``changes`` are fields of :class:`MPCSettings` that replace those of ``settings``
+    (``make_policy("ihpso", max_evals=300)``). Names: an optimiser name (an MPC planner with
+    ``settings.terminal``'s form), the same with a suffix
     that fixes the form (``NAME-eq37``: none, the paper's literal eq. 37; ``NAME-ctg-distance``,
     ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e), ``greedy``, ``random``, ``lattice``
     (the lattice planner), ``PREFIX:ARGUMENT`` of a plug-in
@@ -572,20 +532,26 @@ def make_policy(
     A plug-in kind is checked for its run-time needs here, so a missing extra is refused before
     any episode runs.
 
+    A suffix fixes the form (:meth:`MPCSettings.with_form`): c_T then reaches only the suffixes
+    that have one; with a plain name c_T goes through, so a c_T given with the ``value`` form is
+    refused, not ignored.
+
     Raises:
         KeyError: an unknown name or prefix, with suggestions and the list of known forms.
         PluginUnavailable: (an ImportError) a plug-in kind whose needs are not installed, or that
             failed to import; one line saying what to install.
+        ValueError: a setting outside its domain (:class:`~uav_penetration_env.mpc.SettingError`).
+        TypeError: a change that names no setting.
     """
     from optimizers import available_optimizers, get_optimizer
 
+    settings = dataclasses.replace(settings, **changes) if changes else settings
     if spec in FLOOR_POLICIES:
         return FLOOR_POLICIES[spec]()
     if spec in BASELINE_POLICIES:
         return BASELINE_POLICIES[spec]()
     hybrid = split_hybrid(spec)
     if hybrid is not None:
-        settings = MPCSettings(horizon, discount, max_evals, terminal, terminal_cost)
         return _make_hybrid(spec, *hybrid, settings)
     prefix, colon, argument = spec.partition(":")
     kinds = policy_kinds() if colon else {}
@@ -606,17 +572,7 @@ def make_policy(
         raise KeyError(
             f"unknown policy {spec!r} — {hint}known: {known} and the optimisers {', '.join(names)}"
         )
-    return MPCPolicy(
-        get_optimizer(base),
-        horizon=horizon,
-        discount=discount,
-        max_evals=max_evals,
-        terminal=terminal if form is None else form,
-        # A suffix fixes the form, and c_T then reaches only the suffixes that have one; with a plain
-        # name c_T goes through, so a c_T given with the 'value' form is refused, not ignored.
-        terminal_cost=terminal_cost if form in (None, "distance", "dubins") else None,
-        name=spec,
-    )
+    return MPCPolicy(get_optimizer(base), settings.with_form(form), name=spec)
 
 
 def _make_hybrid(spec: str, planner: str, plugin: str, settings: MPCSettings) -> Any:
@@ -636,14 +592,7 @@ def _make_hybrid(spec: str, planner: str, plugin: str, settings: MPCSettings) ->
     if kind.hybrid is None:
         raise KeyError(f"unknown policy {spec!r} — the plug-in kind {prefix!r} cannot warm-start a planner")
     kind.needs.check(f"policy {spec!r}")
-    mpc = make_policy(
-        planner,
-        horizon=settings.horizon,
-        max_evals=settings.max_evals,
-        discount=settings.discount,
-        terminal=settings.terminal,
-        terminal_cost=settings.terminal_cost,
-    )
+    mpc = make_policy(planner, settings)
     if not isinstance(mpc, MPCPolicy):
         raise KeyError(f"unknown policy {spec!r} — {planner!r} is not an MPC planner")
     return kind.hybrid(argument, mpc)

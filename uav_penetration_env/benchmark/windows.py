@@ -1,4 +1,4 @@
-"""MPC window states of stored episodes, and optimiser runs on them (api.md §4.8, issue 11).
+"""MPC window states of stored episodes, and optimiser runs on them (api.md §4.8).
 
 A *window* is one MPC planning problem: the exact state an episode was in at step k, the objective
 :class:`~uav_penetration_env.benchmark.policies.MPCPolicy` minimises there
@@ -15,28 +15,23 @@ that followed it; :func:`run_window` runs one optimiser on one window; :func:`co
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import json
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from uav_penetration_env.benchmark.policies import (
-    MPC_DEFAULTS,
-    MPCObjective,
-    MPCPolicy,
-    mpc_objective,
-    trace_summary,
-)
+from uav_penetration_env.benchmark.policies import MPCObjective, MPCPolicy, mpc_objective, trace_summary
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
 from uav_penetration_env.scenario import Scenario
 from uav_penetration_env.types import FloatArray
-from uav_penetration_env.value_function import terminal_cost_for
 
 ACTION_COLUMNS = ("action_dv", "action_dphi", "action_dtheta")
 # Replayed positions must match the stored track to this relative tolerance (km columns are x / 1000).
@@ -50,21 +45,18 @@ class Window:
     Attributes:
         step: the step index k of the state (the state after k transitions).
         state: (6,) the exact state.
-        objective: the MPC objective there (its ``bounds`` are the plan's box).
+        objective: the MPC objective there (its ``bounds`` are the plan's box; its ``settings``
+            the planner's, which enter the optimiser configuration's hash, and the runs' budget).
         x0: (3H,) the warm start: the source episode's next H actions (zeros past its end), clipped
             to the box (DECISION api.md §4.8).
         scenario: the scenario's name; ``scenario_hash``: the hash the episode was seeded with.
         source_policy, source_policy_hash, episode_seed: the stored episode the state comes from.
-        terminal, terminal_cost: the objective's terminal-cost form and c_T as the planner names
-            them (model.md §7e; they enter the optimiser configuration's hash).
     """
 
     step: int
     state: FloatArray
     objective: MPCObjective
     x0: FloatArray
-    terminal: str = MPC_DEFAULTS.terminal
-    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost
     scenario: str = ""
     scenario_hash: str = ""
     source_policy: str = ""
@@ -77,12 +69,10 @@ def window_at(
     state: FloatArray,
     step: int,
     following: Sequence[FloatArray],
+    settings: MPCSettings = MPC_DEFAULTS,
     *,
-    horizon: int = MPC_DEFAULTS.horizon,
-    discount: float = MPC_DEFAULTS.discount,
-    terminal: str = MPC_DEFAULTS.terminal,
-    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
-    **source: Any,
+    source: Mapping[str, Any] | None = None,
+    **changes: Any,
 ) -> Window:
     """The window at ``state`` (step ``step``), warm-started with the actions that followed it.
 
@@ -92,26 +82,23 @@ def window_at(
         step: its step index.
         following: the actions the source episode took from this state on ((3,) each; the first H
             are used, zeros past the episode's end).
-        horizon: H (:class:`MPCPolicy`).
-        discount: gamma of eq. 37.
-        terminal: the terminal cost's form (model.md §7e).
-        terminal_cost: c_T of the ``distance`` / ``dubins`` forms (None: the form's default).
-        **source: the :class:`Window`'s provenance fields.
+        settings: the planner's settings (H, gamma, the terminal form and c_T; the runs' budget).
+        source: the :class:`Window`'s provenance fields (``scenario``, ``episode_seed``, ...).
+        **changes: fields of :class:`MPCSettings` replacing ``settings``' (``horizon=3``).
+
+    Raises:
+        ValueError: a setting outside its domain, or a c_T with a form that has none.
     """
-    objective = mpc_objective(
-        model,
-        state,
-        step,
-        horizon=horizon,
-        discount=discount,
-        terminal_cost=terminal_cost_for(model, terminal, terminal_cost),
-    )
+    settings = dataclasses.replace(settings, **changes)
+    settings.check_terminal_pair()  # a window's objective is a planner's: the pair MPCPolicy refuses
+    objective = mpc_objective(model, state, step, settings)
+    horizon = settings.horizon
     plan = np.zeros((horizon, 3))
     taken = np.asarray(list(following)[:horizon], dtype=np.float64).reshape(-1, 3)
     plan[: len(taken)] = taken
     high = np.asarray(objective.bounds.ub, dtype=np.float64)
     x0 = np.clip(plan.reshape(-1), -high, high)
-    return Window(int(step), objective.state, objective, x0, terminal, terminal_cost, **source)
+    return Window(int(step), objective.state, objective, x0, **(source or {}))
 
 
 def replay(
@@ -148,10 +135,8 @@ def collect_windows(
     scenario: str,
     steps: Sequence[int],
     episode_seeds: Sequence[int] | None = None,
-    horizon: int = MPC_DEFAULTS.horizon,
-    discount: float = MPC_DEFAULTS.discount,
-    terminal: str = MPC_DEFAULTS.terminal,
-    terminal_cost: float | None = MPC_DEFAULTS.terminal_cost,
+    settings: MPCSettings = MPC_DEFAULTS,
+    **changes: Any,
 ) -> list[Window]:
     """Window states at ``steps`` of the stored episodes of ``source_policy`` on ``scenario``.
 
@@ -161,10 +146,8 @@ def collect_windows(
         scenario: the scenario's name or its hash (or a prefix of it) as stored.
         steps: window step indices k (0 is the start state); each must be < the episode's K.
         episode_seeds: the episodes' seeds (default: the smallest seed that finished).
-        horizon: H of the objective.
-        discount: gamma of eq. 37.
-        terminal: the terminal cost's form (model.md §7e).
-        terminal_cost: c_T of the ``distance`` / ``dubins`` forms (None: the form's default).
+        settings: the planner's settings of every window's objective (:func:`window_at`).
+        **changes: fields of :class:`MPCSettings` replacing ``settings``' (``horizon=3``).
 
     Returns:
         One window per (episode seed, step), in that order.
@@ -176,6 +159,56 @@ def collect_windows(
     import yaml
 
     from uav_penetration_env.scenario import load_scenario
+
+    settings = dataclasses.replace(settings, **changes)
+    settings.check_terminal_pair()  # before any replay: a refused pair costs nothing
+    matches, scenario_hash, chosen = _source_episodes(store, source_policy, scenario, episode_seeds)
+    name, text = store.scenarios()[scenario_hash]
+    flown = load_scenario(yaml.safe_load(text))
+    source = {
+        "scenario": name,
+        "scenario_hash": scenario_hash,
+        "source_policy": source_policy,
+        "source_policy_hash": str(matches["policy_hash"].iloc[0]),
+    }
+    windows = []
+    for seed in chosen:
+        episode = matches[matches["seed"].astype(int) == seed].iloc[0]
+        rows = store.steps([int(episode["episode_id"])])
+        actions = rows[list(ACTION_COLUMNS)].to_numpy(dtype=np.float64)
+        model, states = replay(flown, seed, scenario_hash, actions)
+        stored = rows[["x_km", "y_km", "z_m"]].to_numpy(dtype=np.float64)
+        replayed = np.array([s[:3] / np.array([1e3, 1e3, 1.0]) for s, _ in states[1:]])
+        if replayed.shape != stored.shape or not np.allclose(replayed, stored, rtol=REPLAY_RTOL, atol=1e-9):
+            raise ValueError(
+                f"--scenario: the replay of {source_policy!r} seed {seed} on {name!r} does not reproduce its "
+                "stored track; expected a store written by this version's model"
+            )
+        bad = [k for k in steps if not 0 <= k < len(actions)]
+        if bad:
+            raise ValueError(
+                f"--steps: got {bad}, expected steps in [0, {len(actions)}) (episode seed {seed} has "
+                f"{len(actions)} transitions)"
+            )
+        for k in steps:
+            state, step = states[k]
+            windows.append(
+                window_at(model, state, step, actions[k:], settings, source={**source, "episode_seed": seed})
+            )
+    return windows
+
+
+def _source_episodes(
+    store: Any, source_policy: str, scenario: str, episode_seeds: Sequence[int] | None
+) -> tuple[Any, str, list[int]]:
+    """:func:`collect_windows`' stored episodes: those of the policy on the scenario, one hash, the seeds chosen.
+
+    Returns:
+        The matching episode rows, the scenario hash, and the seeds (default: the smallest stored).
+
+    Raises:
+        ValueError: as :func:`collect_windows`, for the policy, the scenario or the seeds.
+    """
     from uav_penetration_env.suggest import did_you_mean
 
     episodes = store.episodes(include_errors=False)
@@ -200,54 +233,12 @@ def collect_windows(
             f"--scenario: {scenario!r} names {len(found)} scenario hashes ({', '.join(found)}); "
             "expected one: pass a hash prefix"
         )
-    scenario_hash = found[0]
     seeds = sorted(int(s) for s in matches["seed"])
     chosen = list(episode_seeds) if episode_seeds else seeds[:1]
     missing = [s for s in chosen if s not in seeds]
     if missing:
         raise ValueError(f"--episode-seeds: got {missing}, expected seeds of stored episodes: {seeds}")
-    name, text = store.scenarios()[scenario_hash]
-    flown = load_scenario(yaml.safe_load(text))
-    policy_hash = str(matches["policy_hash"].iloc[0])
-    windows = []
-    for seed in chosen:
-        episode = matches[matches["seed"].astype(int) == seed].iloc[0]
-        rows = store.steps([int(episode["episode_id"])])
-        actions = rows[list(ACTION_COLUMNS)].to_numpy(dtype=np.float64)
-        model, states = replay(flown, seed, scenario_hash, actions)
-        stored = rows[["x_km", "y_km", "z_m"]].to_numpy(dtype=np.float64)
-        replayed = np.array([s[:3] / np.array([1e3, 1e3, 1.0]) for s, _ in states[1:]])
-        if replayed.shape != stored.shape or not np.allclose(replayed, stored, rtol=REPLAY_RTOL, atol=1e-9):
-            raise ValueError(
-                f"--scenario: the replay of {source_policy!r} seed {seed} on {name!r} does not reproduce its "
-                "stored track; expected a store written by this version's model"
-            )
-        bad = [k for k in steps if not 0 <= k < len(actions)]
-        if bad:
-            raise ValueError(
-                f"--steps: got {bad}, expected steps in [0, {len(actions)}) (episode seed {seed} has "
-                f"{len(actions)} transitions)"
-            )
-        for k in steps:
-            state, step = states[k]
-            windows.append(
-                window_at(
-                    model,
-                    state,
-                    step,
-                    actions[k:],
-                    horizon=horizon,
-                    discount=discount,
-                    terminal=terminal,
-                    terminal_cost=terminal_cost,
-                    scenario=name,
-                    scenario_hash=scenario_hash,
-                    source_policy=source_policy,
-                    source_policy_hash=policy_hash,
-                    episode_seed=seed,
-                )
-            )
-    return windows
+    return matches, found[0], chosen
 
 
 def run_seed(window: Window, seed: int) -> np.random.SeedSequence:
@@ -257,11 +248,16 @@ def run_seed(window: Window, seed: int) -> np.random.SeedSequence:
     )
 
 
-def run_window(optimizer: Any, window: Window, rng: Any, max_evals: int) -> Any:
-    """One optimiser run on a window, warm-started with ``window.x0`` when ``minimize`` takes ``x0``."""
+def run_window(optimizer: Any, window: Window, rng: Any, max_evals: int | None = None) -> Any:
+    """One optimiser run on a window, warm-started with ``window.x0`` when ``minimize`` takes ``x0``.
+
+    ``max_evals`` None spends the window's budget (``window.objective.settings.max_evals``); a
+    number overrides it (budget sweeps on the same windows).
+    """
     import inspect
 
-    kwargs: dict[str, Any] = {"rng": rng, "max_evals": int(max_evals)}
+    budget = window.objective.settings.max_evals if max_evals is None else max_evals
+    kwargs: dict[str, Any] = {"rng": rng, "max_evals": int(budget)}
     if "x0" in inspect.signature(optimizer.minimize).parameters:
         kwargs["x0"] = window.x0
     return optimizer.minimize(window.objective, window.objective.bounds, **kwargs)
@@ -272,7 +268,6 @@ def run_windows(
     optimizers: Sequence[str],
     seeds: Sequence[int],
     *,
-    max_evals: int = MPC_DEFAULTS.max_evals,
     done: set[tuple[Any, ...]] | None = None,
     write: Callable[[list[dict[str, Any]]], None] | None = None,
     progress: Callable[[str], None] | None = None,
@@ -283,8 +278,8 @@ def run_windows(
     Args:
         windows: from :func:`collect_windows`.
         optimizers: registry names.
-        seeds: run seeds (:func:`run_seed`).
-        max_evals: the budget of every run.
+        seeds: run seeds (:func:`run_seed`); each run spends its window's budget
+            (``objective.settings.max_evals``).
         done: keys (``store.WINDOW_RUN_KEY``) to skip.
         write: called with each window's new rows (one store transaction per window).
         progress: called with one line per window.
@@ -300,19 +295,9 @@ def run_windows(
     all_rows = []
     for window in windows:
         rows = []
-        horizon = window.objective.horizon
         for name in optimizers:
             optimizer = get_optimizer(name)
-            config_hash = policy_hash(
-                MPCPolicy(
-                    optimizer,
-                    horizon=horizon,
-                    discount=window.objective.discount,
-                    max_evals=int(max_evals),
-                    terminal=window.terminal,
-                    terminal_cost=window.terminal_cost,
-                )
-            )
+            config_hash = policy_hash(MPCPolicy(optimizer, window.objective.settings))
             for seed in seeds:
                 key = (
                     window.scenario_hash,
@@ -325,35 +310,9 @@ def run_windows(
                 if key in done:
                     continue
                 start = time.perf_counter()
-                result = run_window(
-                    optimizer, window, np.random.default_rng(run_seed(window, seed)), max_evals
-                )
-                rows.append(
-                    {
-                        "scenario": window.scenario,
-                        "scenario_hash": window.scenario_hash,
-                        "source_policy": window.source_policy,
-                        "source_policy_hash": window.source_policy_hash,
-                        "episode_seed": window.episode_seed,
-                        "step": window.step,
-                        "state": json.dumps(np.asarray(window.state).tolist()),
-                        "optimizer": name,
-                        "optimizer_hash": config_hash,
-                        "seed": int(seed),
-                        "max_evals": int(max_evals),
-                        "horizon": horizon,
-                        "nfev": int(result.nfev),
-                        "nit": int(result.nit),
-                        "fun": float(result.fun),
-                        **trace_summary(getattr(result, "trace", {}), int(result.nfev), int(max_evals)),
-                        "history": json.dumps(np.asarray(result.history, dtype=np.float64).tolist()),
-                        "history_nfev": json.dumps(np.asarray(result.history_nfev, dtype=np.int64).tolist()),
-                        "message": str(result.message),
-                        "seconds": time.perf_counter() - start,
-                        "run_id": run_id,
-                        "finished": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
-                    }
-                )
+                result = run_window(optimizer, window, np.random.default_rng(run_seed(window, seed)))
+                seconds = time.perf_counter() - start
+                rows.append(_window_run_row(window, name, config_hash, int(seed), result, seconds, run_id))
         if rows and write is not None:
             write(rows)
         if progress is not None:
@@ -363,3 +322,35 @@ def run_windows(
             )
         all_rows += rows
     return all_rows
+
+
+def _window_run_row(
+    window: Window, name: str, config_hash: str, seed: int, result: Any, seconds: float, run_id: int | None
+) -> dict[str, Any]:
+    """One ``window_runs`` row: the window, the optimiser and its configuration hash, the run's result."""
+    settings = window.objective.settings
+    max_evals = int(settings.max_evals)
+    return {
+        "scenario": window.scenario,
+        "scenario_hash": window.scenario_hash,
+        "source_policy": window.source_policy,
+        "source_policy_hash": window.source_policy_hash,
+        "episode_seed": window.episode_seed,
+        "step": window.step,
+        "state": json.dumps(np.asarray(window.state).tolist()),
+        "optimizer": name,
+        "optimizer_hash": config_hash,
+        "seed": seed,
+        "max_evals": max_evals,
+        "horizon": settings.horizon,
+        "nfev": int(result.nfev),
+        "nit": int(result.nit),
+        "fun": float(result.fun),
+        **trace_summary(getattr(result, "trace", {}), int(result.nfev), max_evals),
+        "history": json.dumps(np.asarray(result.history, dtype=np.float64).tolist()),
+        "history_nfev": json.dumps(np.asarray(result.history_nfev, dtype=np.int64).tolist()),
+        "message": str(result.message),
+        "seconds": seconds,
+        "run_id": run_id,
+        "finished": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
+    }

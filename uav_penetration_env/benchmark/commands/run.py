@@ -13,7 +13,6 @@ leaves every finished episode stored (exit status 130); rerunning the same comma
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -34,10 +33,9 @@ from uav_penetration_env.benchmark.commands.common import (
     split_list,
     store_error,
 )
+from uav_penetration_env.benchmark.commands.mpc_flags import SETTING_FIELDS, add_mpc_arguments, mpc_settings
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
-from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
 from uav_penetration_env.catalogue import SCENARIO_HELP
-from uav_penetration_env.costtogo import TERMINAL_FORMS
 from uav_penetration_env.suggest import did_you_mean
 
 MAIN_JOB_POLICIES = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "greedy")
@@ -52,11 +50,6 @@ RUN_DEFAULTS: dict[str, Any] = {
     "scheduler": None,
     "store": str(DEFAULT_STORE),
     "out": str(DEFAULT_OUT),
-    "max_evals": MPC_DEFAULTS.max_evals,
-    "horizon": MPC_DEFAULTS.horizon,
-    "discount": MPC_DEFAULTS.discount,
-    "terminal": MPC_DEFAULTS.terminal,
-    "terminal_cost": MPC_DEFAULTS.terminal_cost,
     "difficulty": 0.5,
     "import": [],
     "suite": None,
@@ -67,11 +60,12 @@ RUN_DEFAULTS: dict[str, Any] = {
 LIST_SETTINGS = ("policies", "scenarios", "import", "members")
 # Settings that would change a frozen suite's members (their hashes): refused with --suite.
 SUITE_CONFLICTS = ("scenarios", "profile", "weights", "difficulty")
-CONFIG_KEYS = [key for key in RUN_DEFAULTS if key not in ("report", "progress")]
+# The MPC settings are config keys too, their defaults the dataclass's (mpc_flags).
+CONFIG_KEYS = [*(key for key in RUN_DEFAULTS if key not in ("report", "progress")), *SETTING_FIELDS]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`)."""
+    """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`, the MPC ones in ``MPC_DEFAULTS``)."""
     from uav_penetration_env.benchmark.policies import plugin_policy_forms
 
     plugin_forms = "".join(f", {form}" for form in plugin_policy_forms())
@@ -96,28 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)"
     )
-    parser.add_argument(
-        "--max-evals",
-        dest="max_evals",
-        type=int,
-        help=f"objective evaluations per planning step (default: {MPC_DEFAULTS.max_evals})",
-    )
-    parser.add_argument("--horizon", type=int, help=f"MPC horizon H (default: {MPC_DEFAULTS.horizon})")
-    parser.add_argument(
-        "--discount", type=float, help=f"MPC discount gamma (default: {MPC_DEFAULTS.discount})"
-    )
-    parser.add_argument(
-        "--terminal",
-        help=f"form of the MPC terminal cost: {', '.join(TERMINAL_FORMS)} (docs/model.md §7e; "
-        f"default: {MPC_DEFAULTS.terminal})",
-    )
-    parser.add_argument(
-        "--terminal-cost",
-        dest="terminal_cost",
-        type=float,
-        help="c_T of the distance and dubins terminal forms (default: 0.06 for distance, "
-        "the scenario's calibrated J per step for dubins)",
-    )
+    add_mpc_arguments(parser)
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
     parser.add_argument(
         "--suite",
@@ -173,22 +146,26 @@ def load_config(path: str | None) -> dict[str, Any]:
 
 
 def run_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """Flags override the config file, which overrides :data:`RUN_DEFAULTS`.
+    """Flags override the config file, which overrides :data:`RUN_DEFAULTS` (``MPC_DEFAULTS`` for MPC).
 
+    ``settings["mpc"]`` is the one :class:`~uav_penetration_env.mpc.MPCSettings` of every planner;
     ``settings["explicit"]`` holds the keys set by a flag or the config file (a suite run needs
     to know whether ``--seeds`` was given).
+
+    Raises:
+        CLIError: a bad ``--config`` file, or an MPC setting outside its domain (``--horizon: ...``).
     """
-    settings = dict(RUN_DEFAULTS)
     config = load_config(args.config)
-    settings.update(config)
+    settings = {**RUN_DEFAULTS, **config}
     explicit = set(config)
-    for key in RUN_DEFAULTS:
+    for key in [*RUN_DEFAULTS, *SETTING_FIELDS]:
         value = getattr(args, key, None)
         if value is not None and value != []:
             settings[key] = value
             explicit.add(key)
     for key in LIST_SETTINGS:
         settings[key] = split_list(settings[key])
+    settings["mpc"] = mpc_settings({key: settings.pop(key) for key in SETTING_FIELDS if key in settings})
     settings["explicit"] = explicit
     return settings
 
@@ -199,17 +176,15 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
 
 
 def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
-    """The numeric settings (from flags or ``--config``) checked against their domains and converted.
+    """The other numeric settings (from flags or ``--config``) checked against their domains and converted.
+
+    The MPC settings are checked by their dataclass (:func:`run_settings`).
 
     Raises:
         CLIError: ``--FLAG: got VALUE, expected DOMAIN`` for the first bad one (a config file's
-            values reach here unconverted: ``max_evals: lots`` is refused, not a traceback).
+            values reach here unconverted: ``difficulty: hard`` is refused, not a traceback).
     """
     rules: dict[str, tuple[Any, Any, str]] = {
-        "max_evals": (int, lambda v: v >= 1, "an integer >= 1"),
-        "horizon": (int, lambda v: v >= 1, "an integer >= 1"),
-        "discount": (float, lambda v: 0.0 < v <= 1.0, "a number in (0, 1]"),
-        "terminal_cost": (float, lambda v: math.isfinite(v) and v >= 0.0, "a finite number >= 0"),
         "difficulty": (float, lambda v: 0.0 <= v <= 1.0, "a number in [0, 1]"),
         "jobs": (int, lambda v: True, "an integer (0: all cores, -N: all but N-1)"),
     }
@@ -231,9 +206,6 @@ def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
         if not ok:
             raise CLIError(f"{flag}: got {value!r}, expected {expected}")
         checked[key] = converted
-    terminal = settings.get("terminal")
-    if terminal is not None and terminal not in TERMINAL_FORMS:
-        raise CLIError(f"--terminal: got {terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
     for key in ("backend", "store", "out", "seeds", "profile", "scheduler", "suite"):
         value = settings[key]
         if value is not None and not isinstance(value, (str, int, float)):
@@ -252,14 +224,7 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     policies = {}
     for spec in settings["policies"]:
         try:
-            policies[policy_label(spec)] = make_policy(
-                spec,
-                horizon=int(settings["horizon"]),
-                max_evals=int(settings["max_evals"]),
-                discount=float(settings["discount"]),
-                terminal=settings["terminal"],
-                terminal_cost=None if settings["terminal_cost"] is None else float(settings["terminal_cost"]),
-            )
+            policies[policy_label(spec)] = make_policy(spec, settings["mpc"])
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None
         except PluginUnavailable as error:  # it names the policy and what to install

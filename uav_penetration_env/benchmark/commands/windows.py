@@ -1,4 +1,4 @@
-"""``uav-bench windows``: rerun optimisers on MPC window states of stored episodes (api.md §4.8, issue 11).
+"""``uav-bench windows``: rerun optimisers on MPC window states of stored episodes (api.md §4.8).
 
 ``uav-bench windows --store S --from-policy greedy --scenario paper --steps 4,10,16 --optimizers
 ihpso hpso --seeds 20 --max-evals 10000`` replays the stored episode of ``greedy`` on ``paper``,
@@ -11,7 +11,6 @@ and the runtime-ECDF figure (:mod:`uav_penetration_env.benchmark.fixedtarget`).
 from __future__ import annotations
 
 import argparse
-import math
 
 from uav_penetration_env.benchmark.commands.common import (
     CLIError,
@@ -19,14 +18,13 @@ from uav_penetration_env.benchmark.commands.common import (
     add_store_argument,
     command_line,
     existing_store,
-    int_at_least,
     parse_seeds,
     split_list,
 )
-from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
+from uav_penetration_env.benchmark.commands.mpc_flags import add_mpc_arguments, mpc_settings, setting_error
 from uav_penetration_env.catalogue import UnknownScenarioError
 from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
-from uav_penetration_env.costtogo import TERMINAL_FORMS
+from uav_penetration_env.mpc import MPCSettings, SettingError
 from uav_penetration_env.scenario import ScenarioError
 from uav_penetration_env.suggest import did_you_mean
 
@@ -52,32 +50,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--optimizers", nargs="+", default=["ihpso", "hpso"], help="optimiser names (default: ihpso hpso)"
     )
     parser.add_argument("--seeds", default="20", help="run seeds per window, N or START:STOP (default: 20)")
-    parser.add_argument(
-        "--max-evals",
-        type=int_at_least(1),
-        default=MPC_DEFAULTS.max_evals,
-        help=f"evaluations per run (default: {MPC_DEFAULTS.max_evals})",
-    )
-    parser.add_argument(
-        "--horizon",
-        type=int_at_least(1),
-        default=MPC_DEFAULTS.horizon,
-        help=f"MPC horizon H (default: {MPC_DEFAULTS.horizon})",
-    )
-    parser.add_argument(
-        "--discount", type=float, default=MPC_DEFAULTS.discount, help="gamma of eq. 37 (default: 1.0)"
-    )
-    parser.add_argument(
-        "--terminal",
-        default=MPC_DEFAULTS.terminal,
-        help=f"terminal-cost form: {', '.join(TERMINAL_FORMS)} (docs/model.md §7e; default: {MPC_DEFAULTS.terminal})",
-    )
-    parser.add_argument(
-        "--terminal-cost",
-        type=float,
-        default=MPC_DEFAULTS.terminal_cost,
-        help="c_T of the distance and dubins forms (default: 0.06 for distance, the calibrated J per step for dubins)",
-    )
+    add_mpc_arguments(parser)  # the budget is per run; the windows' objectives are the planner's
+
+
+def window_settings(args: argparse.Namespace) -> MPCSettings:
+    """The one :class:`MPCSettings` of every window's objective and run, from the MPC flags.
+
+    Raises:
+        CLIError: a flag outside its domain, or a c_T with a form that has none (``--terminal-cost: ...``).
+    """
+    settings = mpc_settings(args)
+    try:
+        settings.check_terminal_pair()
+    except SettingError as error:
+        raise setting_error(error) from None
+    return settings
 
 
 def parse_steps(text: str) -> list[int]:
@@ -112,12 +99,7 @@ def run(args: argparse.Namespace) -> int:
             raise CLIError(
                 f"--optimizers: unknown optimiser {name!r} — {did_you_mean(name, known)}known: {', '.join(known)}"
             )
-    if not 0.0 < args.discount <= 1.0:
-        raise CLIError(f"--discount: got {args.discount}, expected a number in (0, 1]")
-    if args.terminal not in TERMINAL_FORMS:
-        raise CLIError(f"--terminal: got {args.terminal!r}, expected one of {', '.join(TERMINAL_FORMS)}")
-    if args.terminal_cost is not None and not (math.isfinite(args.terminal_cost) and args.terminal_cost >= 0.0):
-        raise CLIError(f"--terminal-cost: got {args.terminal_cost}, expected a finite number >= 0")
+    mpc = window_settings(args)
     with ResultsStore(existing_store(args.store)) as store:
         scenario = args.scenario
         if scenario not in set(store.episodes()["scenario"].astype(str)):
@@ -134,10 +116,7 @@ def run(args: argparse.Namespace) -> int:
                 scenario=scenario,
                 steps=steps,
                 episode_seeds=episode_seeds,
-                horizon=args.horizon,
-                discount=args.discount,
-                terminal=args.terminal,
-                terminal_cost=args.terminal_cost,
+                settings=mpc,
             )
         except ValueError as error:
             raise CLIError(str(error)) from None
@@ -148,15 +127,14 @@ def run(args: argparse.Namespace) -> int:
             "steps": steps,
             "optimizers": optimizers,
             "seeds": seeds,
-            "max_evals": args.max_evals,
-            "horizon": args.horizon,
+            "max_evals": mpc.max_evals,
+            "horizon": mpc.horizon,
         }
         run_id = store.start_run(provenance(command_line(args)), settings)
         rows = run_windows(
             windows,
             optimizers,
             seeds,
-            max_evals=args.max_evals,
             done=store.done_window_keys(),
             write=store.write_window_runs,
             progress=print,
