@@ -1,7 +1,7 @@
-"""Print the numbers the README's headline quotes, read from the published tables alone.
+"""Print the tables behind the published findings, read from the leaderboard's CSV tables alone.
 
-The README's "The published leaderboard" section answers four questions from leaderboard v2 (issue
-16): does IHPSO beat the other PSO variants; with how many evaluations relative to HPSO (the paper's
+The results page (docs/results.md, written by ``benchmarks/results_page.py``, which embeds these
+tables) answers four questions from the leaderboard: does IHPSO beat the other PSO variants; with how many evaluations relative to HPSO (the paper's
 78 % claim); how far each family is from the best known; where RL stands against the swarm planners
 on cost and on decision time; plus what the frozen suite shows by difficulty, and what the
 regeneration cost. This script prints every one of those numbers from the CSV tables of a

@@ -1,4 +1,4 @@
-"""benchmarks/headline.py: the README's headline numbers, read back from a leaderboard folder."""
+"""benchmarks/headline.py and results_page.py: the published numbers, read back from a leaderboard folder."""
 
 from __future__ import annotations
 
@@ -83,24 +83,24 @@ def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
     assert "| sb3:ppo-paper | RL group | 2 | " in text and "| 1 [" in text and "| 3000 |" in text
 
 
-def test_the_readme_quotes_the_published_paper_table():
-    """Every one-planner row of the README's paper table equals the committed CSV, rounded as shown."""
-    import re
-    from pathlib import Path
+def test_the_results_page_and_the_readme_headline_are_what_the_published_tables_give():
+    """docs/results.md and the README's headline paragraph are regenerated from leaderboards/ without a difference."""
+    assert load("results_page").main(["--check"]) == 0
 
-    import pandas as pd
 
-    root = Path(__file__).resolve().parents[1]
-    table = pd.read_csv(root / "leaderboards" / "paper-2022-sec5.csv").set_index("policy")
-    readme = (root / "README.md").read_text()
-    section = readme[readme.index("**Paper scenario**") : readme.index("**The paper's efficiency claim")]
-    row = re.compile(r"^\| \**([a-z0-9:+-]+)\** \| (\d+)% \| ([\d.]+) \[([\d.]+), ([\d.]+)\] \| ([\d.]+) \|", re.M)
-    quoted = row.findall(section)
-    assert len(quoted) >= 3, "the README's paper table has no one-planner rows"
-    assert {"ihpso", "sb3:ppo-paper-zoo-s3", "ihpso+sb3:ppo-paper-zoo-s3"} <= {q[0] for q in quoted}
-    for policy, success, mean, low, high, iqm in quoted:
-        published = table.loc[policy]
-        assert int(success) == round(100 * published["success_rate"]), policy
-        for text, column in ((mean, "total_cost_mean"), (low, "total_cost_mean_ci_low"),
-                             (high, "total_cost_mean_ci_high"), (iqm, "total_cost_iqm")):  # fmt: skip
-            assert float(text) == pytest.approx(published[column], abs=0.0051), (policy, column)
+def test_results_page_check_fails_on_a_stale_page(tmp_path):
+    results_page = load("results_page")
+    out, readme = tmp_path / "results.md", tmp_path / "README.md"
+    out.write_text("stale\n")
+    readme.write_text(f"x\n{results_page.README_START}\nold\n{results_page.README_END}\n")
+    assert results_page.main(["--check", "--out", str(out), "--readme", str(readme)]) == 1
+    assert results_page.main(["--out", str(out), "--readme", str(readme)]) == 0
+    assert results_page.main(["--check", "--out", str(out), "--readme", str(readme)]) == 0
+    assert "old" not in readme.read_text() and out.read_text().startswith("# Results")
+
+
+def test_results_page_refuses_a_readme_without_the_headline_block(tmp_path):
+    results_page = load("results_page")
+    (tmp_path / "README.md").write_text("no block\n")
+    with pytest.raises(SystemExit, match=r"no .* block to write the headline into"):
+        results_page.main(["--out", str(tmp_path / "r.md"), "--readme", str(tmp_path / "README.md")])

@@ -20,7 +20,7 @@ A column shown on the leaderboard carries a :class:`Board`: its header, the lege
 leaderboard's "Columns" section, its section (the table lays out sections in
 :data:`SECTIONS` order, columns in declaration order inside each), how it is aggregated over a
 policy's finished episodes and how it is printed. :func:`glossary_markdown` renders every
-column as the README's glossary.
+column as the column glossary (docs/columns.md).
 
 DECISION (api.md §4.3, §4.5): the leaderboard's layout follows this file (section, then declaration
 order), so the episode columns are declared in the order the leaderboard prints them (``fuel_kg``
@@ -593,7 +593,7 @@ def summarise(steps: EpisodeSteps) -> dict[str, Any]:
 
 
 def glossary_markdown() -> str:
-    """Every column as Markdown: the README's column glossary (generated; paste it, do not edit it).
+    """Every column as Markdown: the column glossary of docs/columns.md (generated; paste it, do not edit it).
 
     Returns:
         Five tables (episode, step, leaderboard, window-run and RL-group columns), no trailing newline.
