@@ -1,4 +1,4 @@
-"""What the argument checks of the model's entry points cost (issue 12, api.md §2.5).
+"""What the argument checks of the model's entry points cost (api.md §2.5).
 
 For each hot entry point (``step`` and ``observe`` of a single env, ``step`` of a 256-row batch,
 ``rollout_cost`` on an MPC batch, ``height``) it prints the median time of the public call, the

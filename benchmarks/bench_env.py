@@ -1,6 +1,6 @@
-"""Environment speed, measured in one run on the paper scenario (issue 3's targets as ratios).
+"""Environment speed, measured in one run on the paper scenario (the speed targets as ratios).
 
-Prints, side by side with the numpy formulation (the test oracle tests/numpy_model.py, issue 10):
+Prints, side by side with the numpy formulation (the test oracle tests/numpy_model.py):
 * the compiled kernels' first-call cost in a fresh process, cold (empty compile cache) and warm;
 * ``rollout_cost`` particle-steps per second at batch 100, 1 000 and 10 000 (H = 5), compiled on
   one thread and on every thread, against the numpy model (target: >= 1.5 M at 100 x 5, one

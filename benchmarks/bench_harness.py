@@ -1,13 +1,13 @@
-"""Harness speed, measured in one run on the paper scenario (issue 5's and issue 10's targets).
+"""Harness speed, measured in one run on the paper scenario (the speed targets as ratios).
 
 Prints, for each planner as an MPC policy (horizon 5, ``--max-evals`` per step), on one thread:
 * planning seconds per MPC step with the numpy model (the test oracle tests/numpy_model.py) and
-  with the compiled model, and the speed-up (issue 10 target: >= 5x for ihpso, pso, cem at 10 000
+  with the compiled model, and the speed-up (target: >= 5x for ihpso, pso, cem at 10 000
   evaluations);
 * the share of the compiled step spent inside ``model.rollout_cost`` (the rest is optimiser +
   harness overhead), and for DE its own overhead per iteration;
-* DE's own time per iteration on a free objective, split into scipy's solver parts (issue 10:
-  "bring it down, or say why it cannot be"; docs/optimizers.md §3b);
+* DE's own time per iteration on a free objective, split into scipy's solver parts (why it
+  cannot be cut further: docs/optimizers.md §3b);
 and the speed-up of ``n_jobs=2`` over ``n_jobs=1`` on a sweep of 8 episodes (target: >= 1.7x on
 2 cores), both timed end to end (worker start-up included).
 

@@ -6,7 +6,7 @@ dimension, the median final error ``f - f*`` with its interquartile range and th
 A second table gives each optimiser's own overhead per iteration (wall time outside the objective)
 at 100 particles x 15 dimensions, the MPC planner's batch shape.
 
-``--biased`` runs the biased-initialisation case instead (issue 17, docs/swarm.md): the sphere
+``--biased`` runs the biased-initialisation case instead (docs/swarm.md): the sphere
 ``sum x^2`` in [-100, 100]^d with every swarm started in [50, 100]^d, under each boundary rule, 30-D,
 30,000 evaluations, 10 seeds; it prints per swarm optimiser and rule the median final error and the share
 of runs that end with a coordinate exactly on a wall (stuck).

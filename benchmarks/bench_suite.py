@@ -1,4 +1,4 @@
-"""What verifying and running the frozen suite cost (issue 14, docs/suite.md).
+"""What verifying and running the frozen suite cost (docs/suite.md).
 
 Prints the wall-clock seconds of
 

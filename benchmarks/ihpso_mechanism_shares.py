@@ -1,4 +1,4 @@
-"""How often IHPSO's reverse switch and adaptive termination happen, and when (issue 11, optimizers.md §5.6).
+"""How often IHPSO's reverse switch and adaptive termination happen, and when (optimizers.md §5.6).
 
 On MPC window states of the paper scenario (a greedy episode's states, the windows of
 :func:`~uav_penetration_env.benchmark.windows.window_at`, warm-started with the episode's next H

@@ -1,4 +1,4 @@
-"""IHPSO's adaptive mechanisms on MPC window states of the paper scenario (issue 11, optimizers.md §5.6).
+"""IHPSO's adaptive mechanisms on MPC window states of the paper scenario (optimizers.md §5.6).
 
 Window states come from a greedy episode of the paper scenario through the env
 (``UAVPenetrationEnv(paper_scenario())``); each chosen state's window is built by the harness's
@@ -49,7 +49,7 @@ HORIZON = 5
 TOLERANCES = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)  # 1e-4 is the default (optimizers.md D15)
 ABLATIONS = ("ihpso-noswitch", "ihpso-noreverse", "ihpso-noterm")
 SWARM_SIZE, N_GROUPS = 100, 5
-SEPARATION = 10.0  # clump centres, in standard deviations of a clump (issue 11)
+SEPARATION = 10.0  # clump centres, in standard deviations of a clump: far enough apart that eq. 33's test must see two
 CLUMP_SIZES = ((50, 50), (70, 30), (80, 20), (90, 10), (34, 33, 33), (50, 30, 20), (60, 30, 10))
 
 

@@ -1,4 +1,4 @@
-"""Regenerate the published leaderboard v2 (issue 16): every command, resumable, with its compute.
+"""Regenerate the published leaderboard v2: every command, resumable, with its compute.
 
 ```bash
 python benchmarks/publish.py --dry-run              # every command and whether it is done
@@ -15,7 +15,7 @@ docs/publishing.md §1):
 1. ``paper``: the paper scenario in both weightings, 20 paired seeds, 10 000 evaluations per
    planning step: the six paper planners, the references, the IHPSO ablations and the floors;
 2. ``windows``: IHPSO, HPSO and IHPSO's variants rerun on MPC window states of the greedy episode
-   (the fixed-target and fixed-budget study of issue 11, with the tolerance variants);
+   (the fixed-target and fixed-budget study, with the tolerance variants);
 3. ``suite``: the frozen suite ``uavpen-v1`` (its own seed rule) for the paper planners, ``cmaes``
    and the floors;
 4. ``windows-suite``: IHPSO and HPSO on the window states of one procedural member per difficulty;
@@ -151,7 +151,7 @@ def parts(
          "--optimizers", "ihpso", "hpso", "--seeds", "20"]
         for member in SUITE_WINDOW_MEMBERS
     ])  # fmt: skip
-    # The held-out set: the Random-regime agents' test set (issue 15), with the planners and floors to
+    # The held-out set: the Random-regime agents' test set (docs/suite.md), with the planners and floors to
     # pair them with; the agents join in the agents part.
     held_out = Part("held-out", [["run", "--suite", HELD_OUT, "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS,
                                   *COMMON]])  # fmt: skip

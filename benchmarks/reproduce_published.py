@@ -1,4 +1,4 @@
-"""Compare a re-run sweep with the published episode rows (issue 10's reproduction check).
+"""Compare a re-run sweep with the published episode rows (do seeded runs reproduce?).
 
 The published leaderboard's episodes are committed as rows (``leaderboards/rows/leaderboard-*.parquet``,
 written by the publication's ``tables`` part, docs/publishing.md §3); version 1's episode CSVs

@@ -1,4 +1,4 @@
-"""Where do the agents fly? Altitude above the terrain and radar exposure per policy (issue 15).
+"""Where do the agents fly? Altitude above the terrain and radar exposure per policy (docs/rl.md §3.2).
 
 PPO trained 200 k steps learned to reach the goal and then stayed in a high corridor (median about
 1 240 m above the terrain against greedy's 108 m), where terrain masking gives no signal. This

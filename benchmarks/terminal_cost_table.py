@@ -36,7 +36,7 @@ from uav_penetration_env.benchmark.stats import bootstrap_ci, iqm
 
 PLANNERS = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "cmaes")
 FORMS = ("value", "dubins", "distance")
-SUCCESS_BAR = 0.99  # issue criterion: every MPC planner reaches the goal in at least 99 % of episodes
+SUCCESS_BAR = 0.99  # the bar a published table must clear: every MPC planner reaches the goal in at least 99 % of episodes
 ALPHA = 0.05
 
 

@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 CODE_PACKAGES = ("uav_penetration_env", "optimizers", "baselines", "benchmarks", "tests")
 CITED_PAGES = ("model", "optimizers", "api")
-# Pages written on other branches of the same change (issue 9): tolerated while absent, checked as
+# Pages written on other branches of the same change: tolerated while absent, checked as
 # soon as they exist. Empty this set once they are merged.
 PENDING_PAGES: set[str] = set()
 

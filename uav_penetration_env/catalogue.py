@@ -283,11 +283,6 @@ def default_max_steps(name: str | None) -> int:
     return resolve_scenario(name).time.max_steps
 
 
-def scenario_names() -> list[str]:
-    """Every scenario name :func:`resolve_scenarios` accepts (the ``random:`` forms as patterns)."""
-    return [*NAMED_SCENARIOS, *RANDOM_FORMS]
-
-
 def random_seeds(spec: str) -> list[int]:
     """The seeds of ``random:SEED`` (one) or ``random:A-B`` (A..B inclusive).
 

@@ -1,4 +1,4 @@
-"""Golden values: results that refactors must keep bit-identical (issue 9).
+"""Golden values: results that refactors must keep bit-identical.
 
 The JSON files beside this test were written by ``golden_cases.write()`` before the architecture
 refactor; these tests recompute each case and compare exactly (floats as hex), except for the

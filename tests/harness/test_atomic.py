@@ -1,4 +1,4 @@
-"""Outputs are written whole or not at all (issue 12): a failure mid-write keeps the old file.
+"""Outputs are written whole or not at all: a failure mid-write keeps the old file.
 
 Each test makes the real writer fail halfway: it writes its bytes, the file is cut to half its
 size, and ``OSError("No space left on device")`` is raised, as a full disk would. Afterwards the

@@ -1,4 +1,4 @@
-"""Every ``uav-bench`` command meets a bad results store the same way (issue 12).
+"""Every ``uav-bench`` command meets a bad results store the same way.
 
 One line ``uav-bench: error: --store PATH: <what is wrong>``, exit status 2, and not one byte of
 the bad file changed, for: a store truncated to half its size, a store with garbled pages, a text

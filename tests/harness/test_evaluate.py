@@ -112,10 +112,25 @@ def test_rerun_skips_done_episodes(scenario, reference, tmp_path):
     assert len(more) == 18
 
 
-def test_deterministic_kill_and_resume_matches_an_uninterrupted_run(scenario, reference, tmp_path):
+def interrupt_after(monkeypatch, episodes: int) -> None:
+    """Ctrl-C as a user would press it, once ``episodes`` episodes are in the store."""
+    write, written = ResultsStore.write_episode, []
+
+    def write_then_interrupt(self, row, steps):
+        write(self, row, steps)
+        written.append(row)
+        if len(written) >= episodes:
+            raise KeyboardInterrupt(f"after {episodes} stored episodes")
+
+    monkeypatch.setattr(ResultsStore, "write_episode", write_then_interrupt)
+
+
+def test_deterministic_kill_and_resume_matches_an_uninterrupted_run(scenario, reference, tmp_path, monkeypatch):
     store = tmp_path / "killed.sqlite"
-    with pytest.raises(KeyboardInterrupt):
-        evaluate(policies(), [scenario], range(4), store=store, progress=False, stop_after=5)
+    with monkeypatch.context() as patch:
+        interrupt_after(patch, 5)
+        with pytest.raises(KeyboardInterrupt):
+            evaluate(policies(), [scenario], range(4), store=store, progress=False)
     with ResultsStore(store) as results:
         assert len(results.episodes()) == 5
         assert len(results.steps()) == int(results.episodes()["steps"].sum())  # no partial episode

@@ -1,4 +1,4 @@
-"""Exit status tells the truth (issue 12): 0 all done, 1 some work failed, 2 bad input."""
+"""Exit status tells the truth: 0 all done, 1 some work failed, 2 bad input."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Fixed-target analysis (issue 11, api.md §4.8): ERT, runtime ECDF, the windows command, ablations in a leaderboard."""
+"""Fixed-target analysis (api.md §4.8): ERT, runtime ECDF, the windows command, ablations in a leaderboard."""
 
 from __future__ import annotations
 

@@ -352,7 +352,7 @@ def test_leaderboard_is_the_one_the_code_before_the_column_table_made(store_path
 
 
 def traced(policy: str, seed: int) -> dict:
-    """A synthetic episode with the trace summaries of issue 11 (ihpso: a quarter of the steps stop early)."""
+    """A synthetic episode with the state-machine trace summaries (ihpso: a quarter of the steps stop early)."""
     if policy == "ihpso":
         return {
             "stopped_early_share": 0.25,

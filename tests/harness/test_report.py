@@ -1,4 +1,4 @@
-"""The HTML report: one self-contained page, checked as text and in a real browser (issue 13)."""
+"""The HTML report: one self-contained page, checked as text and in a real browser."""
 
 from __future__ import annotations
 

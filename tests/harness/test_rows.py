@@ -1,4 +1,4 @@
-"""Leaderboards recomputed from exported rows, with no store (api.md §4.7; issue 16).
+"""Leaderboards recomputed from exported rows, with no store (api.md §4.7).
 
 The published tables must be recomputable from committed rows alone: ``export`` then
 ``leaderboard --rows`` gives the same files as ``leaderboard --store``, byte for byte apart from

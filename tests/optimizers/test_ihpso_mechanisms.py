@@ -1,4 +1,4 @@
-"""IHPSO's mechanisms on realistic swarms, and the 2022v0 configuration (issue 11, optimizers.md §5).
+"""IHPSO's mechanisms on realistic swarms, and the 2022v0 configuration (optimizers.md §5).
 
 The termination test (eq. 33, D19) must fail on a swarm split into separated clumps and pass on a single
 cloud; the grouping (D13, D14) must keep clumps whole; the fitness level (D16) must follow the leading
@@ -106,7 +106,7 @@ def test_termination_passes_on_a_single_cloud_1000_draws(kind, dim):
 
 @pytest.mark.parametrize("dim", [3, 15])
 def test_2022v0_termination_passes_on_two_clumps(dim):
-    """The reading issue 11 measured: equal-size blocks and sums pass on two separated clumps of 50."""
+    """The reading measured on MPC windows (optimizers.md §5.6): equal-size blocks and sums pass on two separated clumps of 50."""
     rng = np.random.default_rng(3)
     old = [
         termination_test(clumps((50, 50), dim, rng), G, method="average", cut="equal", spread="sum")
@@ -333,7 +333,7 @@ def test_invalid_new_hyper_parameters(field, value):
 # ihpso-2022v0 is the pre-issue-11 ihpso, bit for bit
 # ----------------------------------------------------------------------------------------------
 
-# A snapshot of the ihpso keys of tests/golden/*.json as they were before issue 11 (copied, not edited):
+# A snapshot of the ihpso keys of tests/golden/*.json as they were before IHPSO's mechanisms were re-read (copied, not edited):
 # the golden files themselves will be regenerated for the new ihpso, and this test must keep the old one.
 SNAPSHOT = json.loads((Path(__file__).parent / "data" / "ihpso_2022v0_golden.json").read_text())
 
@@ -360,7 +360,7 @@ def test_ihpso_2022v0_reproduces_the_golden_ihpso(key):
 def test_ihpso_2022v0_reproduces_the_golden_ihpso_planner(name, key):
     """The paper-scenario MPC episodes of the old ``ihpso`` planner.
 
-    The snapshot was taken with the numpy model; the compiled model (issue 10) reproduces it
+    The snapshot was taken with the numpy model; the compiled model reproduces it
     exactly apart from the last bits of the cost sums (numpy's SIMD transcendental functions and
     the C maths library differ in the last digit), so the totals are compared to 1e-15 relative
     and everything else (outcome, steps, evaluations, final position) exactly.

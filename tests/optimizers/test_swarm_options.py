@@ -218,7 +218,7 @@ def test_velocity_fraction_caps_every_step(fraction):
 
 
 def test_biased_start_with_reflection_leaves_the_wall():
-    # Issue 17's case, smaller: sphere in [-100, 100]^10 started in [50, 100]^10. With the absorbing
+    # The biased-initialisation case of docs/swarm.md, smaller: sphere in [-100, 100]^10 started in [50, 100]^10. With the absorbing
     # wall a coordinate whose velocity was zeroed there can stay frozen; reflection keeps it moving.
     lo, hi = -100.0 * np.ones(10), 100.0 * np.ones(10)
     opt = get_optimizer("pso", boundary="reflect", init_bounds=[(50.0, 100.0)] * 10)

@@ -197,7 +197,6 @@ def check_arguments(
     n_jobs: Any,
     backend: Any,
     store: Any,
-    stop_after: Any,
 ) -> list[int]:
     """:func:`evaluate`'s arguments against their domains, before any work; returns the seeds.
 
@@ -236,10 +235,6 @@ def check_arguments(
         raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
     if store is not None and not isinstance(store, (str, Path, ResultsStore)):
         raise TypeError(f"store: got {type(store).__name__}, expected a path, a ResultsStore or None")
-    if stop_after is not None and (
-        not isinstance(stop_after, (int, np.integer)) or isinstance(stop_after, bool) or stop_after < 1
-    ):
-        raise ValueError(f"stop_after: got {stop_after!r}, expected None or an integer >= 1")
     return seed_list
 
 
@@ -266,7 +261,6 @@ def evaluate(
     imports: Sequence[str] = (),
     progress: bool = True,
     command: str | None = None,
-    stop_after: int | None = None,
     include: Callable[[str, Any, Scenario, int], bool] | None = None,
     run_settings: Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
@@ -284,8 +278,6 @@ def evaluate(
         imports: plug-in modules to import in every worker before the policies are used.
         progress: show a progress bar (episodes done, ETA, failures).
         command: the command line recorded in the run's provenance.
-        stop_after: testing hook: raise ``KeyboardInterrupt`` after this many episodes were stored,
-            as a user's Ctrl-C would.
         include: ``(policy name, policy, scenario, seed) -> bool``: fly only the episodes it accepts
             (default: every policy x scenario x seed); a suite's seed rule (docs/suite.md §4).
         run_settings: extra entries of the run's settings record (e.g. ``{"suite": "uavpen-v1"}``).
@@ -300,7 +292,7 @@ def evaluate(
         TypeError: a policy without ``reset``/``act``, or a single scenario where a sequence is due.
         KeyboardInterrupt: propagated after the store is left consistent.
     """
-    seed_list = check_arguments(policies, scenarios, seeds, n_jobs, backend, store, stop_after)
+    seed_list = check_arguments(policies, scenarios, seeds, n_jobs, backend, store)
     import_plugins(imports)
     scenario_list = [load_scenario(s) for s in scenarios]
     hashes = {name: policy_hash(policy) for name, policy in policies.items()}
@@ -358,8 +350,6 @@ def evaluate(
                 failures += row.get("outcome") == "error"
                 bar.update(1)
                 bar.set_postfix(failures=failures)
-                if stop_after is not None and len(rows) >= stop_after:
-                    raise KeyboardInterrupt(f"stop_after={stop_after} episodes (testing hook)")
         finally:
             bar.close()
         if results is None:
