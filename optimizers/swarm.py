@@ -406,7 +406,7 @@ def pso_velocity(
 # Holonic levels, shared by HPSO (§4) and IHPSO (§5)
 # ----------------------------------------------------------------------------------------------
 
-N_LEVELS = 3  # particle, group, swarm (D8)
+N_LEVELS = 3  # the three levels of the holon hierarchy: particle, group, swarm (optimizers.md D8)
 
 
 def level_weights(n_levels: int = N_LEVELS) -> FloatArray:

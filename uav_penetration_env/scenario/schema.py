@@ -326,7 +326,8 @@ class CostConfig(Checked):
         Rule(lambda w: all(x >= 0 for x in w), "three non-negative weights"),
         Rule(lambda w: abs(sum(w) - 1.0) < 1e-9, "weights summing to 1"),
     )
-    third_term: str = one_of(("fuel", "length"), default="fuel")  # A24
+    # Eqs. 18-21 weight fuel, the paper's §4.2 and §5 weight path length S instead (model.md A24).
+    third_term: str = one_of(("fuel", "length"), default="fuel")
     crash_penalty_per_step: float | None = non_negative(None)
 
 
