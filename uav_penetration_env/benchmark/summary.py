@@ -58,7 +58,7 @@ def summary_rows(frame: pd.DataFrame, reference: str | None = None) -> tuple[lis
     """The header and cell texts of the compact table of one leaderboard CSV.
 
     Args:
-        frame: a leaderboard CSV as read by pandas (columns of ``columns.py``).
+        frame: a leaderboard CSV as read by pandas (columns of :mod:`~uav_penetration_env.benchmark.columns`).
         reference: the reference policy (default: inferred, :func:`infer_reference`).
 
     Returns:

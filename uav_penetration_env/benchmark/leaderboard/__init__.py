@@ -57,7 +57,6 @@ from uav_penetration_env.benchmark.leaderboard.rl import compute_points, rl_mark
 from uav_penetration_env.benchmark.leaderboard.table import (
     ALPHA,
     CONFIDENCE,
-    MEAN_COLUMNS,
     aggregate,
     leaderboard_table,
 )
@@ -69,7 +68,6 @@ from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # 
 __all__ = [
     "ALPHA",
     "CONFIDENCE",
-    "MEAN_COLUMNS",
     "NUMERIC_EPISODE_COLUMNS",
     "STATISTIC_CELLS",
     "ScenarioGroup",

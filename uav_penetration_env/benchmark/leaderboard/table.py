@@ -37,12 +37,6 @@ GAP_COLUMNS = (
 
 BestKnownLookup = Callable[[str], "float | None"]
 
-# Derived from the column table, kept for readers of the old constant: CSV column -> (episode column, header).
-MEAN_COLUMNS: dict[str, tuple[str, str]] = {
-    column.out: (column.name, column.board.header) for column in aggregated_columns("means")
-}
-
-
 def _label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
     """A bootstrap seed for one policy and statistic that does not depend on which other policies exist."""
     digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")

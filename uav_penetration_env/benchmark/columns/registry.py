@@ -1,146 +1,45 @@
-"""The result columns, each declared once: the store schema, episode summaries, leaderboard and glossary.
+"""Every built-in result column, declared once: the step, episode, statistic, window-run and RL tables.
 
-Three tables of :class:`Column`:
+Adding a column is one line here: a step column with its source (``_step``), or an episode column
+with a ``summary`` (``_episode``, and a ``board`` to show it). Stores written before it gain it on
+their next open (``ALTER TABLE ... ADD COLUMN``, NULL for old rows; :class:`~uav_penetration_env.benchmark.store.ResultsStore`).
 
-* :data:`STEP` (the store's ``steps`` table): one row per track point. Each column says where
-  its value comes from (:class:`Info`: the env's ``info``, known at reset too; :class:`Action`:
-  the action taken; :class:`Planner`: the policy's ``last_record``), so :func:`step_row` and
-  :func:`start_row` (the step-0 row of the start state) are derived from it.
-* :data:`EPISODE` (the ``episodes`` table): one row per episode. A column with a ``summary``
-  is computed from the episode's step rows by :func:`summarise` (the step-0 row is never part of
-  a sum); the others are set by the harness (keys, timings, policy metadata).
+* :data:`STEP` (the store's ``steps`` table): one row per track point, each column with its source.
+* :data:`EPISODE` (the ``episodes`` table): one row per episode. A column with a ``summary`` is
+  computed from the episode's step rows (the step-0 row is never part of a sum); the others are
+  set by the harness (keys, timings, policy metadata).
 * :data:`STATISTICS`: leaderboard columns computed by the leaderboard's statistics code rather
   than aggregated from one episode column (success with its Wilson interval, the bootstrap
   intervals of total cost, ranks, paired tests).
+* :data:`WINDOW_RUN`: the window runs (``uav-bench windows``).
 * :data:`RL_GROUP`: the RL table of a scenario group (one row per RL group of training seeds
   and per reference policy; IQM, probability of improvement, compute), printed by
-  :mod:`~.leaderboard.rl` (docs/rl-statistics.md §2). :data:`WINDOW_RUN` holds the window runs.
-
-A column shown on the leaderboard carries a :class:`Board`: its header, the legend line of the
-leaderboard's "Columns" section, its section (the table lays out sections in
-:data:`SECTIONS` order, columns in declaration order inside each), how it is aggregated over a
-policy's finished episodes and how it is printed. :func:`glossary_markdown` renders every
-column as the column glossary (docs/columns.md).
+  :mod:`~uav_penetration_env.benchmark.leaderboard.rl` (docs/rl-statistics.md §2).
 
 DECISION (api.md §4.3, §4.5): the leaderboard's layout follows this file (section, then declaration
 order), so the episode columns are declared in the order the leaderboard prints them (``fuel_kg``
 after ``path_length_km``); a store's ``episodes`` table reads in declaration order whatever its
 physical order.
-
-Adding a column is one line here: a step column with its source, or an episode column with a
-``summary`` (and a ``board`` to show it). Stores written before it gain it on their next open
-(``ALTER TABLE ... ADD COLUMN``, NULL for old rows; :class:`~.store.ResultsStore`).
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 
-from uav_penetration_env.types import FloatArray
-
-TABLES = ("episodes", "steps", "leaderboard", "window_runs", "rl_groups")
-SECTIONS = ("outcomes", "means", "comparison", "training")
-AGGREGATES = ("mean", "mean_recorded", "statistic")
-STYLES = ("number", "count")
-
-
-# --- where a step value comes from ---------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Info:
-    """A value of the env's ``info`` (an element of it when ``index`` is set); known at reset too."""
-
-    key: str
-    index: int | None = None
-    kind: Callable[[Any], Any] = float
-
-    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
-        """The value after a transition."""
-        value = info[self.key] if self.index is None else info[self.key][self.index]
-        return self.kind(value)
-
-    def start(self, info: Mapping[str, Any]) -> Any:
-        """The value at the start state (the reset info)."""
-        return self.step(info, np.zeros(3), {})
-
-
-@dataclass(frozen=True)
-class Action:
-    """Component ``index`` of the action taken; none at the start state."""
-
-    index: int
-
-    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
-        """The value after a transition."""
-        return float(action[self.index])
-
-    def start(self, info: Mapping[str, Any]) -> Any:
-        """No action led to the start state."""
-        return None
-
-
-@dataclass(frozen=True)
-class Planner:
-    """An entry of the policy's ``last_record`` (``default`` when absent); none at the start state."""
-
-    key: str
-    kind: Callable[[Any], Any] | None = None
-    default: Any = None
-
-    def step(self, info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> Any:
-        """The value after a transition."""
-        value = record.get(self.key, self.default)
-        return value if self.kind is None else self.kind(value)
-
-    def start(self, info: Mapping[str, Any]) -> Any:
-        """No planning led to the start state."""
-        return None
-
-
-Source = Info | Action | Planner
-
+from uav_penetration_env.benchmark.columns.definition import (
+    Action,
+    Board,
+    Column,
+    EpisodeSteps,
+    Info,
+    Planner,
+    Source,
+)
 
 # --- how an episode summarises its step rows -----------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class EpisodeSteps:
-    """One finished episode's step rows, for the ``summary`` of episode columns.
-
-    Attributes:
-        rows: the rows of the transitions k = 1..K (the step-0 row is not among them).
-        states: (K + 1, 6) the exact states from the start state on.
-        final_info: the env's ``info`` after the last transition.
-        truncated: whether the episode ended by reaching K_max.
-    """
-
-    rows: Sequence[Mapping[str, Any]]
-    states: FloatArray
-    final_info: Mapping[str, Any]
-    truncated: bool
-
-    def column(self, name: str) -> FloatArray:
-        """(K,) the values of one step column, float64."""
-        return np.array([row[name] for row in self.rows], dtype=np.float64)
-
-    def sum(self, name: str) -> float:
-        """Σ_k of one step column."""
-        return float(self.column(name).sum())
-
-    def mean(self, name: str) -> float:
-        """Mean over the K transitions of one step column."""
-        return float(self.column(name).mean())
-
-    @property
-    def count(self) -> int:
-        """K, the number of transitions."""
-        return len(self.rows)
 
 
 def _outcome(steps: EpisodeSteps) -> str:
@@ -180,94 +79,7 @@ def _mean_recorded(name: str) -> Callable[[EpisodeSteps], float | None]:
     return summary
 
 
-# --- the column declaration ------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Board:
-    """How the leaderboard shows a column.
-
-    Attributes:
-        header: the Markdown header (``{reference}`` is replaced by the reference policy).
-        legend: the line of the leaderboard's "Columns" section; consecutive columns with the same
-            legend share one bullet; ``None`` leaves the column unexplained there. ``{resamples}``
-            is replaced by the number of bootstrap resamples.
-        name: the column's name in the legend (default: ``header``).
-        section: one of :data:`SECTIONS`.
-        aggregate: ``mean`` (over the policy's finished episodes), ``mean_recorded`` (over those
-            that recorded a value) or ``statistic`` (computed by the leaderboard's statistics).
-        out: the leaderboard CSV's column name (default: the column's name).
-        digits: significant digits printed.
-        style: ``number`` (:func:`~.leaderboard.format_number`) or ``count`` (an integer with
-            thousands separators).
-        optional: shown only when some policy has a value.
-        csv: the leaderboard CSV columns a statistic writes (default: its ``out`` alone).
-        recorded_only: left out of the Markdown, its legend and the CSV when no policy has a value.
-            DECISION (api.md §4.8): for columns declared after stores existed (the trace summaries),
-            so the leaderboard of an older store stays the one it was.
-    """
-
-    header: str
-    legend: str | None
-    name: str | None = None
-    section: str = "means"
-    aggregate: str = "mean"
-    out: str | None = None
-    digits: int = 4
-    style: str = "number"
-    optional: bool = False
-    csv: tuple[str, ...] = ()
-    recorded_only: bool = False
-
-    def __post_init__(self) -> None:
-        for attribute, allowed in (("section", SECTIONS), ("aggregate", AGGREGATES), ("style", STYLES)):
-            value = getattr(self, attribute)
-            if value not in allowed:
-                raise ValueError(f"Board.{attribute}: got {value!r}, expected one of {', '.join(allowed)}")
-
-
-@dataclass(frozen=True)
-class Column:
-    """One result column.
-
-    Attributes:
-        name: the column's name (SQL column, DataFrame column, CSV column).
-        table: ``episodes``, ``steps`` or ``leaderboard`` (a leaderboard-only statistic).
-        sql: its SQLite type and constraints (``None`` for leaderboard statistics). A column added
-            after stores exist must allow NULL or carry a DEFAULT (SQLite's ADD COLUMN rule).
-        definition: one line saying what the value is (the glossary).
-        summary: episodes: how the episode's value is computed from its step rows; ``None`` when
-            the harness sets it.
-        source: steps: where the value of a step row comes from.
-        board: how the leaderboard aggregates and prints it; ``None`` when it is not shown.
-    """
-
-    name: str
-    table: str
-    sql: str | None
-    definition: str
-    summary: Callable[[EpisodeSteps], Any] | None = field(default=None, compare=False)
-    source: Source | None = None
-    board: Board | None = None
-
-    @property
-    def out(self) -> str:
-        """The leaderboard CSV's column name."""
-        if self.board is None or self.board.out is None:
-            return self.name
-        return self.board.out
-
-    @property
-    def csv(self) -> tuple[str, ...]:
-        """The leaderboard CSV columns this column writes."""
-        if self.board is None:
-            return ()
-        return self.board.csv or (self.out,)
-
-    @property
-    def numeric(self) -> bool:
-        """Whether the stored value is a number (INTEGER or REAL)."""
-        return self.sql is not None and self.sql.split()[0] in ("INTEGER", "REAL")
+# --- the tables ------------------------------------------------------------------------------------------
 
 
 def _episode(name: str, sql: str, definition: str, summary=None, board: Board | None = None) -> Column:
@@ -516,163 +328,3 @@ RL_GROUP: tuple[Column, ...] = (
     _rl("train_timesteps", Board("train steps", _TRAINING, style="count"), "mean environment steps the group's agents trained for"),
     _rl("train_seconds", Board("train [s]", _TRAINING, digits=3), "mean wall-clock seconds the group's agents trained for"),
 )  # fmt: skip
-
-COLUMNS: tuple[Column, ...] = (*EPISODE, *STEP, *STATISTICS, *WINDOW_RUN, *RL_GROUP)
-
-
-# --- what derives from the table -------------------------------------------------------------------------
-
-
-def sql_types(columns: Sequence[Column]) -> dict[str, str]:
-    """``name -> SQLite type`` of stored columns, in declaration order (the store schema)."""
-    return {column.name: column.sql for column in columns if column.sql is not None}
-
-
-def numeric_columns(columns: Sequence[Column] = EPISODE) -> tuple[str, ...]:
-    """Names of the INTEGER and REAL columns (coerced to float when a store returns them)."""
-    return tuple(column.name for column in columns if column.numeric)
-
-
-def leaderboard_columns() -> list[Column]:
-    """The columns a leaderboard shows, in table order: by section, then in declaration order."""
-    shown = [column for column in (*STATISTICS, *EPISODE) if column.board is not None]
-    return sorted(shown, key=lambda column: SECTIONS.index(column.board.section))
-
-
-def aggregated_columns(section: str) -> list[Column]:
-    """Episode columns of one leaderboard section that are aggregated (not bespoke statistics)."""
-    return [
-        column
-        for column in leaderboard_columns()
-        if column.board.section == section and column.board.aggregate != "statistic"
-    ]
-
-
-def legend_lines(resamples: str, present: Collection[str] | None = None) -> list[str]:
-    """The leaderboard's "Columns" section: one bullet per legend (consecutive equal legends merge).
-
-    Args:
-        resamples: the number of bootstrap resamples, as printed.
-        present: the leaderboard table's columns; a ``recorded_only`` column missing from them has
-            no bullet (default: every column has one).
-    """
-    bullets: list[tuple[list[str], str]] = []
-    for column in leaderboard_columns():
-        board = column.board
-        if board.legend is None or (
-            board.recorded_only and present is not None and column.out not in present
-        ):
-            continue
-        name = board.name or board.header
-        if bullets and bullets[-1][1] == board.legend:
-            bullets[-1][0].append(name)
-        else:
-            bullets.append(([name], board.legend))
-    return [f"- **{', '.join(names)}**: {legend.format(resamples=resamples)}." for names, legend in bullets]
-
-
-def step_row(info: Mapping[str, Any], action: FloatArray, record: Mapping[str, Any]) -> dict[str, Any]:
-    """The step row of one transition, from the env's info after it, the action and the planner's record."""
-    return {column.name: column.source.step(info, action, record) for column in STEP}
-
-
-def start_row(info: Mapping[str, Any]) -> dict[str, Any]:
-    """The step-0 row of an episode's start state, from the env's reset info.
-
-    DECISION (api.md §4.4, model.md §7a): the state's own quantities (position, altitude, threats,
-    detection) describe the start state; a transition's (J, penalty, third term, normalised terms,
-    fuel) are the reset info's 0; the action and planner columns are NULL, since no action led
-    there. Episode sums never include this row (:func:`summarise` gets the transitions alone).
-    """
-    return {column.name: column.source.start(info) for column in STEP}
-
-
-def summarise(steps: EpisodeSteps) -> dict[str, Any]:
-    """The episode columns that summarise step rows (every column with a ``summary``)."""
-    return {column.name: column.summary(steps) for column in EPISODE if column.summary is not None}
-
-
-def glossary_markdown() -> str:
-    """Every column as Markdown: the column glossary of docs/columns.md (generated; paste it, do not edit it).
-
-    Returns:
-        Five tables (episode, step, leaderboard, window-run and RL-group columns), no trailing newline.
-    """
-
-    def escape(text: str) -> str:
-        return text.replace("|", "\\|")
-
-    lines = [
-        "### Episode columns (`episodes` table, one row per episode)",
-        "",
-        "| column | type | definition | leaderboard |",
-        "| --- | --- | --- | --- |",
-    ]
-    for column in EPISODE:
-        shown = f"{column.board.header} ({column.board.aggregate.replace('_', ' ')})" if column.board else ""
-        lines.append(
-            f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} | {escape(shown)} |"
-        )
-    lines += [
-        "",
-        "### Step columns (`steps` table, one row per track point; step 0 is the start state)",
-        "",
-        "| column | type | definition |",
-        "| --- | --- | --- |",
-    ]
-    for column in STEP:
-        lines.append(f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} |")
-    lines += [
-        "",
-        "### Leaderboard columns (one row per policy; the CSV holds every interval bound too)",
-        "",
-        "| header | CSV columns | definition |",
-        "| --- | --- | --- |",
-    ]
-    for column in leaderboard_columns():
-        board = column.board
-        definition = (board.legend or column.definition).format(resamples="10,000")
-        header = board.header.format(reference="reference")
-        csv = ", ".join(f"`{name}`" for name in column.csv)
-        lines.append(f"| {escape(header)} | {csv} | {escape(definition)} |")
-    lines += [
-        "",
-        "### Window-run columns (`window_runs` table, one row per optimiser run on a stored MPC window state; `uav-bench windows`)",
-        "",
-        "| column | type | definition |",
-        "| --- | --- | --- |",
-    ]
-    for column in WINDOW_RUN:
-        lines.append(f"| `{column.name}` | {column.sql.split()[0]} | {escape(column.definition)} |")
-    lines += [
-        "",
-        "### RL-group columns (`<stem>-rl.csv`, one row per RL group and reference policy; docs/rl-statistics.md §2)",
-        "",
-        "| header | CSV columns | definition |",
-        "| --- | --- | --- |",
-    ]
-    for column in RL_GROUP:
-        board = column.board
-        header = board.header.format(planner="best planner")
-        csv = ", ".join(f"`{name}`" for name in column.csv)
-        lines.append(f"| {escape(header)} | {csv} | {escape(board.legend.format(resamples='10,000'))} |")
-    return "\n".join(lines)
-
-
-GLOSSARY_PAGE_HEADER = """# Result columns
-
-Every column of the results store and the leaderboards, as declared once in
-`uav_penetration_env/benchmark/columns.py` ([architecture.md](architecture.md), "add a result
-column"). This page is generated from that table and `tests/test_docs.py` fails when it is out of
-date; regenerate it with
-
-```bash
-python -c "from uav_penetration_env.benchmark.columns import glossary_page; print(glossary_page(), end='')" > docs/columns.md
-```
-
-"""
-
-
-def glossary_page() -> str:
-    """``docs/columns.md``: a short header and :func:`glossary_markdown`, newline-terminated."""
-    return GLOSSARY_PAGE_HEADER + glossary_markdown() + "\n"
