@@ -300,9 +300,40 @@ def evaluate(
         raise ValueError(
             f"policies: two names share one configuration ({hashes}); give each configuration one name"
         )
+    tasks = episode_tasks(policies, hashes, scenario_list, seed_list, tuple(imports), include)
+    own_store = store is not None and not isinstance(store, ResultsStore)
+    results = ResultsStore(store) if own_store else store
+    try:
+        pending, run_id = tasks, None
+        if results is not None:
+            settings = {"policies": list(policies), "scenarios": [s.name for s in scenario_list],
+                        "seeds": seed_list, "n_jobs": n_jobs, "backend": backend, **dict(run_settings or {})}  # fmt: skip
+            pending, run_id = _start_run(results, tasks, policies, hashes, scenario_list, command, settings)
+        for scenario in {s.hash: s for s in scenario_list}.values():
+            build_scenario(scenario)  # warm the disk cache once, so workers only load it
+        bar = _progress_bar(len(pending), len(tasks) - len(pending), progress)
+        try:
+            rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar)
+        finally:
+            bar.close()
+        return _frame(rows) if results is None else _requested(results, tasks)
+    finally:
+        if own_store and results is not None:
+            results.close()
+
+
+def episode_tasks(
+    policies: Mapping[str, Any],
+    hashes: Mapping[str, str],
+    scenarios: Sequence[Scenario],
+    seeds: Sequence[int],
+    imports: tuple[str, ...],
+    include: Callable[[str, Any, Scenario, int], bool] | None,
+) -> list[EpisodeTask]:
+    """Every (scenario, seed, policy) episode ``include`` accepts, in that nesting order."""
     tasks = []
-    for scenario in scenario_list:
-        for seed in seed_list:
+    for scenario in scenarios:
+        for seed in seeds:
             for name, policy in policies.items():
                 if include is not None and not include(name, policy, scenario, seed):
                     continue
@@ -311,58 +342,58 @@ def evaluate(
                     for k in ("horizon", "max_evals")
                     if isinstance(getattr(policy, k, None), int)
                 }
-                tasks.append(EpisodeTask(name, policy, hashes[name], scenario, seed, tuple(imports), extra))
+                tasks.append(EpisodeTask(name, policy, hashes[name], scenario, seed, imports, extra))
+    return tasks
 
-    own_store = store is not None and not isinstance(store, ResultsStore)
-    results = ResultsStore(store) if own_store else store
+
+def _start_run(
+    results: ResultsStore,
+    tasks: list[EpisodeTask],
+    policies: Mapping[str, Any],
+    hashes: Mapping[str, str],
+    scenarios: Sequence[Scenario],
+    command: str | None,
+    settings: dict[str, Any],
+) -> tuple[list[EpisodeTask], int]:
+    """Register the policies and scenarios, open a run record; returns the tasks not yet stored and the run id."""
+    done = results.done_keys()
+    pending = [t for t in tasks if t.key not in done]
+    results.register(
+        {hashes[n]: (n, policy_config(p)) for n, p in policies.items()},
+        {s.hash: (s.name, scenario_yaml(s)) for s in scenarios},
+    )
+    return pending, results.start_run(run_provenance(command), settings)
+
+
+def _fly(
+    pending: list[EpisodeTask],
+    jobs: int,
+    backend: str,
+    scheduler: str | None,
+    results: ResultsStore | None,
+    run_id: int | None,
+    bar: Any,
+) -> list[dict[str, Any]]:
+    """Fly the pending episodes, storing each as it finishes (an interruption loses none that did)."""
     rows: list[dict[str, Any]] = []
-    try:
-        pending = tasks
+    failures = 0
+    for row, steps in _iterate(pending, jobs, backend, scheduler):
         if results is not None:
-            done = results.done_keys()
-            pending = [t for t in tasks if t.key not in done]
-            results.register(
-                {hashes[n]: (n, policy_config(p)) for n, p in policies.items()},
-                {s.hash: (s.name, scenario_yaml(s)) for s in scenario_list},
-            )
-            run_id = results.start_run(
-                run_provenance(command),
-                {
-                    "policies": list(policies),
-                    "scenarios": [s.name for s in scenario_list],
-                    "seeds": seed_list,
-                    "n_jobs": n_jobs,
-                    "backend": backend,
-                    **dict(run_settings or {}),
-                },
-            )
-        for scenario in {s.hash: s for s in scenario_list}.values():
-            build_scenario(scenario)  # warm the disk cache once, so workers only load it
-        jobs = _resolve_jobs(n_jobs)
-        bar = _progress_bar(len(pending), len(tasks) - len(pending), progress)
-        failures = 0
-        try:
-            for row, steps in _iterate(pending, jobs, backend, scheduler):
-                if results is not None:
-                    row["run_id"] = run_id
-                    results.write_episode(row, steps)
-                rows.append(row)
-                failures += row.get("outcome") == "error"
-                bar.update(1)
-                bar.set_postfix(failures=failures)
-        finally:
-            bar.close()
-        if results is None:
-            return _frame(rows)
-        wanted = {t.key for t in tasks}
-        stored = results.episodes()
-        keys = list(
-            zip(stored["policy_hash"], stored["scenario_hash"], stored["seed"].astype(int), strict=True)
-        )
-        return stored[[k in wanted for k in keys]].reset_index(drop=True)
-    finally:
-        if own_store and results is not None:
-            results.close()
+            row["run_id"] = run_id
+            results.write_episode(row, steps)
+        rows.append(row)
+        failures += row.get("outcome") == "error"
+        bar.update(1)
+        bar.set_postfix(failures=failures)
+    return rows
+
+
+def _requested(results: ResultsStore, tasks: list[EpisodeTask]) -> pd.DataFrame:
+    """The stored episodes of ``tasks`` (those flown now and those found done)."""
+    wanted = {t.key for t in tasks}
+    stored = results.episodes()
+    keys = list(zip(stored["policy_hash"], stored["scenario_hash"], stored["seed"].astype(int), strict=True))
+    return stored[[k in wanted for k in keys]].reset_index(drop=True)
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:

@@ -23,6 +23,8 @@ from __future__ import annotations
 import datetime as dt
 from pathlib import Path
 
+import pandas as pd
+
 from uav_penetration_env.atomic import atomic_path, write_text_atomic
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
@@ -141,15 +143,7 @@ def write_leaderboards(
         FileNotFoundError: there is no store at ``store_path``.
     """
     out_dir = Path(out_dir)
-    if isinstance(store_path, ResultTables):
-        tables = store_path
-    else:
-        store_path = Path(store_path)
-        if not store_path.is_file():
-            raise FileNotFoundError(
-                f"results store {store_path}: not found; expected an SQLite file from `uav-bench run`"
-            )
-        tables = store_tables(store_path)
+    tables = _tables_of(store_path)
     episodes, runs = tables.episodes, tables.runs
     if command is None:
         source = "rows" if isinstance(store_path, ResultTables) else str(store_path)
@@ -165,18 +159,8 @@ def write_leaderboards(
     for group in groups:
         table = leaderboard_table(group.episodes, reference=reference, seed=seed, n_resamples=n_resamples)
         rl = rl_table(group.episodes, seed=seed, n_resamples=n_resamples)
-        markdown = out_dir / f"{group.stem}.md"
         text = leaderboard_markdown(group, table, runs, command, date)
-        write_text_atomic(markdown, text + ("\n" + rl_markdown(rl) if not rl.empty else ""))
-        csv = out_dir / f"{group.stem}.csv"
-        with atomic_path(csv) as temporary:  # whole or not at all (uav_penetration_env.atomic)
-            table.to_csv(temporary, index=False, lineterminator="\n")
-        written += [markdown, csv]
-        if not rl.empty:
-            rl_csv = out_dir / f"{group.stem}-rl.csv"
-            with atomic_path(rl_csv) as temporary:
-                rl.to_csv(temporary, index=False, lineterminator="\n")
-            written.append(rl_csv)
+        written += _write_group(out_dir, group.stem, text, table, rl)
     if suite is None and not episodes.empty:
         # The registered tables (registry.register_tables), e.g. a frozen suite's (leaderboard.suite).
         context = TableContext(
@@ -184,4 +168,28 @@ def write_leaderboards(
         )
         for writer in table_writers().values():
             written += writer(context)
+    return written
+
+
+def _tables_of(store_path: str | Path | ResultTables) -> ResultTables:
+    """The row tables of a store file, or ``store_path`` itself when it already is row tables."""
+    if isinstance(store_path, ResultTables):
+        return store_path
+    path = Path(store_path)
+    if not path.is_file():
+        raise FileNotFoundError(f"results store {path}: not found; expected an SQLite file from `uav-bench run`")
+    return store_tables(path)
+
+
+def _write_group(out_dir: Path, stem: str, text: str, table: pd.DataFrame, rl: pd.DataFrame) -> list[Path]:
+    """One group's Markdown (with its RL section), CSV and RL CSV, each whole or not at all."""
+    markdown = out_dir / f"{stem}.md"
+    write_text_atomic(markdown, text + ("\n" + rl_markdown(rl) if not rl.empty else ""))
+    written = [markdown]
+    for path, frame in ((out_dir / f"{stem}.csv", table), (out_dir / f"{stem}-rl.csv", rl)):
+        if frame is rl and rl.empty:
+            continue
+        with atomic_path(path) as temporary:  # uav_penetration_env.atomic
+            frame.to_csv(temporary, index=False, lineterminator="\n")
+        written.append(path)
     return written

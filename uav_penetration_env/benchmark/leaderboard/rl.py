@@ -201,50 +201,10 @@ def rl_table(episodes: pd.DataFrame, *, seed: int = 0, n_resamples: int = 10_000
     references = [m for m in (greedy, planner) if m is not None]
     scores = {m.label: run_scores(frame, m) for m in [*groups, *references]}
     poi_resamples = max(500, n_resamples // 5)
-    rows = []
-    for method in [*groups, *references]:
-        table = scores[method.label]
-        valid = frame[~frame["is_error"] & frame["label"].isin(method.members)]
-        iqm = _estimate(table, "iqm", label_seed(seed, method.label, 10), n_resamples)
-        mean = _estimate(table, "mean", label_seed(seed, method.label, 11), n_resamples)
-        row: dict[str, Any] = {
-            "group": method.label,
-            "kind": "RL group" if method.grouped else "reference",
-            "members": " ".join(method.members),
-            "runs": len(table),
-            "tasks": table.shape[1],
-            "episodes": len(valid),
-            "iqm": iqm.value,
-            "iqm_ci_low": iqm.low,
-            "iqm_ci_high": iqm.high,
-            "mean": mean.value,
-            "mean_ci_low": mean.low,
-            "mean_ci_high": mean.high,
-            "best_planner": None if planner is None else planner.label,
-        }
-        for key, versus, purpose in (("poi_greedy", greedy, 12), ("poi_planner", planner, 13)):
-            poi = (
-                rl_stats.Estimate(np.nan, np.nan, np.nan)
-                if versus is None or versus is method
-                else _improvement(
-                    table, scores[versus.label], label_seed(seed, method.label, purpose), poi_resamples
-                )
-            )
-            row.update({key: poi.value, f"{key}_ci_low": poi.low, f"{key}_ci_high": poi.high})
-        delta = (
-            rl_stats.Estimate(np.nan, np.nan, np.nan)
-            if greedy is None or greedy is method
-            else _difference(table, scores[greedy.label], label_seed(seed, method.label, 14), n_resamples)
-        )
-        row.update({"delta_greedy": delta.value, "delta_greedy_ci_low": delta.low, "delta_greedy_ci_high": delta.high})
-        gaps = relative_gaps(valid).to_numpy(dtype=np.float64) if len(valid) else np.array([])
-        gaps = gaps[np.isfinite(gaps)]
-        row["gap"] = float(gaps.mean()) if len(gaps) else np.nan
-        row["decision_seconds"] = float(valid["planning_seconds"].mean()) if len(valid) else np.nan
-        for budget in ("train_timesteps", "train_seconds"):
-            values = valid[budget].dropna() if budget in valid else pd.Series(dtype=float)
-            row[budget] = float(values.mean()) if len(values) else np.nan
-        rows.append(row)
+    rows = [
+        _method_row(frame, method, scores, greedy, planner, seed, n_resamples, poi_resamples)
+        for method in [*groups, *references]
+    ]
     table = pd.DataFrame(rows, columns=columns)
     grouped = table[table["kind"] == "RL group"].sort_values(
         ["iqm", "group"], kind="mergesort", na_position="last"
@@ -252,6 +212,60 @@ def rl_table(episodes: pd.DataFrame, *, seed: int = 0, n_resamples: int = 10_000
     table = pd.concat([grouped, table[table["kind"] == "reference"]], ignore_index=True)
     table.attrs.update(best_planner=None if planner is None else planner.label, n_resamples=n_resamples)
     return table
+
+
+def _method_row(
+    frame: pd.DataFrame,
+    method: Any,
+    scores: dict[str, pd.DataFrame],
+    greedy: Any,
+    planner: Any,
+    seed: int,
+    n_resamples: int,
+    poi_resamples: int,
+) -> dict[str, Any]:
+    """One row of the RL table: a group's (or reference's) IQM, mean, improvement over greedy and the planner, gap, compute."""
+    table = scores[method.label]
+    valid = frame[~frame["is_error"] & frame["label"].isin(method.members)]
+    iqm = _estimate(table, "iqm", label_seed(seed, method.label, 10), n_resamples)
+    mean = _estimate(table, "mean", label_seed(seed, method.label, 11), n_resamples)
+    row: dict[str, Any] = {
+        "group": method.label,
+        "kind": "RL group" if method.grouped else "reference",
+        "members": " ".join(method.members),
+        "runs": len(table),
+        "tasks": table.shape[1],
+        "episodes": len(valid),
+        "iqm": iqm.value,
+        "iqm_ci_low": iqm.low,
+        "iqm_ci_high": iqm.high,
+        "mean": mean.value,
+        "mean_ci_low": mean.low,
+        "mean_ci_high": mean.high,
+        "best_planner": None if planner is None else planner.label,
+    }
+    none = rl_stats.Estimate(np.nan, np.nan, np.nan)
+    for key, versus, purpose in (("poi_greedy", greedy, 12), ("poi_planner", planner, 13)):
+        poi = (
+            none
+            if versus is None or versus is method
+            else _improvement(table, scores[versus.label], label_seed(seed, method.label, purpose), poi_resamples)
+        )
+        row.update({key: poi.value, f"{key}_ci_low": poi.low, f"{key}_ci_high": poi.high})
+    delta = (
+        none
+        if greedy is None or greedy is method
+        else _difference(table, scores[greedy.label], label_seed(seed, method.label, 14), n_resamples)
+    )
+    row.update({"delta_greedy": delta.value, "delta_greedy_ci_low": delta.low, "delta_greedy_ci_high": delta.high})
+    gaps = relative_gaps(valid).to_numpy(dtype=np.float64) if len(valid) else np.array([])
+    gaps = gaps[np.isfinite(gaps)]
+    row["gap"] = float(gaps.mean()) if len(gaps) else np.nan
+    row["decision_seconds"] = float(valid["planning_seconds"].mean()) if len(valid) else np.nan
+    for budget in ("train_timesteps", "train_seconds"):
+        values = valid[budget].dropna() if budget in valid else pd.Series(dtype=float)
+        row[budget] = float(values.mean()) if len(values) else np.nan
+    return row
 
 
 def _cell(name: str, r: Any) -> str:

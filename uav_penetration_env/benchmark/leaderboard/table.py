@@ -94,59 +94,8 @@ def leaderboard_table(
         if ref is not None and costs[ref].notna().any()
         else pd.DataFrame(columns=["n_pairs", "median_difference", "statistic", "pvalue", "pvalue_holm"])
     )
-    rows = []
-    for label in labels:
-        rows_of = frame[frame["label"] == label]
-        valid = rows_of[~rows_of["is_error"]]
-        cost = valid["total_cost"].to_numpy(dtype=np.float64)
-        if not np.all(np.isfinite(cost)):
-            seeds = valid.loc[~np.isfinite(cost), "seed"].astype(int).tolist()
-            raise ValueError(
-                f"episodes: policy {label!r} has no finite total_cost for seeds {seeds}; expected a number "
-                "for every episode without an error"
-            )
-        n = len(valid)
-        successes = int((valid["outcome"] == "success").sum())
-        success_ci = stats.wilson_interval(successes, n, CONFIDENCE)
-        row: dict[str, Any] = {
-            "policy": label,
-            "policy_hash": ",".join(sorted(rows_of["policy_hash"].astype(str).unique())),
-            "episodes": n,
-            "errors": int(rows_of["is_error"].sum()),
-            "successes": successes,
-            "collided": int((valid["outcome"] == "collided").sum()),
-            "out_of_area": int((valid["outcome"] == "out_of_area").sum()),
-            "truncated": int((valid["outcome"] == "truncated").sum()),
-            "success_rate": successes / n if n else np.nan,
-            "success_rate_ci_low": success_ci[0],
-            "success_rate_ci_high": success_ci[1],
-            "total_cost_mean": float(cost.mean()) if n else np.nan,
-        }
-        low, high = stats.bootstrap_ci(
-            cost, np.mean, seed=_label_seed(seed, label, 0), n_resamples=n_resamples
-        )
-        row["total_cost_mean_ci_low"], row["total_cost_mean_ci_high"] = low, high
-        row["total_cost_iqm"] = stats.iqm(cost) if n else np.nan
-        low, high = stats.bootstrap_ci(
-            cost, stats.iqm, seed=_label_seed(seed, label, 1), n_resamples=n_resamples
-        )
-        row["total_cost_iqm_ci_low"], row["total_cost_iqm_ci_high"] = low, high
-        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
-        row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
-        row.update(_versus_reference(costs, label, ref, tests, seed, n_resamples))
-        row.update(_gaps(valid["gap"].to_numpy(dtype=np.float64), label, seed, n_resamples))
-        row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
-        rows.append(row)
-    table = pd.DataFrame(rows)
-    unrecorded = [
-        column.out
-        for section in SECTIONS
-        for column in aggregated_columns(section)
-        if column.board.recorded_only and column.out in table and table[column.out].isna().all()
-    ]
-    if table.empty or not frame["gap"].notna().any():
-        unrecorded += [name for name in GAP_COLUMNS if name in table]  # no record: the table of before
-    table = table.drop(columns=unrecorded)  # columns.Board.recorded_only: an older store's table is unchanged
+    rows = [_policy_row(frame, label, costs, friedman, ref, tests, seed, n_resamples) for label in labels]
+    table = _drop_unrecorded(pd.DataFrame(rows), gaps_recorded=bool(frame["gap"].notna().any()))
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
         ["friedman_rank", "total_cost_mean"], kind="mergesort", na_position="last"
@@ -158,6 +107,73 @@ def leaderboard_table(
     # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
     table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
     return table
+
+
+def _policy_row(
+    frame: pd.DataFrame,
+    label: str,
+    costs: pd.DataFrame,
+    friedman: Any,
+    ref: str | None,
+    tests: pd.DataFrame,
+    seed: int,
+    n_resamples: int,
+) -> dict[str, Any]:
+    """One policy's leaderboard row: outcome counts, success, cost statistics, aggregates, tests, gaps."""
+    rows_of = frame[frame["label"] == label]
+    valid = rows_of[~rows_of["is_error"]]
+    cost = valid["total_cost"].to_numpy(dtype=np.float64)
+    if not np.all(np.isfinite(cost)):
+        seeds = valid.loc[~np.isfinite(cost), "seed"].astype(int).tolist()
+        raise ValueError(
+            f"episodes: policy {label!r} has no finite total_cost for seeds {seeds}; expected a number "
+            "for every episode without an error"
+        )
+    n = len(valid)
+    successes = int((valid["outcome"] == "success").sum())
+    success_ci = stats.wilson_interval(successes, n, CONFIDENCE)
+    row: dict[str, Any] = {
+        "policy": label,
+        "policy_hash": ",".join(sorted(rows_of["policy_hash"].astype(str).unique())),
+        "episodes": n,
+        "errors": int(rows_of["is_error"].sum()),
+        "successes": successes,
+        "collided": int((valid["outcome"] == "collided").sum()),
+        "out_of_area": int((valid["outcome"] == "out_of_area").sum()),
+        "truncated": int((valid["outcome"] == "truncated").sum()),
+        "success_rate": successes / n if n else np.nan,
+        "success_rate_ci_low": success_ci[0],
+        "success_rate_ci_high": success_ci[1],
+        "total_cost_mean": float(cost.mean()) if n else np.nan,
+    }
+    low, high = stats.bootstrap_ci(cost, np.mean, seed=_label_seed(seed, label, 0), n_resamples=n_resamples)
+    row["total_cost_mean_ci_low"], row["total_cost_mean_ci_high"] = low, high
+    row["total_cost_iqm"] = stats.iqm(cost) if n else np.nan
+    low, high = stats.bootstrap_ci(cost, stats.iqm, seed=_label_seed(seed, label, 1), n_resamples=n_resamples)
+    row["total_cost_iqm_ci_low"], row["total_cost_iqm_ci_high"] = low, high
+    row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
+    row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
+    row.update(_versus_reference(costs, label, ref, tests, seed, n_resamples))
+    row.update(_gaps(valid["gap"].to_numpy(dtype=np.float64), label, seed, n_resamples))
+    row.update({column.out: aggregate(column, valid) for column in aggregated_columns("training")})
+    return row
+
+
+def _drop_unrecorded(table: pd.DataFrame, gaps_recorded: bool) -> pd.DataFrame:
+    """``table`` without the columns that no episode recorded, and without the gaps when nothing has a record.
+
+    A column marked ``Board.recorded_only`` is left out when every row lacks it, so the table of an
+    older store is unchanged; the gap columns likewise when no scenario has a best-known record.
+    """
+    unrecorded = [
+        column.out
+        for section in SECTIONS
+        for column in aggregated_columns(section)
+        if column.board.recorded_only and column.out in table and table[column.out].isna().all()
+    ]
+    if table.empty or not gaps_recorded:
+        unrecorded += [name for name in GAP_COLUMNS if name in table]
+    return table.drop(columns=unrecorded)
 
 
 def relative_gaps(frame: pd.DataFrame, best_known: BestKnownLookup | None = None) -> pd.Series:
