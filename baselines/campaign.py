@@ -242,9 +242,15 @@ def campaign_from_mapping(data: Any) -> Campaign:
         for i, algo in enumerate(_items("confirmed", top["confirmed"]))
     )
     studies = _studies(top["studies"], eval_freq, regime_flags)
+    runs = _runs(top["runs"], studies, eval_freq)
+    for i, run in enumerate(runs):
+        # The confirmation compares the seed-0 runs of both sets (docs/rl.md §3.1): without seed 0
+        # the remaining seeds would wait for it forever.
+        if run.algo in confirmed and 0 not in run.seeds:
+            raise _fail(f"runs[{i}].seeds", list(run.seeds), f"seeds including 0 ({run.algo} is confirmed)")
     return Campaign(
         studies=studies,
-        runs=_runs(top["runs"], studies, eval_freq),
+        runs=runs,
         experiments=_experiments(top["experiments"], eval_freq, regime_flags),
         off_policy_cpu_minutes=float(minutes),
         confirmed=confirmed,

@@ -66,6 +66,7 @@ def change(edit):
         (change(lambda d: d["studies"].append(d["studies"][0])), "studies[5]: got 'ppo-paper'; expected one study per"),
         (change(lambda d: d["studies"][0].pop("trials")), "studies[0]: trials is missing; expected the keys algo, regime, trials"),
         (change(lambda d: d["runs"][0].update(seeds=[0, 0])), "runs[0].seeds: got [0, 0]; expected a non-empty list of distinct"),
+        (change(lambda d: d["runs"][1].update(seeds=[1, 2])), "runs[1].seeds: got [1, 2]; expected seeds including 0 (ppo is confirmed)"),
         (change(lambda d: d["runs"][0].update(seeds=[-1])), "runs[0].seeds[0]: got -1; expected an integer >= 0"),
         (change(lambda d: d["runs"][0].update(timesteps="2M")), "runs[0].timesteps: got '2M'; expected an integer >= 1"),
         (change(lambda d: d["runs"][4].update(regime="random")), "runs[4]: got 'td3-random'; expected the algorithm and regime of a study"),
