@@ -1,18 +1,23 @@
-"""The RL programme of issue 15: tuning studies, then long training runs, resumable (docs/rl.md §3).
+"""Run a campaign of RL tuning studies, then long training runs, resumably (docs/rl.md §3).
 
 ```bash
 nice -n 10 python -m baselines.programme --root results/rl            # run (or continue) it all
 python -m baselines.programme --root results/rl --dry-run             # what is done, what would run
 nice -n 10 python -m baselines.programme --root results/rl --only 'train/sac-*'
+python -m baselines.programme --campaign my-campaign.yaml --dry-run   # another campaign
 ```
 
-Steps, in order (each one a ``uav-bench`` command, printed before it runs):
+This module is the generic runner; what it runs is data, a campaign file read by
+:mod:`baselines.campaign` (default: the packaged ``baselines/campaigns/rl.yaml``). Steps, in
+order (each one a ``uav-bench`` command, printed before it runs):
 
-1. tuning studies (``uav-bench tune``): PPO paper and random (30 trials each), SAC paper and random
-   and TD3 paper (15 trials each), into ``ROOT/tune/ALGO-REGIME/``;
-2. training (``uav-bench train --resume`` with the study's YAML): PPO 2 M steps x training seeds
-   0-4 in both regimes; SAC (both regimes) and TD3 (paper) x seeds 0-2, each about 20 CPU-minutes
-   (:func:`off_policy_timesteps`), into ``ROOT/models/``.
+1. the campaign's tuning studies (``uav-bench tune``), into ``ROOT/tune/ALGO-REGIME/``; the
+   packaged one: PPO paper and random (30 trials each), SAC paper and random and TD3 paper (15
+   trials each);
+2. its training runs (``uav-bench train --resume`` with the study's YAML), into ``ROOT/models/``;
+   the packaged one: PPO 2 M steps x training seeds 0-4 in both regimes, SAC (both regimes) and
+   TD3 (paper) x seeds 0-2, each about 20 CPU-minutes (:func:`off_policy_timesteps`);
+3. its experiments (the untuned set with overrides), after the runs.
 
 Every step is idempotent: a study with its trials, or a model whose sidecar says it trained its
 steps, is skipped; anything else is (re)started with the command that resumes it (a study from its
@@ -38,44 +43,10 @@ from typing import Any
 
 import yaml
 
+from baselines.campaign import DEFAULT_CAMPAIGN, Campaign, CampaignError, default_campaign, load_campaign
+
 DEFAULT_ROOT = Path("results/rl")
-STUDIES = (
-    ("ppo", "paper", 30),
-    ("ppo", "random", 30),
-    ("sac", "paper", 15),
-    ("sac", "random", 15),
-    ("td3", "paper", 15),
-)
-# (algorithm, regime, training seeds, environment steps or None for the CPU-time budget)
-RUNS = (
-    ("ppo", "paper", range(5), 2_000_000),
-    ("ppo", "random", range(5), 2_000_000),
-    ("sac", "paper", range(3), None),
-    ("sac", "random", range(3), None),
-    ("td3", "paper", range(3), None),
-)
-# Experiments on the high corridor (docs/rl.md §3.2): (algorithm, regime, name, overrides, seeds,
-# steps), trained after the runs above as ALGO-REGIME-NAME-sSEED with the overrides on the untuned set.
-EXPERIMENTS = (
-    # Five seeds each, as the untuned set they are compared with (two first; three more once the two
-    # had shown the changes split by seed).
-    ("ppo", "paper", "ent", "baselines/hyperparams/experiments/ppo-ent.yaml", range(5), 2_000_000),
-    ("ppo", "paper", "gamma", "baselines/hyperparams/experiments/ppo-gamma.yaml", range(5), 2_000_000),
-)
-OFF_POLICY_CPU_MINUTES = 20.0
-# Algorithms whose study is confirmed at the full budget (docs/rl.md §3.1): a PPO trial sees 150 000
-# of a run's 2 M steps (7.5 %), too little to see where a set ends; a SAC/TD3 trial sees about 40 %.
-CONFIRMED = ("ppo",)
 ZOO = "zoo"  # the label part of runs trained with the untuned set, baselines/hyperparams/ALGO.yaml
-EVAL_FREQ = {"ppo": 50_000, "sac": 20_000, "td3": 20_000}
-CHECKPOINT_FREQ = {"ppo": 100_000, "sac": 50_000, "td3": 50_000}
-# Learning-curve episodes (seeds 20000+): the paper start is fixed, so one deterministic episode
-# is the policy's exact score there; the Random regime averages 20 scenarios.
-EVAL_EPISODES = {"paper": 1, "random": 20}
-REGIME_FLAGS = {
-    "paper": ["--scenario", "paper"],
-    "random": ["--env-id", "UAVPenetrationRandom-v0", "--difficulty", "0.5"],
-}
 
 
 @dataclass(frozen=True)
@@ -115,11 +86,13 @@ def study_progress(path: Path) -> tuple[int, dict[str, Any]] | None:
     return int(provenance.get("trials_complete", 0)) + int(provenance.get("trials_pruned", 0)), provenance
 
 
-def off_policy_timesteps(provenance: dict[str, Any], minutes: float = OFF_POLICY_CPU_MINUTES) -> int:
+def off_policy_timesteps(provenance: dict[str, Any], minutes: float | None = None) -> int:
     """Environment steps that take about ``minutes`` of one core with a study's best hyper-parameters.
 
-    DECISION (docs/rl.md §3): SAC and TD3 runs are budgeted in CPU time (issue 15: about 20 minutes
-    each), converted once into steps from the best trial's own measured CPU seconds for its steps
+    ``minutes`` ``None``: the packaged campaign's ``off_policy_cpu_minutes``.
+
+    DECISION (docs/rl.md §3): SAC and TD3 runs are budgeted in CPU time (about 20 minutes each in
+    the packaged campaign), converted once into steps from the best trial's own measured CPU seconds for its steps
     (``best_trial_cpu_seconds`` / ``budget_steps_per_trial`` in the study's provenance), rounded
     to 10 000 and kept within 100 000-2 000 000. A step budget, not a clock, so a run is
     reproducible and resumes to the same end; it is fixed once the study is, because the study's
@@ -135,6 +108,8 @@ def off_policy_timesteps(provenance: dict[str, Any], minutes: float = OFF_POLICY
             "provenance: no best_trial_cpu_seconds / budget_steps_per_trial (a study written before "
             "they were recorded); pass --off-policy-steps"
         )
+    if minutes is None:
+        minutes = default_campaign().off_policy_cpu_minutes
     per_step = float(cpu) / float(steps)
     total = round(minutes * 60.0 / per_step / 10_000) * 10_000
     return int(min(2_000_000, max(100_000, total)))
@@ -152,21 +127,22 @@ def model_done(model: Path, timesteps: int) -> bool:
     return not data.get("interrupted") and int(data.get("timesteps_done", 0)) >= timesteps
 
 
-def step_names() -> list[str]:
-    """The name of every step of the programme, in order (they do not depend on its state)."""
-    names = [f"tune/{a}-{r}" for a, r, _ in STUDIES]
-    for algo, regime, seeds, _ in RUNS:
+def step_names(campaign: Campaign | None = None) -> list[str]:
+    """The name of every step of the campaign (default: the packaged one), in order (they do not depend on its state)."""
+    campaign = campaign or default_campaign()
+    names = [f"tune/{a}-{r}" for a, r, _ in campaign.studies]
+    for algo, regime, seeds, _ in campaign.runs:
         names += [f"train/{algo}-{regime}-s{seed}" for seed in seeds]
-        if algo in CONFIRMED:
+        if algo in campaign.confirmed:
             names += [f"train/{algo}-{regime}-{ZOO}-s{seed}" for seed in seeds]
-    names += [f"train/{a}-{r}-{name}-s{seed}" for a, r, name, _, seeds, _ in EXPERIMENTS for seed in seeds]
+    names += [f"train/{e.algo}-{e.regime}-{e.name}-s{seed}" for e in campaign.experiments for seed in e.seeds]
     return names
 
 
-def tuning_steps(root: Path) -> list[Step]:
-    """The tuning studies, each done when its YAML records its trials."""
+def tuning_steps(root: Path, campaign: Campaign | None = None) -> list[Step]:
+    """The campaign's tuning studies (default: the packaged campaign), each done when its YAML records its trials."""
     steps = []
-    for algo, regime, trials in STUDIES:
+    for algo, regime, trials in (campaign or default_campaign()).studies:
         progress = study_progress(study_yaml(root, algo, regime))
         finished = progress is not None and progress[0] >= trials
         argv = ["tune", "--algo", algo, "--regime", regime, "--trials", str(trials),
@@ -243,38 +219,58 @@ def confirm_selection(
 
 
 def train_step(
-    name: str, algo: str, regime: str, seed: int, total: int, hyperparams: str | Path | None, model: Path
+    name: str,
+    algo: str,
+    regime: str,
+    seed: int,
+    total: int,
+    hyperparams: str | Path | None,
+    model: Path,
+    campaign: Campaign | None = None,
 ) -> Step:
-    """One resumable ``uav-bench train`` run (``hyperparams`` None: the untuned set), done when its sidecar says so."""
-    argv = ["train", "--algo", algo, *REGIME_FLAGS[regime], "--timesteps", str(total), "--seed", str(seed),
+    """One resumable ``uav-bench train`` run (``hyperparams`` None: the untuned set), done when its sidecar says so.
+
+    The regime's flags and the evaluation and checkpoint cadence come from ``campaign`` (default:
+    the packaged one).
+    """
+    c = campaign or default_campaign()
+    argv = ["train", "--algo", algo, *c.regime_flags[regime], "--timesteps", str(total), "--seed", str(seed),
             *(["--hyperparams", str(hyperparams)] if hyperparams else []), "--out", str(model),
-            "--eval-freq", str(EVAL_FREQ[algo]), "--eval-episodes", str(EVAL_EPISODES[regime]),
-            "--checkpoint-freq", str(CHECKPOINT_FREQ[algo]), "--resume", "--no-progress"]  # fmt: skip
+            "--eval-freq", str(c.eval_freq[algo]), "--eval-episodes", str(c.eval_episodes[regime]),
+            "--checkpoint-freq", str(c.checkpoint_freq[algo]), "--resume", "--no-progress"]  # fmt: skip
     done = model_done(model, total)
     return Step(name, argv, done, f"{total} steps" + (", done" if done else ""))
 
 
-def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bool = True) -> list[Step]:
-    """The training runs; a run whose study (or, for PPO, whose confirmation) has not finished has no command yet.
+def training_steps(
+    root: Path, off_policy_steps: int | None = None, *, write: bool = True, campaign: Campaign | None = None
+) -> list[Step]:
+    """The training runs; a run whose study (or, for a confirmed algorithm, whose confirmation) has not finished has no command yet.
 
     ``write=False`` never writes the confirmation's ``selection.yaml`` (:func:`confirm_selection`).
+    ``campaign``: the runs and experiments to list (default: the packaged campaign).
     """
-    trials_wanted = {(a, r): n for a, r, n in STUDIES}
+    campaign = campaign or default_campaign()
+    trials_wanted = {(a, r): n for a, r, n in campaign.studies}
     steps = []
-    for algo, regime, seeds, timesteps in RUNS:
+    for algo, regime, seeds, timesteps in campaign.runs:
         hyperparams = study_yaml(root, algo, regime)
         progress = study_progress(hyperparams)
         ready = progress is not None and progress[0] >= trials_wanted[(algo, regime)]
         total = timesteps
         if total is None and ready:
-            total = off_policy_steps if off_policy_steps is not None else off_policy_timesteps(progress[1])
-        confirmed = algo in CONFIRMED and total is not None
+            total = (
+                off_policy_steps
+                if off_policy_steps is not None
+                else off_policy_timesteps(progress[1], campaign.off_policy_cpu_minutes)
+            )
+        confirmed = algo in campaign.confirmed and total is not None
         blocked = ""
         try:
             chosen = confirm_selection(root, algo, regime, total, write=write) if confirmed else None
         except ValueError as error:  # a finished run without its final evaluation: say so, do not crash
             chosen, blocked = None, str(error)
-        sets = [("", hyperparams, ready)] + ([(f"-{ZOO}", None, True)] if algo in CONFIRMED else [])
+        sets = [("", hyperparams, ready)] + ([(f"-{ZOO}", None, True)] if algo in campaign.confirmed else [])
         for seed in seeds:
             for part, params, params_ready in sets:
                 label = f"{algo}-{regime}{part}-s{seed}"
@@ -283,7 +279,7 @@ def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bo
                 if not params_ready or total is None:
                     steps.append(Step(name, None, False, f"waits for tune/{algo}-{regime}"))
                     continue
-                if algo in CONFIRMED and seed != min(seeds):
+                if algo in campaign.confirmed and seed != min(seeds):
                     if chosen is None:
                         why = (
                             f"the confirmation cannot choose: {blocked}"
@@ -296,12 +292,12 @@ def training_steps(root: Path, off_policy_steps: int | None = None, *, write: bo
                         steps.append(Step(name, None, False, f"not chosen ({selection_file(root, algo, regime)})",
                                           skipped=True))  # fmt: skip
                         continue
-                steps.append(train_step(name, algo, regime, seed, total, params, model))
-    for algo, regime, experiment, overrides, seeds, total in EXPERIMENTS:
+                steps.append(train_step(name, algo, regime, seed, total, params, model, campaign))
+    for algo, regime, experiment, overrides, seeds, total in campaign.experiments:
         for seed in seeds:
             label = f"{algo}-{regime}-{experiment}-s{seed}"
             model = root / "models" / f"{label}.zip"
-            steps.append(train_step(f"train/{label}", algo, regime, seed, total, overrides, model))
+            steps.append(train_step(f"train/{label}", algo, regime, seed, total, overrides, model, campaign))
     return steps
 
 
@@ -362,6 +358,7 @@ def run_programme(
     dry_run: bool = False,
     off_policy_steps: int | None = None,
     runner: Callable[[Sequence[str]], int] = run_in_subprocess,
+    campaign: Campaign | None = None,
 ) -> int:
     """Run every step not done yet, in order, printing each command; stop at the first failure.
 
@@ -371,19 +368,21 @@ def run_programme(
         dry_run: print the steps and their state, run nothing.
         off_policy_steps: steps of the SAC/TD3 runs instead of the CPU-time budget.
         runner: runs ``uav-bench ARGV`` and returns its exit status.
+        campaign: what to run (default: the packaged campaign, ``baselines/campaigns/rl.yaml``).
 
     Returns:
         0 when every selected step is done or run by another programme process (:func:`step_lock`),
         else the failing step's exit status (130: interrupted).
     """
     root = Path(root)
+    campaign = campaign or default_campaign()
 
     def selected(step: Step) -> bool:
         return not only or any(fnmatch.fnmatchcase(step.name, pattern) for pattern in only)
 
     for phase in (
-        lambda: tuning_steps(root),
-        lambda: training_steps(root, off_policy_steps, write=not dry_run),
+        lambda: tuning_steps(root, campaign),
+        lambda: training_steps(root, off_policy_steps, write=not dry_run, campaign=campaign),
     ):
         # The steps are listed again after every run: a finished run can make a waiting one ready
         # (the PPO confirmation chooses the set of the remaining seeds).
@@ -536,13 +535,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--root", default=str(DEFAULT_ROOT), help=f"output folder (default: {DEFAULT_ROOT})")
     parser.add_argument(
+        "--campaign",
+        default=str(DEFAULT_CAMPAIGN),
+        metavar="PATH",
+        help="the campaign's YAML file: its studies and runs (default: the packaged baselines/campaigns/rl.yaml)",
+    )
+    parser.add_argument(
         "--only", nargs="+", default=(), metavar="PATTERN", help="run only steps matching (e.g. 'tune/*')"
     )
     parser.add_argument("--dry-run", action="store_true", help="print the steps and their state; run nothing")
     parser.add_argument(
         "--off-policy-steps",
         type=int,
-        help=f"steps of each SAC/TD3 run (default: ~{OFF_POLICY_CPU_MINUTES:g} CPU-minutes from the study)",
+        help="steps of each run without timesteps in the campaign (default: its off_policy_cpu_minutes "
+        f"of one core, from the study; {default_campaign().off_policy_cpu_minutes:g} in the packaged one)",
     )
     carry = parser.add_mutually_exclusive_group()
     carry.add_argument(
@@ -558,7 +564,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--off-policy-steps: got {args.off_policy_steps}, expected an integer >= 1")
     if args.restore and not Path(args.restore).is_dir():
         parser.error(f"--restore {args.restore}: not found; expected a folder written by --snapshot")
-    names = step_names()
+    try:
+        campaign = load_campaign(args.campaign)
+    except CampaignError as error:
+        parser.error(f"--campaign {error}")
+    names = step_names(campaign)
     unmatched = [p for p in args.only if not any(fnmatch.fnmatchcase(name, p) for name in names)]
     if unmatched:
         parser.error(f"--only {' '.join(unmatched)}: matches no step; expected patterns such as 'tune/ppo-*'")
@@ -572,7 +582,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         return run_programme(
-            Path(args.root), only=args.only, dry_run=args.dry_run, off_policy_steps=args.off_policy_steps
+            Path(args.root),
+            only=args.only,
+            dry_run=args.dry_run,
+            off_policy_steps=args.off_policy_steps,
+            campaign=campaign,
         )
     except KeyboardInterrupt:
         print("\ninterrupted; run the same command again to continue", file=sys.stderr)

@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
+from pathlib import Path
 
 import pytest
 import yaml
 
+from baselines.campaign import default_campaign
 from baselines.programme import (
-    STUDIES,
     main,
     off_policy_timesteps,
     run_programme,
     study_yaml,
 )
+
+STUDIES = default_campaign().studies  # the packaged campaign's, baselines/campaigns/rl.yaml
 
 # A best trial that took 240 CPU-s for its 50 000 steps: 4.8 ms per step, so 20 CPU-min is 250 000 steps.
 PROVENANCE = {"trials_complete": 12, "trials_pruned": 3, "best_trial_cpu_seconds": 240.0,
@@ -292,3 +297,35 @@ def test_the_confirmation_is_read_back_never_written_by_a_dry_run_and_never_cras
     assert run_programme(tmp_path, dry_run=True, only=["train/ppo-paper-*"]) == 0
     printed = capsys.readouterr().out
     assert "[plan] train/ppo-paper-s1" in printed and "[skip] train/ppo-paper-zoo-s1" in printed
+
+
+GOLDEN = Path(__file__).parent / "data" / "programme_steps.json"
+
+
+def programme_transcript(root) -> dict:
+    """Every step name, the commands of a whole run either way the PPO confirmation goes, and a dry run.
+
+    The folder is written ``ROOT`` so the transcript does not depend on where the test runs.
+    """
+    from baselines.programme import step_names
+
+    transcript: dict = {"step_names": step_names()}
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        run_programme(root / "empty", dry_run=True)
+    lines = printed.getvalue().splitlines()
+    transcript["dry_run_empty"] = [line.replace(str(root / "empty"), "ROOT") for line in lines]
+    for chosen, costs in (("zoo", {"zoo_cost": 17.0, "study_cost": 20.0}),
+                          ("study", {"zoo_cost": 21.0, "study_cost": 16.0})):  # fmt: skip
+        folder = root / chosen
+        fake = FakeUavBench(folder, **costs)
+        with contextlib.redirect_stdout(io.StringIO()):
+            run_programme(folder, runner=fake)
+        transcript[f"commands_{chosen}_chosen"] = [
+            [arg.replace(str(folder), "ROOT") for arg in argv] for argv in fake.calls
+        ]
+    return transcript
+
+
+def test_the_programme_is_the_pinned_one(tmp_path):
+    """The campaign's steps and commands, in order, are those pinned in tests/baselines/data."""
+    assert programme_transcript(tmp_path) == json.loads(GOLDEN.read_text())

@@ -116,7 +116,7 @@ def test_each_trial_is_collected_before_the_next_starts(tmp_path, monkeypatch):
 
     from stable_baselines3 import PPO
 
-    import baselines.tune
+    import baselines.tuning.study
 
     gc.collect()
     # Models that earlier tests keep alive (module fixtures) are not this study's: count only new ones.
@@ -128,7 +128,7 @@ def test_each_trial_is_collected_before_the_next_starts(tmp_path, monkeypatch):
         alive_at_collection.append(sum(1 for o in gc.get_objects() if type(o) is PPO and o not in earlier))
         return result
 
-    monkeypatch.setattr(baselines.tune.gc, "collect", collect)
+    monkeypatch.setattr(baselines.tuning.study.gc, "collect", collect)
     run_study(tiny(tmp_path, trials=2))
     assert alive_at_collection == [0, 0]  # one collection per trial, after which no trial model survives
 
