@@ -347,8 +347,6 @@ def fixed_target_markdown(
     The page's date line (``- Date: DATE, by `COMMAND```) is its only line that depends on when and
     from which source (store or exported rows) it was built.
     """
-    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_table
-
     ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
     targets = target_runs(rows)
     table = ert_table(targets, ref)
@@ -376,68 +374,56 @@ def fixed_target_markdown(
         f"reached it. Ratio: ERT / {ref}'s ERT.",
         "",
     ]
+    lines += _ert_lines(table) + _paired_lines(paired, ref) + _trace_lines(traces)
+    return "\n".join(lines), {"": table, "-paired": paired, "-traces": traces}
+
+def _ert_lines(table: pd.DataFrame) -> list[str]:
+    """The ERT table's Markdown (its heading and explanation precede it on the page)."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+
     body = [
-        [
-            f"{row.precision:.0e}",
-            str(row.optimizer),
-            f"{row.successes}/{row.runs}",
-            _number(row.ert),
-            _number(row.ert_ratio, 3),
-        ]
+        [f"{row.precision:.0e}", str(row.optimizer), f"{row.successes}/{row.runs}", _number(row.ert), _number(row.ert_ratio, 3)]
         for row in table.itertuples()
     ]
-    lines += [
-        markdown_table(["Δ", "optimizer", "solved", "ERT [evals]", "ratio"], body, ["r", "l", "r", "r", "r"]),
+    return [markdown_table(["Δ", "optimizer", "solved", "ERT [evals]", "ratio"], body, ["r", "l", "r", "r", "r"]), ""]
+
+
+def _paired_lines(paired: pd.DataFrame, ref: str) -> list[str]:
+    """The paired fixed-budget and fixed-target section (none without pairs)."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_table
+
+    if paired.empty:
+        return []
+    lines = [
+        f"## Paired per (window, seed) against {ref}",
+        "",
+        f"Fixed budget: the other optimiser's best-so-far J at {ref}'s evaluation count of the same run, "
+        f"against {ref}'s final J. Fixed target: evaluations each needed to reach the worse of the two final "
+        "costs. Δ = other − reference (positive: the other is costlier / slower); two-sided Wilcoxon "
+        "signed-rank test.",
         "",
     ]
-    if not paired.empty:
-        lines += [
-            f"## Paired per (window, seed) against {ref}",
-            "",
-            f"Fixed budget: the other optimiser's best-so-far J at {ref}'s evaluation count of the same run, "
-            f"against {ref}'s final J. Fixed target: evaluations each needed to reach the worse of the two final "
-            "costs. Δ = other − reference (positive: the other is costlier / slower); two-sided Wilcoxon "
-            "signed-rank test.",
-            "",
-        ]
-        body = [
-            [
-                str(r.comparison),
-                str(r.other),
-                _number(r.reference_median, 6),
-                _number(r.other_median, 6),
-                _number(r.median_difference, 4),
-                f"{r.reference_better} / {r.other_better} of {r.pairs}",
-                format_pvalue(r.pvalue),
-            ]
-            for r in paired.itertuples()
-        ]
-        header = [
-            "comparison",
-            "other",
-            f"{ref} median",
-            "other median",
-            "median Δ",
-            f"{ref} better / other better",
-            "p",
-        ]
-        lines += [markdown_table(header, body, ["l", "l", "r", "r", "r", "r", "r"]), ""]
-    lines += ["## Evaluations and the optimisers' state machines", ""]
     body = [
-        [
-            str(r.optimizer),
-            str(r.runs),
-            _number(r.nfev_mean),
-            _number(r.stopped_early_share, 3),
-            _number(r.switches_mean, 3),
-            _number(r.reverse_switches_mean, 3),
-            _number(r.fun_median, 6),
-        ]
+        [str(r.comparison), str(r.other), _number(r.reference_median, 6), _number(r.other_median, 6),
+         _number(r.median_difference, 4), f"{r.reference_better} / {r.other_better} of {r.pairs}", format_pvalue(r.pvalue)]
+        for r in paired.itertuples()
+    ]  # fmt: skip
+    header = ["comparison", "other", f"{ref} median", "other median", "median Δ", f"{ref} better / other better", "p"]
+    return [*lines, markdown_table(header, body, ["l", "l", "r", "r", "r", "r", "r"]), ""]
+
+
+def _trace_lines(traces: pd.DataFrame) -> list[str]:
+    """The evaluations and state-machine section."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+
+    body = [
+        [str(r.optimizer), str(r.runs), _number(r.nfev_mean), _number(r.stopped_early_share, 3),
+         _number(r.switches_mean, 3), _number(r.reverse_switches_mean, 3), _number(r.fun_median, 6)]
         for r in traces.itertuples()
-    ]
+    ]  # fmt: skip
     header = ["optimizer", "runs", "evals/run", "stopped early", "switches/run", "reverse/run", "median J"]
-    lines += [markdown_table(header, body, ["l", "r", "r", "r", "r", "r", "r"]), ""]
-    return "\n".join(lines), {"": table, "-paired": paired, "-traces": traces}
+    return ["## Evaluations and the optimisers' state machines", "", markdown_table(header, body, ["l", "r", "r", "r", "r", "r", "r"]), ""]
+
 
 
 def write_fixed_target(

@@ -79,6 +79,30 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
             without our tables, or a schema version this version does not know.
     """
     path = Path(path)
+    read = _read_header(path, must_exist)
+    if read is None:
+        return
+    _check_header(path, *read)
+    tables, version = _schema_version(path, must_exist)
+    if not tables:
+        return
+    if version == SCHEMA_VERSION or version in MIGRATIONS:
+        return
+    if isinstance(version, int) and version > SCHEMA_VERSION:
+        raise StoreError(
+            path,
+            f"schema version {version} is newer than this uav-penetration reads ({SCHEMA_VERSION}); "
+            "upgrade uav-penetration to use it",
+        )
+    raise StoreError(
+        path,
+        f"schema version {version!r}, expected {SCHEMA_VERSION} or an older one this version migrates "
+        f"({', '.join(map(str, sorted(MIGRATIONS)))})",
+    )
+
+
+def _read_header(path: Path, must_exist: bool) -> tuple[bytes, int] | None:
+    """The file's first 100 bytes and its size; None for an absent or empty file a writer may create."""
     try:
         if path.is_dir():
             raise StoreError(
@@ -87,7 +111,7 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
         if not path.exists():
             if must_exist:
                 raise StoreError(path, "not found; run `uav-bench run` first or pass --store PATH")
-            return
+            return None
         with path.open("rb") as handle:
             header = handle.read(100)
         size = path.stat().st_size
@@ -96,7 +120,12 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     if size == 0:
         if must_exist:
             raise StoreError(path, "an empty file, not a results store")
-        return
+        return None
+    return header, size
+
+
+def _check_header(path: Path, header: bytes, size: int) -> None:
+    """Refuse a file that is not SQLite, or shorter than its header declares (the truncation check)."""
     if not header.startswith(SQLITE_MAGIC):
         raise StoreError(path, "not a results store (not an SQLite database file)")
     if len(header) < 100:
@@ -111,6 +140,16 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
             f"damaged: the file has {size} bytes but its SQLite header declares {pages} pages of "
             f"{page_size} bytes ({pages * page_size} bytes); was it truncated or copied while written?",
         )
+
+
+def _schema_version(path: Path, must_exist: bool) -> tuple[set[str], Any]:
+    """The database's tables and its ``schema_version``, read-only.
+
+    A database without any table is a new store (no version) unless ``must_exist``.
+
+    Raises:
+        StoreError: unreadable, damaged, or an SQLite database without the table every store has.
+    """
     try:
         connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
     except sqlite3.Error as error:
@@ -118,7 +157,7 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     try:
         tables = {row[0] for row in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         if not tables and not must_exist:
-            return
+            return tables, None
         if "schema_version" not in tables:  # the table every results store has, from its creation
             shown = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "") or "none"
             raise StoreError(path, f"an SQLite database but not a results store (its tables: {shown})")
@@ -127,20 +166,7 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
         raise StoreError(path, f"damaged or not a results store ({error})") from None
     finally:
         connection.close()
-    version = None if row is None else row[0]
-    if version == SCHEMA_VERSION or version in MIGRATIONS:
-        return
-    if isinstance(version, int) and version > SCHEMA_VERSION:
-        raise StoreError(
-            path,
-            f"schema version {version} is newer than this uav-penetration reads ({SCHEMA_VERSION}); "
-            "upgrade uav-penetration to use it",
-        )
-    raise StoreError(
-        path,
-        f"schema version {version!r}, expected {SCHEMA_VERSION} or an older one this version migrates "
-        f"({', '.join(map(str, sorted(MIGRATIONS)))})",
-    )
+    return tables, None if row is None else row[0]
 
 
 def _json(value: Any) -> str:

@@ -287,7 +287,6 @@ def suite_plan(settings: dict[str, Any], policies: dict[str, Any]) -> tuple[list
 def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
     from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
-    from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
 
     settings = check_settings(run_settings(args))
     try:
@@ -298,61 +297,15 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
     seeds = parse_seeds(settings["seeds"])
     policies = make_policies(settings)
-    include = None
-    suite_settings: dict[str, Any] = {}
-    if settings["suite"] is not None:
-        scenarios, seeds, include = suite_plan(settings, policies)
-        suite_settings = {"suite": settings["suite"], "members": settings["members"]}
-    else:
-        if settings["members"]:
-            raise CLIError("--members: only with --suite (it selects suite members)")
-        scenarios = resolve_scenarios(
-            settings["scenarios"],
-            settings["profile"],
-            parse_weights(settings["weights"]),
-            float(settings["difficulty"]),
-        )
-    if not scenarios:
-        raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
+    scenarios, seeds, include, suite_settings = episode_plan(settings, policies, seeds)
     store_path = Path(settings["store"])
     # The report goes next to the store it reads unless --out says where: a run on another store
     # never replaces the main job's report in ./results.
     out = Path(settings["out"]) if "out" in settings["explicit"] else store_path.parent
-    try:
-        inspect_store_file(store_path)  # before anything is written: a bad store is left as it is
-    except StoreError as error:
-        raise store_error(error) from None
-    check_writable_folder(store_path.parent, "--store", store_path)
-    if settings["report"]:
-        check_writable_folder(out, "--out")
-    try:
-        store = ResultsStore(store_path)
-    except StoreError as error:
-        raise store_error(error) from None
-    jobs = settings["jobs"]
-    if include is None:
-        episodes = len(policies) * len(scenarios) * len(seeds)
-        print(
-            f"uav-bench run: {counted(len(policies), 'policy', 'policies')} x {counted(len(scenarios), 'scenario')} "
-            f"x {counted(len(seeds), 'seed')} = {counted(episodes, 'episode')} -> {store_path}"
-        )
-    else:
-        episodes = sum(
-            include(name, policy, scenario, seed)
-            for name, policy in policies.items()
-            for scenario in scenarios
-            for seed in seeds
-        )
-        rule = (
-            "--seeds " + str(settings["seeds"])
-            if "seeds" in settings["explicit"]
-            else "the suite's seed rule"
-        )
-        print(
-            f"uav-bench run: suite {settings['suite']}: {counted(len(policies), 'policy', 'policies')} x "
-            f"{counted(len(scenarios), 'member')} ({rule}) = {counted(episodes, 'episode')} -> {store_path}"
-        )
+    store = open_store(store_path, out if settings["report"] else None)
+    announce(settings, policies, scenarios, seeds, include, store_path)
     command = command_line(args)
+    jobs = settings["jobs"]
     try:
         frame = evaluate(
             policies,
@@ -377,6 +330,88 @@ def run(args: argparse.Namespace) -> int:
         )
         return 130
     store.close()
+    errors = print_outcome(frame, store_path)
+    if settings["report"] and settings["suite"] is not None:
+        suite_report(store_path, out, command, settings["suite"])
+    elif settings["report"]:
+        report(store_path, out, command)
+    return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
+
+
+def episode_plan(
+    settings: dict[str, Any], policies: dict[str, Any], seeds: list[int]
+) -> tuple[list[Any], list[int], Any, dict[str, Any]]:
+    """The scenarios, seeds, episode filter and extra run settings of ``--suite`` or ``--scenarios``.
+
+    Raises:
+        CLIError: ``--members`` without ``--suite``, or no scenario.
+    """
+    include = None
+    suite_settings: dict[str, Any] = {}
+    if settings["suite"] is not None:
+        scenarios, seeds, include = suite_plan(settings, policies)
+        suite_settings = {"suite": settings["suite"], "members": settings["members"]}
+    else:
+        if settings["members"]:
+            raise CLIError("--members: only with --suite (it selects suite members)")
+        scenarios = resolve_scenarios(
+            settings["scenarios"],
+            settings["profile"],
+            parse_weights(settings["weights"]),
+            float(settings["difficulty"]),
+        )
+    if not scenarios:
+        raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
+    return scenarios, seeds, include, suite_settings
+
+
+def open_store(store_path: Path, out: Path | None) -> Any:
+    """The results store, opened after every check that could refuse it (a bad store is left as it is).
+
+    Raises:
+        CLIError: the store is damaged or not a results store, or its folder (or ``out``) is not writable.
+    """
+    from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
+
+    try:
+        inspect_store_file(store_path)  # before anything is written
+    except StoreError as error:
+        raise store_error(error) from None
+    check_writable_folder(store_path.parent, "--store", store_path)
+    if out is not None:
+        check_writable_folder(out, "--out")
+    try:
+        return ResultsStore(store_path)
+    except StoreError as error:
+        raise store_error(error) from None
+
+
+def announce(
+    settings: dict[str, Any], policies: dict[str, Any], scenarios: list[Any], seeds: list[int], include: Any, store_path: Path
+) -> None:
+    """Print the run's size: policies x scenarios x seeds, or the suite's members under its seed rule."""
+    if include is None:
+        episodes = len(policies) * len(scenarios) * len(seeds)
+        print(
+            f"uav-bench run: {counted(len(policies), 'policy', 'policies')} x {counted(len(scenarios), 'scenario')} "
+            f"x {counted(len(seeds), 'seed')} = {counted(episodes, 'episode')} -> {store_path}"
+        )
+        return
+    episodes = sum(
+        include(name, policy, scenario, seed)
+        for name, policy in policies.items()
+        for scenario in scenarios
+        for seed in seeds
+    )
+    rule = "--seeds " + str(settings["seeds"]) if "seeds" in settings["explicit"] else "the suite's seed rule"
+    print(
+        f"uav-bench run: suite {settings['suite']}: {counted(len(policies), 'policy', 'policies')} x "
+        f"{counted(len(scenarios), 'member')} ({rule}) = {counted(episodes, 'episode')} -> {store_path}"
+    )
+
+
+def print_outcome(frame: Any, store_path: Path) -> int:
+    """Print the episode and error counts (and the first error on stderr); returns the error count."""
     errors = int((frame["error"] != "").sum())
     failed = f"; {errors} of {len(frame)} episodes FAILED, exit status 1" if errors else ""
     print(f"results: {store_path} ({len(frame)} episodes, {errors} errors{failed})")
@@ -386,11 +421,7 @@ def run(args: argparse.Namespace) -> int:
             f"first error ({first['policy']}, seed {first['seed']}): {first['error'].splitlines()[0]}",
             file=sys.stderr,
         )
-    if settings["report"] and settings["suite"] is not None:
-        suite_report(store_path, out, command, settings["suite"])
-    elif settings["report"]:
-        report(store_path, out, command)
-    return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
+    return errors
 
 
 def report(store: Path, out: Path, command: str) -> None:
