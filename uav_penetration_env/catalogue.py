@@ -106,68 +106,86 @@ def random_scenario(rng: np.random.Generator, difficulty: float = 0.5, name: str
     n_mountains = 2 + round(4 * difficulty)
     n_radars = 2 + round(6 * difficulty)
     ref_range_km = 60.0 + 80.0 * difficulty
-    low, high = RANDOM_SQUARE_KM
     name = name or f"random-d{difficulty:.2f}"
     for _ in range(1000):
-        corners = [(low, low), (high, high)] if rng.random() < 0.5 else [(low, high), (high, low)]
-        if rng.random() < 0.5:
-            corners.reverse()
-        start, goal = np.array(corners[0]), np.array(corners[1])
-        route = goal - start
-        normal = np.array([-route[1], route[0]]) / np.hypot(*route)
-
-        # The first mountain sits near the route; the others anywhere in the square.
-        centres = rng.uniform(low, high, size=(n_mountains, 2))
-        centres[0] = start + rng.uniform(0.2, 0.8) * route + rng.uniform(-10.0, 10.0) * normal
-        peaks = rng.uniform(300.0, 900.0, size=n_mountains)
-        terrain = TerrainConfig(
-            seed=int(rng.integers(2**31)),
-            natural=GaussianField(),
-            mountains=tuple(
-                Mountain(round(float(x), 3), round(float(y), 3), round(float(h), 1))
-                for (x, y), h in zip(centres, peaks, strict=True)
-            ),
-        )
-        draft = Scenario(
-            name=name,
-            start=StartConfig(x_km=float(start[0]), y_km=float(start[1])),
-            goal=GoalConfig(x_km=float(goal[0]), y_km=float(goal[1])),
-            terrain=terrain,
-            radars=(),
-        )
+        draft, start, goal = _draft(rng, name, n_mountains)
         heights, grid = _composed_heights(draft)
-
-        # Radar sites: half of them (rounded up) near the route, each the highest of 8 candidates.
-        near = math.ceil(n_radars / 2)
-        radars = []
-        for i in range(n_radars):
-            if i < near:
-                along = rng.uniform(0.0, 1.0, size=8)
-                across = rng.uniform(-30.0, 30.0, size=8)
-                candidates = start + along[:, None] * route + across[:, None] * normal
-                candidates = candidates[_distance_to_segment(candidates, start, goal) <= 30.0]
-                candidates = np.clip(candidates, low, high) if len(candidates) else start[None] + 0.5 * route
-            else:
-                candidates = rng.uniform(low, high, size=(8, 2))
-            ground = bilinear(
-                heights, *grid.fractional_index(candidates[:, 0] * 1000.0, candidates[:, 1] * 1000.0)
-            )
-            x, y = candidates[int(np.argmax(ground))]
-            mast = rng.uniform(10.0, 30.0)
-            radars.append(
-                Radar(
-                    f"R{i + 1}",
-                    round(float(x), 3),
-                    round(float(y), 3),
-                    mast_m=round(float(mast), 1),
-                    ref_range_km=ref_range_km,
-                    ref_rcs_m2=0.1,
-                )
-            )
+        radars = _radar_sites(rng, start, goal, n_radars, ref_range_km, heights, grid)
         scenario = replace(draft, radars=tuple(radars))
         if straight_climb_feasible(scenario, heights, grid):
             return scenario
     raise RuntimeError("random_scenario: no feasible scenario in 1000 drafts")  # never seen; a safety net
+
+
+def _draft(rng: np.random.Generator, name: str, n_mountains: int) -> tuple[Scenario, FloatArray, FloatArray]:
+    """A radar-less draft of :func:`random_scenario`: corners for start and goal, mountains, terrain seed."""
+    low, high = RANDOM_SQUARE_KM
+    corners = [(low, low), (high, high)] if rng.random() < 0.5 else [(low, high), (high, low)]
+    if rng.random() < 0.5:
+        corners.reverse()
+    start, goal = np.array(corners[0]), np.array(corners[1])
+    route = goal - start
+    normal = np.array([-route[1], route[0]]) / np.hypot(*route)
+    # The first mountain sits near the route; the others anywhere in the square.
+    centres = rng.uniform(low, high, size=(n_mountains, 2))
+    centres[0] = start + rng.uniform(0.2, 0.8) * route + rng.uniform(-10.0, 10.0) * normal
+    peaks = rng.uniform(300.0, 900.0, size=n_mountains)
+    terrain = TerrainConfig(
+        seed=int(rng.integers(2**31)),
+        natural=GaussianField(),
+        mountains=tuple(
+            Mountain(round(float(x), 3), round(float(y), 3), round(float(h), 1))
+            for (x, y), h in zip(centres, peaks, strict=True)
+        ),
+    )
+    draft = Scenario(
+        name=name,
+        start=StartConfig(x_km=float(start[0]), y_km=float(start[1])),
+        goal=GoalConfig(x_km=float(goal[0]), y_km=float(goal[1])),
+        terrain=terrain,
+        radars=(),
+    )
+    return draft, start, goal
+
+
+def _radar_sites(
+    rng: np.random.Generator,
+    start: FloatArray,
+    goal: FloatArray,
+    n_radars: int,
+    ref_range_km: float,
+    heights: FloatArray,
+    grid: Any,
+) -> list[Radar]:
+    """The radars of :func:`random_scenario`: half of them (rounded up) near the route, each the highest of 8 candidates."""
+    low, high = RANDOM_SQUARE_KM
+    route = goal - start
+    normal = np.array([-route[1], route[0]]) / np.hypot(*route)
+    near = math.ceil(n_radars / 2)
+    radars = []
+    for i in range(n_radars):
+        if i < near:
+            along = rng.uniform(0.0, 1.0, size=8)
+            across = rng.uniform(-30.0, 30.0, size=8)
+            candidates = start + along[:, None] * route + across[:, None] * normal
+            candidates = candidates[_distance_to_segment(candidates, start, goal) <= 30.0]
+            candidates = np.clip(candidates, low, high) if len(candidates) else start[None] + 0.5 * route
+        else:
+            candidates = rng.uniform(low, high, size=(8, 2))
+        ground = bilinear(heights, *grid.fractional_index(candidates[:, 0] * 1000.0, candidates[:, 1] * 1000.0))
+        x, y = candidates[int(np.argmax(ground))]
+        mast = rng.uniform(10.0, 30.0)
+        radars.append(
+            Radar(
+                f"R{i + 1}",
+                round(float(x), 3),
+                round(float(y), 3),
+                mast_m=round(float(mast), 1),
+                ref_range_km=ref_range_km,
+                ref_rcs_m2=0.1,
+            )
+        )
+    return radars
 
 
 # --- the DEM scenario -------------------------------------------------------------------------------
