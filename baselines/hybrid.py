@@ -130,7 +130,7 @@ class AgentWarmStartedMPC(MPCPolicy):
             np.asarray(info["state"], dtype=np.float64),
             plan[None],
             step=int(info["step"]),
-            discount=self.discount,
+            discount=self.settings.discount,
             terminal_cost=self._terminal,
         )
         self.last_record.update(agent_plan=plan.tolist(), agent_plan_cost=float(cost[0]))

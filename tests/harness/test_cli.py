@@ -434,7 +434,7 @@ def test_a_hybrid_name_builds_the_planner_and_hands_it_to_the_kind(tmp_path, tin
     policy = make_policy("ihpso-eq37+fake:dir/agent.zip", horizon=3, max_evals=50)
     ((argument, planner),) = handed
     assert argument == "dir/agent.zip" and planner is policy and isinstance(planner, MPCPolicy)
-    assert (planner.horizon, planner.max_evals, planner.terminal, planner.name) == (
+    assert (planner.horizon, planner.max_evals, planner.settings.terminal, planner.name) == (
         3,
         50,
         "none",

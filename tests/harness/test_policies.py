@@ -199,16 +199,16 @@ def test_make_policy_names():
     ihpso = make_policy("ihpso", horizon=4, max_evals=123)
     assert (
         isinstance(ihpso, MPCPolicy)
-        and (ihpso.terminal, ihpso.terminal_cost) == (MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
+        and (ihpso.settings.terminal, ihpso.settings.terminal_cost) == (MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
         and ihpso.horizon == 4
         and ihpso.max_evals == 123
     )
     literal = make_policy("ihpso-eq37")
-    assert literal.terminal == "none" and type(literal.optimizer) is type(ihpso.optimizer)
+    assert literal.settings.terminal == "none" and type(literal.optimizer) is type(ihpso.optimizer)
     assert ihpso.config() != literal.config()
     # A suffix fixes the terminal form (model.md §7e); c_T still comes from the arguments.
     forms = {f: make_policy(f"hpso-ctg-{f}", terminal_cost=0.3) for f in ("distance", "dubins", "value")}
-    assert {f: (p.terminal, p.terminal_cost, p.name) for f, p in forms.items()} == {
+    assert {f: (p.settings.terminal, p.settings.terminal_cost, p.name) for f, p in forms.items()} == {
         "distance": ("distance", 0.3, "hpso-ctg-distance"),
         "dubins": ("dubins", 0.3, "hpso-ctg-dubins"),
         "value": ("value", None, "hpso-ctg-value"),  # the value form has no c_T
@@ -277,7 +277,7 @@ def test_mpc_defaults_live_in_one_place():
     keys = ("horizon", "discount", "max_evals", "terminal", "terminal_cost")
     for policy in (built, plain):
         assert policy.settings is MPC_DEFAULTS
-        assert tuple(getattr(policy, k) for k in keys) == tuple(getattr(MPC_DEFAULTS, k) for k in keys)
+        assert (policy.horizon, policy.max_evals) == (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals)
     assert SETTING_FIELDS == keys and not set(keys) & set(RUN_DEFAULTS)  # the CLI reads the dataclass
     with pytest.raises(ValueError, match="terminal: got 'euclid'"):
         MPCPolicy(get_optimizer("pso"), MPCSettings(terminal="euclid"))
@@ -323,6 +323,6 @@ def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
         info["state"],
         plans.reshape(4, policy.horizon, 3),
         step=info["step"],
-        terminal_cost=terminal_cost_for(env.unwrapped.model, policy.terminal, policy.terminal_cost),
+        terminal_cost=terminal_cost_for(env.unwrapped.model, policy.settings.terminal, policy.settings.terminal_cost),
     )
     np.testing.assert_array_equal(cost(plans), expected)

@@ -224,24 +224,10 @@ class MPCPolicy:
         return self.settings.horizon
 
     @property
-    def discount(self) -> float:
-        """Gamma of eq. 37 (``settings.discount``)."""
-        return self.settings.discount
-
-    @property
     def max_evals(self) -> int:
         """Objective evaluations per planning step (``settings.max_evals``)."""
         return self.settings.max_evals
 
-    @property
-    def terminal(self) -> str:
-        """The terminal cost's form (``settings.terminal``; model.md §7e)."""
-        return self.settings.terminal
-
-    @property
-    def terminal_cost(self) -> float | None:
-        """c_T of the ``distance`` and ``dubins`` forms, None for the form's default (``settings.terminal_cost``)."""
-        return self.settings.terminal_cost
 
     def config(self) -> dict[str, Any]:
         """Everything that determines this policy's behaviour (hashed into the results store key)."""
@@ -252,17 +238,18 @@ class MPCPolicy:
             "optimizer": f"{type(optimizer).__module__}.{type(optimizer).__qualname__}",
             "optimizer_params": params,
             "horizon": self.horizon,
-            "discount": self.discount,
+            "discount": self.settings.discount,
             "max_evals": self.max_evals,
-            "terminal": self.terminal,
-            "terminal_cost": self.terminal_cost,
+            "terminal": self.settings.terminal,
+            "terminal_cost": self.settings.terminal_cost,
             **self._value_function_config(),
             "warm_start": self.warm_start,
         }
 
     def _value_function_config(self) -> dict[str, Any]:
         """The lattice behind the terminal cost, when the form reads it (so a changed V is a new policy)."""
-        if self.terminal == "value" or (self.terminal == "dubins" and self.terminal_cost is None):
+        form, c_t = self.settings.terminal, self.settings.terminal_cost
+        if form == "value" or (form == "dubins" and c_t is None):
             return {"lattice": dataclasses.asdict(LATTICE_DEFAULTS), "value_algorithm": VALUE_ALGORITHM_VERSION}
         return {}
 
@@ -272,7 +259,7 @@ class MPCPolicy:
         self.rng = np.random.default_rng(seed)
         self._plan = None
         self.last_record = {}
-        self._terminal = terminal_cost_for(model, self.terminal, self.terminal_cost)
+        self._terminal = terminal_cost_for(model, self.settings.terminal, self.settings.terminal_cost)
 
     def initial_guess(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray | None:
         """The (H, 3) plan the optimiser starts from (its ``x0``), or None for no warm start.
