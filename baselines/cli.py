@@ -1,4 +1,4 @@
-"""``uav-bench train``: train an SB3 agent from the command line (api.md; issue 6).
+"""``uav-bench train``: train an SB3 agent from the command line (api.md).
 
 A plug-in command (:data:`baselines.plugin.TRAIN_COMMAND`, entry-point group
 ``uav_penetration.commands``): ``uav-bench`` builds the ``train`` sub-parser with
@@ -21,8 +21,8 @@ from uav_penetration_env.catalogue import SCENARIO_HELP
 DEFAULTS = TrainConfig()  # every default of the flags below is TrainConfig's
 
 
-def add_train_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags of ``uav-bench train`` (defaults: :class:`~baselines.plan.TrainConfig`'s)."""
+def _add_task_arguments(parser: argparse.ArgumentParser) -> None:
+    """What to train: the algorithm, the env id, the scenario, its profile and difficulty."""
     parser.add_argument(
         "--algo",
         default=DEFAULTS.algo,
@@ -46,6 +46,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         help="difficulty of the Random id or of a random:SEED scenario (default: 0.5)",
     )
+
+
+def _add_budget_arguments(parser: argparse.ArgumentParser) -> None:
+    """How much and where: steps, seed, sub-envs, the model file, hyper-parameter overrides."""
     parser.add_argument(
         "--timesteps",
         type=int,
@@ -67,6 +71,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"model .zip (default: {DEFAULT_MODELS}/ALGO-SCENARIO-sSEED.zip); sidecars go beside it",
     )
     parser.add_argument("--hyperparams", help="YAML file overriding keys of baselines/hyperparams/ALGO.yaml")
+
+
+def _add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
+    """Evaluation during training, checkpoints and resuming from them."""
     parser.add_argument(
         "--eval-freq",
         dest="eval_freq",
@@ -94,6 +102,10 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         help="continue from the last checkpoint of --out when there is one (same configuration; "
         "--timesteps may be larger); else train from scratch",
     )
+
+
+def _add_runtime_arguments(parser: argparse.ArgumentParser) -> None:
+    """How the run behaves: torch threads, SB3 verbosity, the progress bar."""
     parser.add_argument(
         "--torch-threads",
         dest="torch_threads",
@@ -105,6 +117,15 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
         "--verbose", type=int, default=DEFAULTS.verbose, help=f"SB3 verbosity (default: {DEFAULTS.verbose})"
     )
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+
+
+def add_train_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``uav-bench train`` (defaults: :class:`~baselines.plan.TrainConfig`'s)."""
+    # In this order: it is the order of the flags in ``uav-bench train --help``.
+    _add_task_arguments(parser)
+    _add_budget_arguments(parser)
+    _add_checkpoint_arguments(parser)
+    _add_runtime_arguments(parser)
 
 
 def _scenario(args: argparse.Namespace) -> Any:

@@ -187,31 +187,33 @@ def vector_class(env_id: str) -> type | None:
     return creator if isinstance(creator, type) and issubclass(creator, UAVPenetrationVectorEnv) else None
 
 
-def prepare_training(config: TrainConfig) -> TrainingPlan:
-    """Validate every input of a training run before anything slow happens.
-
-    Raises:
-        ValueError: an unknown algorithm, env id or hyper-parameter, a scenario for the Random id,
-            ``difficulty`` for a fixed id, a non-positive count; ``ScenarioError`` (a ValueError)
-            for a broken or unknown scenario; with ``resume``, a checkpoint of another
-            configuration or with more steps than ``total_timesteps``.
-        FileNotFoundError: a hyper-parameter file that does not exist.
-    """
-    from gymnasium.envs.registration import registry
-
+def _native_class(env_id: str) -> type:
+    """The native vector env class of ``env_id``; a ValueError with a did-you-mean for an unknown id."""
     import uav_penetration_env
-    from uav_penetration_env.build import build_scenario
-    from uav_penetration_env.env import resolve_scenario
-    from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
 
-    env_id, difficulty, profile = config.env_id, config.difficulty, config.profile
-    params, source = resolve_hyperparams(config.algo, config.hyperparams)
     native_class = vector_class(env_id)
     if native_class is None:
         known = list(uav_penetration_env.ENV_IDS)
         raise ValueError(
             f"env_id: unknown id {env_id!r} — {did_you_mean(env_id, known)}known: {', '.join(known)}"
         )
+    return native_class
+
+
+def _env_kwargs(config: TrainConfig, native_class: type) -> dict[str, Any]:
+    """The env's keywords: ``env_kwargs`` with the profile, and the difficulty (Random id) or the resolved scenario.
+
+    Raises:
+        ValueError: a scenario for the Random id, ``difficulty`` for a fixed id; ``ScenarioError``
+            for a broken or unknown scenario.
+    """
+    from gymnasium.envs.registration import registry
+
+    from uav_penetration_env.build import build_scenario
+    from uav_penetration_env.env import resolve_scenario
+    from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
+
+    env_id, difficulty, profile = config.env_id, config.difficulty, config.profile
     kwargs = dict(config.env_kwargs or {})
     if profile is not None:
         kwargs["profile"] = profile
@@ -240,27 +242,71 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         # The resolved scenario carries its profile; passing both keeps the id's profile from
         # overriding an explicit one when the env resolves it again.
         kwargs.update(scenario=resolved, profile=resolved.profile)
-    seed = config.seed
+    return kwargs
+
+
+def _check_seed(seed: Any) -> int:
+    """``seed`` as an int; a ValueError unless it is an integer >= 0."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed: got {seed!r}, expected an integer >= 0")
+    return int(seed)
+
+
+def _model_files(config: TrainConfig) -> ModelFiles:
+    """The run's files (``out``, else :func:`default_model_path`), their folder created.
+
+    Raises:
+        ValueError: the folder cannot be created (named as ``out``).
+    """
     out = (
         config.out
         if config.out is not None
-        else default_model_path(config.algo, env_id, config.scenario, seed)
+        else default_model_path(config.algo, config.env_id, config.scenario, config.seed)
     )
     files = ModelFiles.of(out)
     try:
         files.model.parent.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise ValueError(f"out: cannot create folder {files.model.parent} ({error.strerror})") from None
+    return files
+
+
+def _with_resume(plan: TrainingPlan, config: TrainConfig) -> TrainingPlan:
+    """``plan`` with the checkpoint to continue from, when ``config.resume`` and one matches.
+
+    Raises:
+        ValueError: the checkpoint is of another configuration or has more steps than ``total_timesteps``.
+    """
+    if not config.resume:
+        return plan
+    state = read_resume_state(plan.files)
+    if state is not None:
+        check_resumable(state, resume_key(plan), plan.total_timesteps)
+    return dataclasses.replace(plan, resume_from=state)
+
+
+def prepare_training(config: TrainConfig) -> TrainingPlan:
+    """Validate every input of a training run before anything slow happens.
+
+    Raises:
+        ValueError: an unknown algorithm, env id or hyper-parameter, a scenario for the Random id,
+            ``difficulty`` for a fixed id, a non-positive count; ``ScenarioError`` (a ValueError)
+            for a broken or unknown scenario; with ``resume``, a checkpoint of another
+            configuration or with more steps than ``total_timesteps``.
+        FileNotFoundError: a hyper-parameter file that does not exist.
+    """
+    params, source = resolve_hyperparams(config.algo, config.hyperparams)
+    kwargs = _env_kwargs(config, _native_class(config.env_id))
+    seed = _check_seed(config.seed)
+    files = _model_files(config)
     torch_threads = config.torch_threads
     eval_seeds = _eval_seeds(config)
     plan = TrainingPlan(
         algo=str(config.algo).lower(),
-        env_id=env_id,
+        env_id=config.env_id,
         env_kwargs=kwargs,
         total_timesteps=_check_positive("total_timesteps", config.total_timesteps),
-        seed=int(seed),
+        seed=seed,
         n_envs=_check_positive("n_envs", config.n_envs),
         files=files,
         hyperparams=params,
@@ -275,9 +321,4 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
         device=config.device,
     )
-    if not config.resume:
-        return plan
-    state = read_resume_state(files)
-    if state is not None:
-        check_resumable(state, resume_key(plan), plan.total_timesteps)
-    return dataclasses.replace(plan, resume_from=state)
+    return _with_resume(plan, config)

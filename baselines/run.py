@@ -23,6 +23,7 @@ import numpy as np
 from baselines.artifacts import SIDECAR_FORMAT, ModelFiles, artifact_hashes
 from baselines.hyperparameters import algorithm_class, algorithm_kwargs, normalize_kwargs
 from baselines.plan import TrainingPlan
+from baselines.resume import ResumeState
 from uav_penetration_env.atomic import atomic_open, atomic_path, write_text_atomic
 
 EVALUATION_COLUMNS = (
@@ -399,6 +400,96 @@ def _stdout_logger(verbose: int) -> Any:
     return Logger(folder=None, output_formats=[HumanOutputFormat(sys.stdout)] if verbose else [])
 
 
+def _already_finished(plan: TrainingPlan) -> TrainResult | None:
+    """The saved result when ``plan.resume_from`` already trained ``total_timesteps`` steps, else ``None``."""
+    state = plan.resume_from
+    if state is not None and state.finished and state.timesteps >= plan.total_timesteps:
+        return _finished_result(plan)
+    return None
+
+
+def _build_model(run: _Run, cls: type) -> list[int]:
+    """Construct a fresh model on ``run.env``; return the sub-envs' reset seeds (the run's own)."""
+    plan = run.plan
+    kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
+    run.model = cls(
+        plan.hyperparams.get("policy", "MlpPolicy"),
+        run.env,
+        seed=plan.seed,
+        verbose=plan.verbose,
+        device=plan.device,
+        **kwargs,
+    )
+    return run.seeds
+
+
+def _resumed_seed(plan: TrainingPlan, state: ResumeState) -> int:
+    """The seed a resumed run reseeds torch and numpy with, from ``SeedSequence([seed, steps])``."""
+    return int(np.random.SeedSequence([plan.seed, state.timesteps]).generate_state(1)[0])
+
+
+def _load_model(run: _Run, cls: type, state: ResumeState, resumed_seed: int) -> list[int]:
+    """Load the checkpoint's model (and replay buffer) onto ``run.env``; return the sub-envs' reset seeds.
+
+    The reset seeds are drawn from ``SeedSequence([seed, steps])``, so the resumed run does not
+    replay the first episodes of the run it continues.
+    """
+    from baselines.resume import load_replay_buffer
+
+    plan = run.plan
+    run.model = cls.load(state.model, env=run.env, device=plan.device, verbose=plan.verbose)
+    run.model.set_random_seed(resumed_seed)
+    if state.replay_buffer is not None:
+        load_replay_buffer(run.model, state.replay_buffer)
+    return train_env_seeds([plan.seed, state.timesteps], plan.n_envs, pool=run.random_id)
+
+
+def _learn(run: _Run) -> None:
+    """Train up to ``total_timesteps``; on Ctrl-C save the partly trained model (interrupted), re-raise."""
+    from stable_baselines3.common.callbacks import CallbackList
+
+    plan, state = run.plan, run.plan.resume_from
+    callbacks = _callbacks(run)
+    callback = CallbackList(callbacks)
+    run.started = time.perf_counter() - (state.wall_seconds if state is not None else 0.0)
+    done_steps = state.timesteps if state is not None else 0
+    try:
+        run.model.learn(
+            plan.total_timesteps - done_steps,
+            callback=callback,
+            progress_bar=False,
+            reset_num_timesteps=state is None,
+        )
+    except KeyboardInterrupt:
+        for each in callbacks:
+            if hasattr(each, "close"):
+                each.close()
+        run.save(plan.files, time.perf_counter() - run.started, interrupted=True)
+        raise
+
+
+def _finish(run: _Run) -> TrainResult:
+    """The final evaluation and checkpoint (when due), then the model with its sidecars; the result."""
+    plan = run.plan
+    if plan.eval_freq and (
+        not run.evaluations or run.evaluations[-1]["timesteps"] != run.model.num_timesteps
+    ):
+        run.evaluate()
+    if plan.checkpoint_freq:
+        run.checkpoint(finished=True)  # a later run may extend this one (--resume, more steps)
+    wall = time.perf_counter() - run.started
+    sidecar = run.save(plan.files, wall)
+    return TrainResult(files=plan.files, sidecar=sidecar, evaluations=list(run.evaluations), model=run.model)
+
+
+def _close(run: _Run | None) -> None:
+    """Close the training and evaluation envs of ``run`` (nothing when it was never built)."""
+    if run is not None:
+        run.env.close()
+        if run.eval_env is not None:
+            run.eval_env.close()
+
+
 def run_training(plan: TrainingPlan) -> TrainResult:
     """Train as ``plan`` says and write the model with its sidecars (see :func:`train_agent`).
 
@@ -416,81 +507,37 @@ def run_training(plan: TrainingPlan) -> TrainResult:
     checkpoint are the uninterrupted run's exactly.
     """
     import torch
-    from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.utils import set_random_seed
 
-    from baselines.resume import discard_resume_state, load_replay_buffer
+    from baselines.resume import discard_resume_state
 
-    state = plan.resume_from
-    if state is not None and state.finished and state.timesteps >= plan.total_timesteps:
-        done = _finished_result(plan)
-        if done is not None:
-            return done
+    done = _already_finished(plan)
+    if done is not None:
+        return done
     previous_threads = torch.get_num_threads()
     if plan.torch_threads is not None:
         torch.set_num_threads(plan.torch_threads)
-    run: _Run | None = None
+    state = plan.resume_from
+    run: _Run | None = None  # set as soon as the envs exist, so ``finally`` closes them on any error
     try:
         cls = algorithm_class(plan.algo)
         if state is None:
             discard_resume_state(plan.files)  # a fresh run: an older run's checkpoint must not be resumed
             set_random_seed(plan.seed)
             run = _Run(plan)
-            kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
-            run.model = cls(
-                plan.hyperparams.get("policy", "MlpPolicy"),
-                run.env,
-                seed=plan.seed,
-                verbose=plan.verbose,
-                device=plan.device,
-                **kwargs,
-            )
-            reset_seeds = run.seeds
+            reset_seeds = _build_model(run, cls)
         else:
-            resumed_seed = int(np.random.SeedSequence([plan.seed, state.timesteps]).generate_state(1)[0])
+            resumed_seed = _resumed_seed(plan, state)
             set_random_seed(resumed_seed)
             run = _Run(plan)
-            run.model = cls.load(state.model, env=run.env, device=plan.device, verbose=plan.verbose)
-            run.model.set_random_seed(resumed_seed)
-            if state.replay_buffer is not None:
-                load_replay_buffer(run.model, state.replay_buffer)
-            reset_seeds = train_env_seeds([plan.seed, state.timesteps], plan.n_envs, pool=run.random_id)
+            reset_seeds = _load_model(run, cls, state, resumed_seed)
         run.model.set_logger(_stdout_logger(plan.verbose))
         # The constructor seeded sub-env i with seed + i; the SeedSequence children replace that.
         run.env.seed(reset_seeds)
         if plan.eval_freq:
             _write_evaluations(plan.files.evaluations, run.evaluations)
-        callbacks = _callbacks(run)
-        callback = CallbackList(callbacks)
-        run.started = time.perf_counter() - (state.wall_seconds if state is not None else 0.0)
-        done_steps = state.timesteps if state is not None else 0
-        try:
-            run.model.learn(
-                plan.total_timesteps - done_steps,
-                callback=callback,
-                progress_bar=False,
-                reset_num_timesteps=state is None,
-            )
-        except KeyboardInterrupt:
-            for each in callbacks:
-                if hasattr(each, "close"):
-                    each.close()
-            run.save(plan.files, time.perf_counter() - run.started, interrupted=True)
-            raise
-        if plan.eval_freq and (
-            not run.evaluations or run.evaluations[-1]["timesteps"] != run.model.num_timesteps
-        ):
-            run.evaluate()
-        if plan.checkpoint_freq:
-            run.checkpoint(finished=True)  # a later run may extend this one (--resume, more steps)
-        wall = time.perf_counter() - run.started
-        sidecar = run.save(plan.files, wall)
-        return TrainResult(
-            files=plan.files, sidecar=sidecar, evaluations=list(run.evaluations), model=run.model
-        )
+        _learn(run)
+        return _finish(run)
     finally:
-        if run is not None:
-            run.env.close()
-            if run.eval_env is not None:
-                run.eval_env.close()
+        _close(run)
         torch.set_num_threads(previous_threads)
