@@ -1,4 +1,4 @@
-"""Train Stable-Baselines3 agents on the UAV penetration envs (api.md, ``baselines``; issue 6).
+"""Train Stable-Baselines3 agents on the UAV penetration envs (api.md, ``baselines``).
 
 ``train_agent("ppo", env_id="UAVPenetration-v0", ...)`` (the fields of
 :class:`~baselines.plan.TrainConfig`) trains on the native batched vector env
