@@ -230,10 +230,6 @@ class Suite:
                 )
         return [m for m in self.members if any(fnmatch.fnmatchcase(m.name, p) for p in patterns)]
 
-    def by_scenario_hash(self) -> dict[str, SuiteMember]:
-        """``scenario_hash -> member`` (the leaderboard finds a store's suite episodes with it)."""
-        return {m.fingerprint.scenario_hash: m for m in self.members}
-
     def to_dict(self) -> dict[str, Any]:
         """The suite file's content."""
         return {
