@@ -14,7 +14,31 @@ policy = load_policy("results/models/ppo-paper-s0.zip")    # a Policy for evalua
 
 from __future__ import annotations
 
-from baselines.policy import SB3Policy, load_policy
-from baselines.train import KNOWN_ALGORITHMS, TrainConfig, TrainResult, train_agent
+import importlib
+from typing import Any
 
-__all__ = ["KNOWN_ALGORITHMS", "SB3Policy", "TrainConfig", "TrainResult", "load_policy", "train_agent"]
+# Imported on first use (PEP 562): the harness loads this package's entry points to list its
+# commands, which must not import the env or torch.
+_EXPORTS = {
+    "SB3Policy": "baselines.policy",
+    "load_policy": "baselines.policy",
+    "KNOWN_ALGORITHMS": "baselines.train",
+    "TrainConfig": "baselines.train",
+    "TrainResult": "baselines.train",
+    "train_agent": "baselines.train",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'baselines' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})

@@ -17,11 +17,14 @@ import json
 import re
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from uav_penetration_env.atomic import atomic_path
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 TRAINING_SEED = re.compile(r"-s\d+$")  # as the RL table's groups (leaderboard/rl.py)
 
@@ -32,6 +35,8 @@ def load_curves(models: str | Path) -> pd.DataFrame:
     Returns:
         Columns ``algorithm, group, regime, seed, model, timesteps, mean_cost, success_rate``.
     """
+    import pandas as pd  # here, so that `uav-bench plot --help` does not load it
+
     rows = []
     for sidecar in sorted(Path(models).glob("*.json")):
         csv = sidecar.with_suffix(".evaluations.csv")

@@ -13,14 +13,31 @@ to install. Learning curves read CSV and JSON files only and need no extra.
 
 from __future__ import annotations
 
-from baselines.cli import add_train_arguments, train_command
-from baselines.curves import add_curve_arguments, curves_command
-from baselines.hybrid import load_hybrid
+import importlib
+from collections.abc import Callable
+from typing import Any
+
 from baselines.install import RL_INSTALL
-from baselines.policy import load_policy, sb3_label
-from baselines.tune import add_tune_arguments, tune_command
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
+
+
+def later(module: str, name: str) -> Callable[..., Any]:
+    """``module.name``, imported when first called: listing the commands imports neither the env nor torch."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        return getattr(importlib.import_module(module), name)(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    call.__doc__ = f"``{module}.{name}``, imported on first call."
+    return call
+
+
+add_train_arguments, train_command = later("baselines.cli", "add_train_arguments"), later("baselines.cli", "train_command")
+add_curve_arguments, curves_command = later("baselines.curves", "add_curve_arguments"), later("baselines.curves", "curves_command")
+add_tune_arguments, tune_command = later("baselines.tune", "add_tune_arguments"), later("baselines.tune", "tune_command")
+load_hybrid = later("baselines.hybrid", "load_hybrid")
+load_policy, sb3_label = later("baselines.policy", "load_policy"), later("baselines.policy", "sb3_label")
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),

@@ -218,3 +218,42 @@ def test_forbidden_directions_are_reported(tmp_path):
         "optimizers.pso -> uav_penetration_env.harness",
         "uav_penetration_env.harness -> baselines.load_policy",
     ]
+
+
+LIGHT_FORBIDDEN = ("numba", "pandas", "matplotlib", "torch", "stable_baselines3", "optuna", "scipy.optimize")
+
+
+@pytest.mark.parametrize("command", ["--help", "run", "leaderboard", "plot", "windows", "train", "tune"])
+def test_the_cli_parser_loads_neither_the_physics_nor_the_heavy_libraries(command):
+    """``uav-bench --help`` and argument errors answer at once: the parser imports no compiled code.
+
+    Run in a fresh interpreter, as the console script is; the registered ids are there too.
+    """
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from uav_penetration_env.benchmark import cli\n"
+        f"cli.build_parser([{command!r}])\n"
+        "import gymnasium\n"
+        "assert 'UAVPenetration-v0' in gymnasium.registry\n"
+        f"print(sorted(m for m in {LIGHT_FORBIDDEN!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_package_exports_load_on_first_use():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, uav_penetration_env as u\n"
+        "assert 'numba' not in sys.modules\n"
+        "assert u.PenetrationModel.__name__ == 'PenetrationModel' and 'numba' in sys.modules\n"
+        "assert set(u.__all__) <= set(dir(u))\n"
+        "try:\n    u.no_such_name\nexcept AttributeError as e:\n    print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "module 'uav_penetration_env' has no attribute 'no_such_name'"

@@ -7,22 +7,44 @@ the project's model specification.
 
 from __future__ import annotations
 
-# First: numba's cache folder must be set before any compiled module is imported.
-from uav_penetration_env import compile_cache  # noqa: F401  isort: skip
+import importlib
+from typing import Any
 
 from gymnasium.envs.registration import register, registry
 
 from uav_penetration_env._version import __version__
-from uav_penetration_env.build import BuiltScenario, build_scenario
-from uav_penetration_env.catalogue import (
-    HELD_OUT_SEEDS,
-    default_max_steps,
-    dem_scenario,
-    generate_dem_scenario,
-    random_scenario,
-)
-from uav_penetration_env.model import PenetrationModel, StepResult
-from uav_penetration_env.scenario import Scenario, ScenarioError, load_scenario, paper_scenario
+
+# The public names, imported on first use (PEP 562): `import uav_penetration_env` registers the env
+# ids without loading the compiled physics, so `uav-bench --help` and `gym.pprint_registry()` answer
+# at once. The compiled modules set numba's cache folder themselves (compile_cache, model.md §8).
+_EXPORTS = {
+    "BuiltScenario": "uav_penetration_env.build",
+    "build_scenario": "uav_penetration_env.build",
+    "HELD_OUT_SEEDS": "uav_penetration_env.catalogue",
+    "dem_scenario": "uav_penetration_env.catalogue",
+    "generate_dem_scenario": "uav_penetration_env.catalogue",
+    "random_scenario": "uav_penetration_env.catalogue",
+    "PenetrationModel": "uav_penetration_env.model",
+    "StepResult": "uav_penetration_env.model",
+    "Scenario": "uav_penetration_env.scenario",
+    "ScenarioError": "uav_penetration_env.scenario",
+    "load_scenario": "uav_penetration_env.scenario",
+    "paper_scenario": "uav_penetration_env.scenario",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'uav_penetration_env' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
 
 __all__ = [
     "ENV_IDS",
@@ -55,6 +77,19 @@ ENV_IDS = {
     ),
     "UAVPenetrationDEM-v0": (_ENV, _VECTOR, {"default_scenario": "dem", "id_profile": "benchmark"}),
 }
+
+
+def _registered_max_steps(name: str | None) -> int:
+    """K_max of an id's default scenario: a bundled file's ``time.max_steps``, or the default time settings.
+
+    Read from the scenario files alone (catalogue.default_max_steps gives the same for every
+    catalogue name), so registering the ids loads no terrain and no compiled code.
+    """
+    from uav_penetration_env.scenario import TimeConfig, load_bundled
+
+    return TimeConfig().max_steps if name is None else load_bundled(f"{name}.yaml").time.max_steps
+
+
 for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
     if _id not in registry:
         register(
@@ -62,5 +97,5 @@ for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
             entry_point=_entry,
             vector_entry_point=_vector_entry,
             kwargs=_kwargs,
-            max_episode_steps=default_max_steps(_kwargs.get("default_scenario")),
+            max_episode_steps=_registered_max_steps(_kwargs.get("default_scenario")),
         )

@@ -18,13 +18,10 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy import ndimage
 
-from uav_penetration_env.build import compose_terrain, grid_for
-from uav_penetration_env.dem import dem_heights, window_extent_km
 from uav_penetration_env.scenario import (
     DEMTerrain,
     GaussianField,
@@ -43,8 +40,10 @@ from uav_penetration_env.scenario import (
     paper_scenario,
 )
 from uav_penetration_env.suggest import did_you_mean
-from uav_penetration_env.terrain import GridSpec, bilinear
 from uav_penetration_env.types import FloatArray
+
+if TYPE_CHECKING:
+    from uav_penetration_env.terrain import GridSpec
 
 HELD_OUT_SEEDS = range(10_000, 10_050)  # model.md §7c: the held-out evaluation set at difficulty 0.5
 RANDOM_SQUARE_KM = (0.0, 100.0)
@@ -53,6 +52,9 @@ MAX_RADARS = 8  # 2 + round(6 d) at d = 1
 
 def _composed_heights(scenario: Scenario) -> tuple[FloatArray, GridSpec]:
     """Terrain heights without touching the disk cache (rejection sampling builds many drafts)."""
+    # The builder is imported where a scenario is drawn, so that naming scenarios (the CLI) stays light.
+    from uav_penetration_env.build import compose_terrain, grid_for
+
     return compose_terrain(scenario), grid_for(scenario)
 
 
@@ -62,6 +64,8 @@ def straight_climb_feasible(scenario: Scenario, heights: FloatArray, grid: GridS
     The route is sampled every half grid cell; the UAV starts ``z_agl_m`` above the terrain and may
     climb by tan(pitch_max) per metre flown. The required altitude must stay below the ceiling.
     """
+    from uav_penetration_env.terrain import bilinear
+
     start = np.array([scenario.start.x_km, scenario.start.y_km]) * 1000.0
     goal = np.array([scenario.goal.x_km, scenario.goal.y_km]) * 1000.0
     length = float(np.hypot(*(goal - start)))
@@ -158,6 +162,8 @@ def _radar_sites(
     grid: Any,
 ) -> list[Radar]:
     """The radars of :func:`random_scenario`: half of them (rounded up) near the route, each the highest of 8 candidates."""
+    from uav_penetration_env.terrain import bilinear
+
     low, high = RANDOM_SQUARE_KM
     route = goal - start
     normal = np.array([-route[1], route[0]]) / np.hypot(*route)
@@ -204,6 +210,11 @@ def generate_dem_scenario() -> Scenario:
     radars (mast 20 m) stand on the highest node of each quadrant; start (25, 25) km, goal
     (73, 73) km; everything else as the paper scenario.
     """
+    from scipy import ndimage
+
+    from uav_penetration_env.build import grid_for
+    from uav_penetration_env.dem import dem_heights, window_extent_km
+
     paper = _load_bundled("paper.yaml")
     natural = DEMTerrain()
     width, height = window_extent_km(natural)

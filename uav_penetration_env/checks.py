@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from uav_penetration_env import kernels  # noqa: F401  (the compiled physics; the package set its cache folder first)
+from uav_penetration_env import compile_cache, kernels  # noqa: F401  (numba's cache folder first, then the compiled physics)
 
 
 @njit(cache=True)

@@ -29,7 +29,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-TERMINAL_FORMS = {"none": 0, "distance": 1, "dubins": 2, "value": 3}
+from uav_penetration_env import compile_cache  # noqa: F401  (numba's cache folder, before any compiled function)
+from uav_penetration_env.types import TERMINAL_FORMS  # the kernels' codes of the forms
 
 # Slots of TerminalCost.grid (float64): the value table's lattice and its fallback.
 G_X0, G_Y0, G_DX, G_DY, G_MISSING, G_STEP_LENGTH, G_TURN_RADIUS, N_GRID = range(8)

@@ -34,7 +34,7 @@ from numba import njit, prange, vectorize
 from uav_penetration_env import compile_cache
 from uav_penetration_env.costtogo import terminal_value
 
-# The compile cache's folder is set by ``compile_cache`` (imported first by the package).
+# The compile cache's folder is set by ``compile_cache`` (imported above, before any compiled function).
 COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 
 

@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from uav_penetration_env.costtogo import TERMINAL_FORMS
+from uav_penetration_env.types import TERMINAL_FORMS
 
 FORMS_TEXT = ", ".join(TERMINAL_FORMS)
 # The forms that read a c_T; the others ('none', 'value') have no scale to set.

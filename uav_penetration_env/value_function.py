@@ -46,6 +46,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit, prange
 
+from uav_penetration_env import compile_cache  # noqa: F401  (numba's cache folder, before any compiled function)
 from uav_penetration_env.cache import cached_arrays
 from uav_penetration_env.costtogo import (
     G_DX,

@@ -48,8 +48,15 @@ class OneLineParser(argparse.ArgumentParser):
         raise UsageError(f"{where}{message} (see {self.prog} --help)")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command."""
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command.
+
+    Args:
+        argv: the command line about to be parsed. When given, only the sub-command it names gets
+            its arguments (each command's module imports what its flags need), so ``uav-bench
+            --help`` and an argument error answer without importing the others. None: every
+            sub-parser complete (for tests and documentation).
+    """
     parser = OneLineParser(
         prog="uav-bench",
         description="UAV penetration benchmark: run planners; build leaderboards, figures and an HTML report; "
@@ -59,12 +66,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     commands, extensions = available_commands()
+    selected = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
     for command in commands.values():
         sub = subparsers.add_parser(command.name, help=command.help, description=command.help)
-        command.add_arguments(sub)
         mine = tuple(e for e in extensions if e.command == command.name)
-        for extension in mine:
-            extension.add_arguments(sub)
+        if selected is None or selected == command.name:
+            command.add_arguments(sub)
+            for extension in mine:
+                extension.add_arguments(sub)
         sub.set_defaults(handler=command, extensions=mine)
     return parser
 
@@ -73,7 +82,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``uav-bench`` console script; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        parser = build_parser()
+        parser = build_parser(argv)
     except CLIError as error:  # a clashing plug-in: say so even for --help
         print(f"uav-bench: error: {error}", file=sys.stderr)
         return 2

@@ -130,3 +130,22 @@ def policy_kinds() -> dict[str, PolicyKind | Plugin]:
         else:
             kinds[name] = Plugin(name, error=f"entry point {name!r} of {POLICY_GROUP} is not a PolicyKind")
     return kinds
+
+
+HYBRID_SEPARATOR = "+"  # PLANNER+PREFIX:ARGUMENT, an MPC planner warm-started by a plug-in policy
+
+
+def plugin_policy_forms() -> list[str]:
+    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``).
+
+    A kind that warm-starts planners adds its hybrid form, ``PLANNER+sb3:PATH.zip``.
+    """
+    forms = []
+    for prefix, kind in policy_kinds().items():
+        if isinstance(kind, Plugin):
+            forms.append(f"{prefix}:...")
+            continue
+        forms.append(kind.usage)
+        if kind.hybrid is not None:
+            forms.append(f"PLANNER{HYBRID_SEPARATOR}{kind.usage}")
+    return forms

@@ -19,7 +19,14 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import Bounds
 
-from uav_penetration_env.benchmark.plugins import POLICY_GROUP, Plugin, PluginUnavailable, policy_kinds
+from uav_penetration_env.benchmark.plugins import (  # the plug-in forms, re-exported for the policy names
+    HYBRID_SEPARATOR,
+    POLICY_GROUP,
+    Plugin,
+    PluginUnavailable,
+    plugin_policy_forms,
+    policy_kinds,
+)
 from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
@@ -456,23 +463,6 @@ def policy_names() -> list[str]:
     return sorted([*FLOOR_POLICIES, *BASELINE_POLICIES, *names, *suffixed])
 
 
-def plugin_policy_forms() -> list[str]:
-    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``).
-
-    A kind that warm-starts planners adds its hybrid form, ``PLANNER+sb3:PATH.zip``.
-    """
-    forms = []
-    for prefix, kind in policy_kinds().items():
-        if isinstance(kind, Plugin):
-            forms.append(f"{prefix}:...")
-            continue
-        forms.append(kind.usage)
-        if kind.hybrid is not None:
-            forms.append(f"PLANNER{HYBRID_SEPARATOR}{kind.usage}")
-    return forms
-
-
-HYBRID_SEPARATOR = "+"
 
 
 def split_hybrid(spec: str) -> tuple[str, str] | None:

@@ -34,7 +34,7 @@ from uav_penetration_env.benchmark.commands.common import (
     store_error,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import SETTING_FIELDS, add_mpc_arguments, mpc_settings
-from uav_penetration_env.benchmark.plugins import PluginUnavailable
+from uav_penetration_env.benchmark.plugins import PluginUnavailable, plugin_policy_forms
 from uav_penetration_env.catalogue import SCENARIO_HELP
 from uav_penetration_env.suggest import did_you_mean
 
@@ -66,8 +66,6 @@ CONFIG_KEYS = [*(key for key in RUN_DEFAULTS if key not in ("report", "progress"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`, the MPC ones in ``MPC_DEFAULTS``)."""
-    from uav_penetration_env.benchmark.policies import plugin_policy_forms
-
     plugin_forms = "".join(f", {form}" for form in plugin_policy_forms())
     parser.add_argument(
         "--policies",
