@@ -27,7 +27,8 @@ from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.catalogue import random_scenario
 from uav_penetration_env.catalogue import resolve_scenario as resolve_catalogue_scenario
 from uav_penetration_env.kinematics import UAVLimits
-from uav_penetration_env.model import OBSERVATION_LIMIT, OBSERVATION_SIZE, PenetrationModel, StepResult
+from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.observation import OBSERVATION_LIMIT, OBSERVATION_SIZE
 from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import FloatArray
 
