@@ -1,4 +1,4 @@
-"""The penetration model's numpy formulation: a test oracle for the compiled kernels (issue 10).
+"""The penetration model's numpy formulation: a test oracle for the compiled kernels.
 
 This is the batched numpy physics the model ran before it was compiled (STYLE.md §2b): it lives
 only under tests/, never as a runtime path. :class:`NumpyPenetrationModel` subclasses

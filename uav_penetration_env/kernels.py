@@ -12,7 +12,7 @@ options (profile, masking, fusion, third term) are run-time values, so one compi
 every scenario.
 
 Float arithmetic follows the numpy formulation (tests/numpy_model.py) operation by operation.
-DECISION (issue 10, model.md §8): results agree with it to ~1e-15 relative, not bit for bit, because numpy
+DECISION (model.md §8): results agree with it to ~1e-15 relative, not bit for bit, because numpy
 evaluates ``exp``, ``arctan2``, ``tanh`` and ``**`` with its own SIMD routines (AVX-512 / SVML on
 x86) where compiled code calls the C library; both are within an ulp of the exact value. No
 ``fastmath``: every row is computed alone in a fixed order, so results do not depend on the number
@@ -66,7 +66,7 @@ from uav_penetration_env.observation import (
 COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 
 
-# DECISION (issue 10, model.md §8): batches smaller than this run on the calling thread alone (the serial twin
+# DECISION (model.md §8): batches smaller than this run on the calling thread alone (the serial twin
 # of a kernel: the same row function in a plain loop). Waking the thread pool costs more than a
 # few rows of physics (a single env's step), and on a busy machine a parallel launch can wait
 # milliseconds for a core; results are the same either way.

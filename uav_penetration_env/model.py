@@ -12,9 +12,11 @@ optional ``scenario_index`` ``(B,)`` into the pool.
   code, so it equals the summed ``-(reward)`` of the env flying the same controls.
 * :meth:`observe` packs the 67-slot observation of §7a.
 
-The physics itself is compiled (``kernels.py``, issue 10): every method above hands its batch to
+The physics itself is compiled (``kernels.py``): every method above hands its batch to
 one of a few numba loop kernels built from the same scalar functions, with the scenario passed as
-typed arrays (:class:`kernels.ModelArrays`). Results do not depend on the thread count; batches of
+typed arrays (:class:`kernels.ModelArrays`; the scalar settings once, by name, as the
+:class:`kernels.ModelConstants` and :class:`kernels.ModelOptions` of :func:`model_constants`,
+packed into vectors). Results do not depend on the thread count; batches of
 fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 """
 
@@ -809,7 +811,7 @@ class PenetrationModel:
     def _env_step_one(self, state: np.ndarray, action: np.ndarray, step_index: int) -> SingleStep | None:
         """One env step from ``state`` (6,) with the float64 ``action`` (3,) at k = ``step_index``.
 
-        The single env's hot path (issue 10): the action check and clip, :meth:`step` and
+        The single env's hot path: the action check and clip, :meth:`step` and
         :meth:`observe` of one row in one compiled call (:func:`kernels.env_step_one`), on
         arguments the env has already checked. The same numbers as the public methods.
 
@@ -844,7 +846,7 @@ class PenetrationModel:
     def _env_reset_one(self, state: np.ndarray, step_index: int) -> SingleReset:
         """The reset quantities and observation of ``state`` (6,) at k = ``step_index`` (one compiled call).
 
-        The single env's hot path for :meth:`reset_result` plus :meth:`observe` (issue 10): the
+        The single env's hot path for :meth:`reset_result` plus :meth:`observe`: the
         same numbers (the goal distance with ``np.hypot``, as :meth:`goal_distance`).
         """
         per_radar = np.empty((1, self.radar_slots))
