@@ -13,21 +13,21 @@ import math
 import numpy as np
 
 from uav_penetration_env import costtogo, rcs
+from uav_penetration_env import observation as layout
 from uav_penetration_env.cost import FuelParams
 from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, UAVLimits, X, Y, Z
-from uav_penetration_env.model import (
-    FAR_RANGE_RATIO,
+from uav_penetration_env.model import FAR_RANGE_RATIO, PenetrationModel, StepResult
+from uav_penetration_env.observation import (
     OBSERVATION_LIMIT,
     OBSERVATION_SIZE,
     OBSERVED_RADARS,
     RADAR_FEATURES,
+    SLOTS,
     TERRAIN_ACROSS_M,
     TERRAIN_AHEAD_M,
-    PenetrationModel,
-    StepResult,
 )
-from uav_penetration_env.terrain import bilinear, mountain_shape
+from uav_penetration_env.terrain import GridSpec, bilinear, mountain_shape
 from uav_penetration_env.types import FloatArray, IntArray
 
 # --- the physics as numpy functions over batches (moved here from the runtime modules) ------------
@@ -224,6 +224,36 @@ def terminal_cost_to_go(goal_distance_m: FloatArray, step_length_m: float, per_s
     return per_step * goal_distance_m / step_length_m
 
 
+# radar.py: the visibility floor by the spec's literal per-node ray sampling (a test oracle only)
+
+
+def visibility_floor_exact(
+    heights: FloatArray, grid: GridSpec, radar_xyz: tuple[float, float, float], earth_radius_m: float
+) -> FloatArray:
+    """Per-node ray sampling of the visibility floor: the spec's literal method (slow; a test oracle).
+
+    Each node T at distance d gets ``S = ceil(d / (dx / 2))`` and samples ``t_j = j / S``,
+    ``j = 1..S-1``, along its own ray (model.md §4.4).
+    """
+    xr, yr, zr = radar_xyz
+    two_r = 2.0 * earth_radius_m
+    floor = heights.copy()
+    gx, gy = grid.mesh()
+    for i in range(grid.nx):
+        for j in range(grid.ny):
+            d = math.hypot(gx[i, j] - xr, gy[i, j] - yr)
+            samples = math.ceil(d / (0.5 * grid.dx_m))
+            if samples < 2:
+                continue
+            t = np.arange(1, samples) / samples
+            sx, sy = xr + t * (gx[i, j] - xr), yr + t * (gy[i, j] - yr)
+            fi, fj = grid.fractional_index(sx, sy)
+            s = t * d
+            slope = np.max((bilinear(heights, fi, fj) - s * s / two_r - zr) / s)
+            floor[i, j] = max(heights[i, j], zr + d * slope + d * d / two_r)
+    return floor
+
+
 class NumpyPenetrationModel(PenetrationModel):
     """:class:`PenetrationModel` with its physics evaluated by numpy array operations (the oracle)."""
 
@@ -378,7 +408,7 @@ class NumpyPenetrationModel(PenetrationModel):
         # Terrain threat (eq. 6), optionally fading with height above the terrain (model.md §3).
         centres = self._pick(self.mountain_centres, index)
         present = self._pick(self.mountain_present, index)
-        threat_e = terrain_threat(x / 1000.0, y / 1000.0, centres, self._decay, present)
+        threat_e = terrain_threat(x / 1000.0, y / 1000.0, centres, self.constants.mountain_decay, present)
         if self.threat_altitude_scale is not None:
             if altitude_agl is None:
                 altitude_agl = states[:, 2] - self.height(x, y, index)
@@ -522,21 +552,21 @@ class NumpyPenetrationModel(PenetrationModel):
         obs = np.zeros((batch, OBSERVATION_SIZE))
 
         ground = self.height(x, y, index)
-        obs[:, 0] = (x - self.bounds[0]) / (self.bounds[1] - self.bounds[0])
-        obs[:, 1] = (y - self.bounds[2]) / (self.bounds[3] - self.bounds[2])
-        obs[:, 2] = (z - ground) / 1000.0
-        obs[:, 3] = z / self.ceiling
-        obs[:, 4] = (speed - limits.speed_min) / (limits.speed_max - limits.speed_min)
-        obs[:, 5], obs[:, 6] = cos_h, sin_h
-        obs[:, 7] = pitch / limits.pitch_max
+        obs[:, layout.POSITION] = (x - self.bounds[0]) / (self.bounds[1] - self.bounds[0])
+        obs[:, layout.POSITION + 1] = (y - self.bounds[2]) / (self.bounds[3] - self.bounds[2])
+        obs[:, layout.ALTITUDE_AGL] = (z - ground) / 1000.0
+        obs[:, layout.ALTITUDE_CEILING] = z / self.ceiling
+        obs[:, layout.SPEED] = (speed - limits.speed_min) / (limits.speed_max - limits.speed_min)
+        obs[:, layout.HEADING], obs[:, layout.HEADING + 1] = cos_h, sin_h
+        obs[:, layout.PITCH] = pitch / limits.pitch_max
 
         goal = self._pick(self.goal, index)
         gx, gy = goal[:, 0] - x, goal[:, 1] - y
-        obs[:, 8] = gx / self.map_side
-        obs[:, 9] = gy / self.map_side
-        obs[:, 10] = np.hypot(gx, gy) / self.map_side
+        obs[:, layout.GOAL_OFFSET] = gx / self.map_side
+        obs[:, layout.GOAL_OFFSET + 1] = gy / self.map_side
+        obs[:, layout.GOAL_DISTANCE] = np.hypot(gx, gy) / self.map_side
         relative = np.arctan2(gy, gx) - heading
-        obs[:, 11], obs[:, 12] = np.cos(relative), np.sin(relative)
+        obs[:, layout.GOAL_BEARING], obs[:, layout.GOAL_BEARING + 1] = np.cos(relative), np.sin(relative)
 
         # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
         ahead = TERRAIN_AHEAD_M[:, None]
@@ -545,10 +575,19 @@ class NumpyPenetrationModel(PenetrationModel):
         py = y[:, None, None] + ahead * sin_h[:, None, None] + across * cos_h[:, None, None]
         fi, fj = self.grid.fractional_index(px, py)
         sample_layer = layer if index is None else index[:, None, None]
-        obs[:, 13:38] = ((bilinear(self.terrain, fi, fj, sample_layer) - z[:, None, None]) / 1000.0).reshape(
+        obs[:, SLOTS["terrain"]] = ((bilinear(self.terrain, fi, fj, sample_layer) - z[:, None, None]) / 1000.0).reshape(
             batch, 25
         )
 
+        features = self._observed_radars(states, result, index)
+        obs[:, SLOTS["radars"]] = features.reshape(batch, OBSERVED_RADARS * RADAR_FEATURES)
+        obs[:, layout.STEP_FRACTION] = np.asarray(step_index) / self.max_steps
+        return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)
+
+    def _observed_radars(self, states: FloatArray, result: StepResult | None, index: IntArray | None) -> FloatArray:
+        """The (B, OBSERVED_RADARS, RADAR_FEATURES) radar block of :meth:`observe`, nearest radar first."""
+        batch = states.shape[0]
+        z, heading = states[:, Z], states[:, HEADING]
         if result is None:
             threat, visibility, _ = self._radar(states, index)
         else:
@@ -583,6 +622,4 @@ class NumpyPenetrationModel(PenetrationModel):
             axis=-1,
         )
         features[:, :taken] = np.where(sel_present[..., None] > 0, values, features[:, :taken])
-        obs[:, 38:66] = features.reshape(batch, OBSERVED_RADARS * RADAR_FEATURES)
-        obs[:, 66] = np.asarray(step_index) / self.max_steps
-        return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)
+        return features

@@ -2,8 +2,8 @@
 
 ``UAVPenetrationEnv`` validates the action, calls the model on a batch of one and packs the
 Gymnasium tuple; the native vector env (:mod:`uav_penetration_env.vector_env`) calls the same
-model on ``(num_envs, 6)``. Both share the scenario sources and the info builder below, so a
-vector env equals N single envs step by step.
+model on ``(num_envs, 6)``. Both share the scenario sources and the one info builder below
+(:func:`step_info`), so a vector env equals N single envs step by step.
 
 Version history:
     v0 (0.1.0): first release (model.md as of 2026-11).
@@ -13,7 +13,6 @@ Version history:
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -28,7 +27,8 @@ from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.catalogue import random_scenario
 from uav_penetration_env.catalogue import resolve_scenario as resolve_catalogue_scenario
 from uav_penetration_env.kinematics import UAVLimits
-from uav_penetration_env.model import OBSERVATION_LIMIT, OBSERVATION_SIZE, PenetrationModel, StepResult
+from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.observation import OBSERVATION_LIMIT, OBSERVATION_SIZE
 from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import FloatArray
 
@@ -167,61 +167,84 @@ def validate_action(action: Any, high: FloatArray, shape: tuple[int, ...] = (3,)
     return np.clip(array, -high, high)
 
 
-def batched_info(
-    model: PenetrationModel, result: StepResult, scenario_index: np.ndarray | None
-) -> dict[str, np.ndarray]:
-    """The ``info`` entries of api.md for a batch of transitions, as arrays with a leading batch axis."""
-    state = result.state
+_POSITION_SCALE = np.array([1000.0, 1000.0, 1.0])  # x, y to km; z stays in metres
+
+
+def step_info(
+    J: Any,
+    penalty: Any,
+    terrain_threat: Any,
+    radar_threat: Any,
+    third_term: Any,
+    fuel_kg: Any,
+    progress_km: Any,
+    terrain_threat_n: Any,
+    radar_threat_n: Any,
+    third_term_n: Any,
+    radar_threat_per_radar: Any,
+    detection_prob: Any,
+    altitude_agl: Any,
+    goal_distance_m: Any,
+    reached_goal: Any,
+    collided: Any,
+    out_of_area: Any,
+    step: Any,
+    state: np.ndarray,
+) -> dict[str, Any]:
+    """The ``info`` entries of api.md, in their order, for one transition or a batch of them.
+
+    The one place the info is assembled: the single env passes Python scalars and (M,) / (6,)
+    arrays, the vector env (:func:`batched_info`) arrays with a leading batch axis; the derived
+    entries (``detected``, ``position``, ``distance_to_goal``) are computed here alike for both.
+    ``state`` is stored as given (the caller hands over an array no one else writes to).
+    """
     return {
-        "J": result.J,
-        "penalty": result.penalty,
-        "terrain_threat": result.terrain_threat,
-        "radar_threat": result.radar_threat,
-        "third_term": result.third_term,
-        "fuel_kg": result.fuel_kg,
-        "progress": result.progress_km,
-        "terrain_threat_n": result.terrain_threat_n,
-        "radar_threat_n": result.radar_threat_n,
-        "third_term_n": result.third_term_n,
-        "radar_threat_per_radar": result.radar_threat_per_radar,
-        "detection_prob": result.detection_prob,
-        "detected": result.detection_prob > 0.5,
-        "position": np.column_stack((state[:, 0] / 1000.0, state[:, 1] / 1000.0, state[:, 2])),
-        "altitude_agl": result.altitude_agl,
-        "distance_to_goal": result.goal_distance / 1000.0,
-        "reached_goal": result.reached_goal,
-        "collided": result.collided,
-        "out_of_area": result.out_of_area,
-        "step": result.step_index.astype(np.int64),
+        "J": J,
+        "penalty": penalty,
+        "terrain_threat": terrain_threat,
+        "radar_threat": radar_threat,
+        "third_term": third_term,
+        "fuel_kg": fuel_kg,
+        "progress": progress_km,
+        "terrain_threat_n": terrain_threat_n,
+        "radar_threat_n": radar_threat_n,
+        "third_term_n": third_term_n,
+        "radar_threat_per_radar": radar_threat_per_radar,
+        "detection_prob": detection_prob,
+        "detected": detection_prob > 0.5,
+        "position": state[..., :3] / _POSITION_SCALE,
+        "altitude_agl": altitude_agl,
+        "distance_to_goal": goal_distance_m / 1000.0,
+        "reached_goal": reached_goal,
+        "collided": collided,
+        "out_of_area": out_of_area,
+        "step": step,
         "state": state,
     }
 
 
-def runs_compiled_kernels(model: PenetrationModel) -> bool:
-    """Whether the single env may take its one-call hot path with ``model``.
-
-    DECISION (issue 10, model.md §7a): only a one-scenario :class:`PenetrationModel` whose transition,
-    observation and state queries are the class's own; a subclass that redefines any of them
-    (the numpy test oracle, a user's variant) gets the generic path through those methods, so the
-    env never bypasses an override.
-    """
-    return model.pool_size == 1 and _keeps_compiled_methods(type(model))
-
-
-@functools.cache
-def _keeps_compiled_methods(cls: type) -> bool:
-    """Whether ``cls`` inherits every model method the hot path stands in for unchanged."""
-    return all(
-        getattr(cls, name) is getattr(PenetrationModel, name)
-        for name in (
-            "step",
-            "observe",
-            "reset_result",
-            "state_threats",
-            "height",
-            "goal_distance",
-            "_transitions",
-        )
+def batched_info(result: StepResult) -> dict[str, np.ndarray]:
+    """:func:`step_info` of a batch of transitions, as arrays with a leading batch axis."""
+    return step_info(
+        result.J,
+        result.penalty,
+        result.terrain_threat,
+        result.radar_threat,
+        result.third_term,
+        result.fuel_kg,
+        result.progress_km,
+        result.terrain_threat_n,
+        result.radar_threat_n,
+        result.third_term_n,
+        result.radar_threat_per_radar,
+        result.detection_prob,
+        result.altitude_agl,
+        result.goal_distance,
+        result.reached_goal,
+        result.collided,
+        result.out_of_area,
+        result.step_index.astype(np.int64),
+        result.state,
     )
 
 
@@ -283,7 +306,6 @@ class UAVPenetrationEnv(gym.Env):
         self._built = BuiltCache()
         self._models: dict[str, PenetrationModel] = {}
         self.model: PenetrationModel | None = None
-        self._compiled = False
         self.scenario: Scenario | None = None
         if isinstance(source, FixedScenarioSource):
             self._use(source.scenario)
@@ -311,7 +333,6 @@ class UAVPenetrationEnv(gym.Env):
             )
         self.model = self._models[key]
         self.scenario = scenario
-        self._compiled = runs_compiled_kernels(self.model)
 
     # --- Gymnasium API ---------------------------------------------------------------------------------
 
@@ -341,16 +362,7 @@ class UAVPenetrationEnv(gym.Env):
         """Fly one planning period with ``action``; see the class docstring for the reward."""
         if self._done or self.model is None:
             raise RuntimeError("step() called without a running episode: call reset() first")
-        if self._compiled:
-            observation, reward, terminated, truncated, info = self._step_compiled(action)
-        else:
-            control = validate_action(action, self.model.limits.action_high)
-            result = self.model.step(self.state[None], control[None], self.step_index)
-            self.state = result.state[0].copy()
-            terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
-            reward = float(result.reward[0])
-            observation = self._observe(result)
-            info = unbatch(batched_info(self.model, result, None), 0)
+        observation, reward, terminated, truncated, info = self._step_compiled(action)
         self.step_index += 1
         self._done = terminated or truncated
         self._track.append(self.state.copy())
@@ -361,9 +373,14 @@ class UAVPenetrationEnv(gym.Env):
     def _step_compiled(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """:meth:`step`'s transition in one compiled call (:meth:`PenetrationModel._env_step_one`).
 
-        The same action checks, numbers and info as the generic path (``model.step``, ``observe``,
-        :func:`batched_info`), without its per-call array checks and per-key conversions: a
-        single env's step costs about 30 us instead of 150 us (benchmarks/bench_env.py).
+        The same action checks and numbers as the model's public ``step`` and ``observe``, without
+        their per-call array checks and per-key conversions: a single env's step costs about 30 us
+        instead of 150 us (benchmarks/bench_env.py).
+
+        DECISION (model.md §7a): this is the env's only production path; the env never consults a
+        subclass's overrides of the model's methods (``step``, ``observe``, ``reset_result``, the
+        state queries). The numpy formulation (tests/numpy_model.py) is a test oracle, compared
+        with the compiled model directly, so it does not shape the env's dispatch.
         """
         if type(action) is np.ndarray and action.dtype == np.float64 and action.flags.c_contiguous:
             array = action
@@ -378,35 +395,30 @@ class UAVPenetrationEnv(gym.Env):
         if out is None:
             validate_action(action, self.model.limits.action_high)  # raises: a NaN or infinite entry
         scalars, flags = out.scalars, out.flags
-        state = out.state
-        self.state = state
-        x, y, z = state[:3].tolist()
+        self.state = out.state
         J, penalty = scalars[kernels.S_J], scalars[kernels.S_PENALTY]
-        detection = scalars[kernels.S_DETECTION]
         after = scalars[kernels.S_GOAL_AFTER]
-        info = {
-            "J": J,
-            "penalty": penalty,
-            "terrain_threat": scalars[kernels.S_TERRAIN],
-            "radar_threat": scalars[kernels.S_RADAR],
-            "third_term": scalars[kernels.S_THIRD],
-            "fuel_kg": scalars[kernels.S_FUEL],
-            "progress": (scalars[kernels.S_GOAL_BEFORE] - after) / 1000.0,
-            "terrain_threat_n": scalars[kernels.S_TERRAIN_N],
-            "radar_threat_n": scalars[kernels.S_RADAR_N],
-            "third_term_n": scalars[kernels.S_THIRD_N],
-            "radar_threat_per_radar": out.radar_threat_per_radar,
-            "detection_prob": detection,
-            "detected": detection > 0.5,
-            "position": np.array((x / 1000.0, y / 1000.0, z)),
-            "altitude_agl": scalars[kernels.S_ALTITUDE_AGL],
-            "distance_to_goal": after / 1000.0,
-            "reached_goal": flags[kernels.F_REACHED],
-            "collided": flags[kernels.F_COLLIDED],
-            "out_of_area": flags[kernels.F_OUT_OF_AREA],
-            "step": self.step_index + 1,
-            "state": state.copy(),
-        }
+        info = step_info(
+            J,
+            penalty,
+            scalars[kernels.S_TERRAIN],
+            scalars[kernels.S_RADAR],
+            scalars[kernels.S_THIRD],
+            scalars[kernels.S_FUEL],
+            (scalars[kernels.S_GOAL_BEFORE] - after) / 1000.0,
+            scalars[kernels.S_TERRAIN_N],
+            scalars[kernels.S_RADAR_N],
+            scalars[kernels.S_THIRD_N],
+            out.radar_threat_per_radar,
+            scalars[kernels.S_DETECTION],
+            scalars[kernels.S_ALTITUDE_AGL],
+            after,
+            flags[kernels.F_REACHED],
+            flags[kernels.F_COLLIDED],
+            flags[kernels.F_OUT_OF_AREA],
+            self.step_index + 1,
+            out.state.copy(),
+        )
         terminated, truncated = flags[kernels.F_TERMINATED], flags[kernels.F_TRUNCATED]
         return out.observation, -(J + penalty), terminated, truncated, info
 
@@ -414,40 +426,31 @@ class UAVPenetrationEnv(gym.Env):
         """The observation and info of ``self.state`` at ``self.step_index`` before any transition.
 
         As :meth:`PenetrationModel.reset_result` describes it (zero transition quantities, no
-        event flag); the compiled model answers in one call (:meth:`PenetrationModel._env_reset_one`).
+        event flag), in one compiled call (:meth:`PenetrationModel._env_reset_one`).
         """
-        if not self._compiled:
-            result = self.model.reset_result(self.state[None], step_index=self.step_index)
-            return self._observe(result), unbatch(batched_info(self.model, result, None), 0)
         out = self.model._env_reset_one(self.state, self.step_index)
-        x, y, z = self.state[:3].tolist()
-        info = {
-            "J": 0.0,
-            "penalty": 0.0,
-            "terrain_threat": out.terrain_threat,
-            "radar_threat": out.radar_threat,
-            "third_term": 0.0,
-            "fuel_kg": 0.0,
-            "progress": 0.0,
-            "terrain_threat_n": 0.0,
-            "radar_threat_n": 0.0,
-            "third_term_n": 0.0,
-            "radar_threat_per_radar": out.radar_threat_per_radar,
-            "detection_prob": out.detection_prob,
-            "detected": out.detection_prob > 0.5,
-            "position": np.array((x / 1000.0, y / 1000.0, z)),
-            "altitude_agl": out.altitude_agl,
-            "distance_to_goal": out.goal_distance / 1000.0,
-            "reached_goal": False,
-            "collided": False,
-            "out_of_area": False,
-            "step": self.step_index,
-            "state": self.state.copy(),
-        }
+        info = step_info(
+            0.0,
+            0.0,
+            out.terrain_threat,
+            out.radar_threat,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            out.radar_threat_per_radar,
+            out.detection_prob,
+            out.altitude_agl,
+            out.goal_distance,
+            False,
+            False,
+            False,
+            self.step_index,
+            self.state.copy(),
+        )
         return out.observation, info
-
-    def _observe(self, result: StepResult) -> np.ndarray:
-        return self.model.observe(result.state, result.step_index, result)[0]
 
     def set_state(self, state: Any, step_index: int = 0) -> tuple[np.ndarray, dict[str, Any]]:
         """Continue the episode from any exact state and step index (planners, tests).

@@ -5,13 +5,14 @@ function (``@njit(inline="always")``); the batch kernels below loop over rows (`
 inside a row over horizon steps, segment samples, peaks and radars. :class:`PenetrationModel`'s
 ``step``, ``costs``, ``rollout_cost``, ``state_threats`` and ``observe`` all call these kernels,
 so the physics exists once at run time. The scenario travels as one :class:`ModelArrays` (a few
-typed arrays: the pool geometry, the RCS table, a float vector of constants ``params`` indexed
-by the ``P_*`` names and an integer vector of options ``options`` indexed by the ``O_*`` names);
+typed arrays: the pool geometry, the RCS table, and the named :class:`ModelConstants` and
+:class:`ModelOptions` packed into a float vector ``params`` and an integer vector ``options``,
+indexed by the ``P_*`` / ``O_*`` positions of their fields);
 options (profile, masking, fusion, third term) are run-time values, so one compiled copy serves
 every scenario.
 
 Float arithmetic follows the numpy formulation (tests/numpy_model.py) operation by operation.
-DECISION (issue 10, model.md §8): results agree with it to ~1e-15 relative, not bit for bit, because numpy
+DECISION (model.md §8): results agree with it to ~1e-15 relative, not bit for bit, because numpy
 evaluates ``exp``, ``arctan2``, ``tanh`` and ``**`` with its own SIMD routines (AVX-512 / SVML on
 x86) where compiled code calls the C library; both are within an ulp of the exact value. No
 ``fastmath``: every row is computed alone in a fixed order, so results do not depend on the number
@@ -33,12 +34,39 @@ from numba import njit, prange, vectorize
 
 from uav_penetration_env import compile_cache
 from uav_penetration_env.costtogo import terminal_value
+from uav_penetration_env.observation import (
+    ALTITUDE_AGL,
+    ALTITUDE_CEILING,
+    GOAL_BEARING,
+    GOAL_DISTANCE,
+    GOAL_OFFSET,
+    HEADING,
+    OBSERVATION_LIMIT,
+    OBSERVATION_SIZE,
+    OBSERVED_RADARS,
+    PITCH,
+    POSITION,
+    RADAR_BEARING_COS,
+    RADAR_BEARING_SIN,
+    RADAR_FEATURES,
+    RADAR_HEIGHT,
+    RADAR_PRESENT,
+    RADAR_RANGE,
+    RADAR_THREAT,
+    RADAR_VISIBLE,
+    RADARS,
+    SPEED,
+    STEP_FRACTION,
+    TERRAIN,
+    TERRAIN_ACROSS_M,
+    TERRAIN_AHEAD_M,
+)
 
 # The compile cache's folder is set by ``compile_cache`` (imported above, before any compiled function).
 COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 
 
-# DECISION (issue 10, model.md §8): batches smaller than this run on the calling thread alone (the serial twin
+# DECISION (model.md §8): batches smaller than this run on the calling thread alone (the serial twin
 # of a kernel: the same row function in a plain loop). Waking the thread pool costs more than a
 # few rows of physics (a single env's step), and on a busy machine a parallel launch can wait
 # milliseconds for a core; results are the same either way.
@@ -75,54 +103,135 @@ def limit_worker_threads() -> int:
 
 # --- the scenario as typed arrays ---------------------------------------------------------------
 
-# Indices into ModelArrays.params (float64).
-(
-    P_DT,
-    P_SPEED_MIN,
-    P_SPEED_MAX,
-    P_DV_MAX,
-    P_DHEADING_MAX,
-    P_DPITCH_MAX,
-    P_PITCH_MAX,
-    P_GRID_X0,
-    P_GRID_Y0,
-    P_GRID_DX,
-    P_CLEARANCE,
-    P_X_MIN,
-    P_X_MAX,
-    P_Y_MIN,
-    P_Y_MAX,
-    P_CEILING,
-    P_MOUNTAIN_DECAY,
-    P_THREAT_ALTITUDE_SCALE,
-    P_MIN_RANGE,
-    P_HORIZON_SCALE,
-    P_SOFTNESS,
-    P_LOG_FALSE_ALARM,
-    P_SNR_REF,
-    P_TSFC,
-    P_WEIGHT,
-    P_LEVEL_THRUST,
-    P_IDLE_THRUST,
-    P_MAX_THRUST,
-    P_POTENTIAL_PER_M,
-    P_TERRAIN_LO,
-    P_TERRAIN_HI,
-    P_RADAR_LO,
-    P_RADAR_HI,
-    P_THIRD_LO,
-    P_THIRD_HI,
-    P_W_TERRAIN,
-    P_W_RADAR,
-    P_W_THIRD,
-    P_CRASH_PER_STEP,
-    P_MAX_STEP_LENGTH,
-    P_MAP_SIDE,
-    N_PARAMS,
-) = range(42)
+class ModelConstants(NamedTuple):
+    """The float constants the kernels read (SI units); the field order is that of ``ModelArrays.params``.
+
+    The one list of the constants' names: :func:`pack` lays them out in this order and each
+    ``P_*`` index below is its field's position, so a name cannot point at another slot. The
+    kernels read the packed vector rather than the tuple because numba's access to a tuple
+    argument of this size was measured 2-3x slower per call.
+    """
+
+    dt: float  # planning period [s]
+    speed_min: float  # [m/s]
+    speed_max: float
+    dv_max: float  # per-step control limits [m/s], [rad], [rad]
+    dheading_max: float
+    dpitch_max: float
+    pitch_max: float  # [rad]
+    grid_x0: float  # terrain grid origin and spacing [m]
+    grid_y0: float
+    grid_dx: float
+    clearance: float  # minimum height above the terrain [m]
+    x_min: float  # map bounds [m]
+    x_max: float
+    y_min: float
+    y_max: float
+    ceiling: float  # [m]
+    mountain_decay: float  # lambda of eq. 6 [1/km^2]
+    threat_altitude_scale: float  # s of the terrain threat's fade [m] (1 when there is no fade)
+    min_range: float  # [m]
+    horizon_scale: float  # sqrt(2 R_eff) [sqrt(m)]
+    softness: float  # soft-masking scale [m]
+    log_false_alarm: float  # ln P_fa
+    snr_ref: float
+    tsfc: float  # fuel model (model.md §6.1)
+    weight: float
+    level_thrust: float
+    idle_thrust: float
+    max_thrust: float
+    potential_per_m: float
+    terrain_lo: float  # normalisation bounds (model.md §7)
+    terrain_hi: float
+    radar_lo: float
+    radar_hi: float
+    third_lo: float
+    third_hi: float
+    w_terrain: float  # cost weights
+    w_radar: float
+    w_third: float
+    crash_per_step: float
+    max_step_length: float  # [m]
+    map_side: float  # the larger map extent [m]
+
+
+class ModelOptions(NamedTuple):
+    """The integer options the kernels read; the field order is that of ``ModelArrays.options``."""
+
+    detection: int  # DETECTION[...]
+    masking: int  # MASKING[...]
+    fusion: int  # FUSION[...]
+    third: int  # THIRD_TERM[...]
+    altitude_fade: int  # 1 when the terrain threat fades with height
+    max_steps: int  # K_max
+
+
+def pack(values: ModelConstants | ModelOptions) -> np.ndarray:
+    """``values`` as the contiguous vector the kernels index with ``P_*`` (float64) or ``O_*`` (int64)."""
+    dtype = np.int64 if isinstance(values, ModelOptions) else np.float64
+    return np.array(values, dtype=dtype)
+
+
+def _param(name: str) -> int:
+    return ModelConstants._fields.index(name)
+
+
+def _option(name: str) -> int:
+    return ModelOptions._fields.index(name)
+
+
+# Indices into ModelArrays.params (float64): module-level integers, which numba compiles as constants.
+P_DT = _param("dt")
+P_SPEED_MIN = _param("speed_min")
+P_SPEED_MAX = _param("speed_max")
+P_DV_MAX = _param("dv_max")
+P_DHEADING_MAX = _param("dheading_max")
+P_DPITCH_MAX = _param("dpitch_max")
+P_PITCH_MAX = _param("pitch_max")
+P_GRID_X0 = _param("grid_x0")
+P_GRID_Y0 = _param("grid_y0")
+P_GRID_DX = _param("grid_dx")
+P_CLEARANCE = _param("clearance")
+P_X_MIN = _param("x_min")
+P_X_MAX = _param("x_max")
+P_Y_MIN = _param("y_min")
+P_Y_MAX = _param("y_max")
+P_CEILING = _param("ceiling")
+P_MOUNTAIN_DECAY = _param("mountain_decay")
+P_THREAT_ALTITUDE_SCALE = _param("threat_altitude_scale")
+P_MIN_RANGE = _param("min_range")
+P_HORIZON_SCALE = _param("horizon_scale")
+P_SOFTNESS = _param("softness")
+P_LOG_FALSE_ALARM = _param("log_false_alarm")
+P_SNR_REF = _param("snr_ref")
+P_TSFC = _param("tsfc")
+P_WEIGHT = _param("weight")
+P_LEVEL_THRUST = _param("level_thrust")
+P_IDLE_THRUST = _param("idle_thrust")
+P_MAX_THRUST = _param("max_thrust")
+P_POTENTIAL_PER_M = _param("potential_per_m")
+P_TERRAIN_LO = _param("terrain_lo")
+P_TERRAIN_HI = _param("terrain_hi")
+P_RADAR_LO = _param("radar_lo")
+P_RADAR_HI = _param("radar_hi")
+P_THIRD_LO = _param("third_lo")
+P_THIRD_HI = _param("third_hi")
+P_W_TERRAIN = _param("w_terrain")
+P_W_RADAR = _param("w_radar")
+P_W_THIRD = _param("w_third")
+P_CRASH_PER_STEP = _param("crash_per_step")
+P_MAX_STEP_LENGTH = _param("max_step_length")
+P_MAP_SIDE = _param("map_side")
+N_PARAMS = len(ModelConstants._fields)
 
 # Indices into ModelArrays.options (int64), and their values.
-O_DETECTION, O_MASKING, O_FUSION, O_THIRD, O_ALTITUDE_FADE, O_MAX_STEPS, N_OPTIONS = range(7)
+O_DETECTION = _option("detection")
+O_MASKING = _option("masking")
+O_FUSION = _option("fusion")
+O_THIRD = _option("third")
+O_ALTITUDE_FADE = _option("altitude_fade")
+O_MAX_STEPS = _option("max_steps")
+N_OPTIONS = len(ModelOptions._fields)
 DETECTION = {"ratio": 0, "swerling1": 1}
 MASKING = {"off": 0, "hard": 1, "soft": 2}
 FUSION = {"max": 0, "or": 1}
@@ -148,13 +257,7 @@ THIRD_TERM = {"fuel": 0, "length": 1}
 # Columns of the transition kernel's flag output (B, N_FLAGS).
 F_REACHED, F_COLLIDED, F_OUT_OF_AREA, F_TERMINATED, F_TRUNCATED, N_FLAGS = range(6)
 
-OBSERVATION_SIZE = 67
-OBSERVATION_LIMIT = 10.0
-OBSERVED_RADARS = 4
-RADAR_FEATURES = 7
 FAR_RANGE_RATIO = 5.0  # observed R / R_ref is capped here; a missing radar reads as this far
-TERRAIN_AHEAD_M = np.array([0.0, 1500.0, 3000.0, 4500.0, 6000.0])
-TERRAIN_ACROSS_M = np.array([-3000.0, -1500.0, 0.0, 1500.0, 3000.0])
 
 RCS_ROWS, RCS_COLUMNS = 181, 361  # elevation -90..90 deg, azimuth -180..180 deg (model.md §5.2)
 _DEGREES_PER_RADIAN = 180.0 / math.pi  # numpy's rad2deg multiplies by this constant
@@ -176,8 +279,8 @@ class ModelArrays(NamedTuple):
         goal: (P, 3) goal x, y, radius [m].
         rcs_table: (181, 361) RCS table [dBsm] (model.md §5.2).
         sample_t: (S,) segment sample fractions j/S, j = 1..S (model.md §8).
-        params: (N_PARAMS,) float constants, indexed by the ``P_*`` names.
-        options: (N_OPTIONS,) integer options, indexed by the ``O_*`` names.
+        params: (N_PARAMS,) float constants, :class:`ModelConstants` packed (indexed by ``P_*``).
+        options: (N_OPTIONS,) integer options, :class:`ModelOptions` packed (indexed by ``O_*``).
     """
 
     terrain: np.ndarray
@@ -710,29 +813,29 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
     cos_h = math.cos(heading)
     sin_h = math.sin(heading)
     ground = grid_value(arrays.terrain, p, x, y, params)
-    obs[0] = (x - params[P_X_MIN]) / x_span
-    obs[1] = (y - params[P_Y_MIN]) / y_span
-    obs[2] = (z - ground) / 1000.0
-    obs[3] = z / params[P_CEILING]
-    obs[4] = (states[b, 3] - params[P_SPEED_MIN]) / (params[P_SPEED_MAX] - params[P_SPEED_MIN])
-    obs[5] = cos_h
-    obs[6] = sin_h
-    obs[7] = states[b, 5] / params[P_PITCH_MAX]
+    obs[POSITION] = (x - params[P_X_MIN]) / x_span
+    obs[POSITION + 1] = (y - params[P_Y_MIN]) / y_span
+    obs[ALTITUDE_AGL] = (z - ground) / 1000.0
+    obs[ALTITUDE_CEILING] = z / params[P_CEILING]
+    obs[SPEED] = (states[b, 3] - params[P_SPEED_MIN]) / (params[P_SPEED_MAX] - params[P_SPEED_MIN])
+    obs[HEADING] = cos_h
+    obs[HEADING + 1] = sin_h
+    obs[PITCH] = states[b, 5] / params[P_PITCH_MAX]
     gx = arrays.goal[p, 0] - x
     gy = arrays.goal[p, 1] - y
-    obs[8] = gx / side
-    obs[9] = gy / side
-    obs[10] = math.hypot(gx, gy) / side
+    obs[GOAL_OFFSET] = gx / side
+    obs[GOAL_OFFSET + 1] = gy / side
+    obs[GOAL_DISTANCE] = math.hypot(gx, gy) / side
     relative = math.atan2(gy, gx) - heading
-    obs[11] = math.cos(relative)
-    obs[12] = math.sin(relative)
+    obs[GOAL_BEARING] = math.cos(relative)
+    obs[GOAL_BEARING + 1] = math.sin(relative)
     # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
     for a in range(ahead.shape[0]):
         for c in range(across.shape[0]):
             px = x + ahead[a] * cos_h - across[c] * sin_h
             py = y + ahead[a] * sin_h + across[c] * cos_h
             height = grid_value(arrays.terrain, p, px, py, params)
-            obs[13 + a * across.shape[0] + c] = (height - z) / 1000.0
+            obs[TERRAIN + a * across.shape[0] + c] = (height - z) / 1000.0
     # The nearest radars (stable order by range; absent slots last), 7 features each.
     taken = np.zeros(radars, dtype=np.bool_)
     distance = np.empty(radars)
@@ -742,8 +845,8 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
         oz = arrays.radar_xyz[p, m, 2] - z
         distance[m] = math.sqrt(ox * ox + oy * oy + oz * oz) if arrays.radar_present[p, m] > 0 else np.inf
     for slot in range(OBSERVED_RADARS):
-        base = 38 + slot * RADAR_FEATURES
-        obs[base + 1] = FAR_RANGE_RATIO
+        base = RADARS + slot * RADAR_FEATURES
+        obs[base + RADAR_RANGE] = FAR_RANGE_RATIO
         best = -1
         for m in range(radars):
             if not taken[m] and (best < 0 or distance[m] < distance[best]):
@@ -759,14 +862,14 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
         threat = per_radar[b, best]
         if ratio_detection:
             threat = min(threat, 1.0)
-        obs[base] = arrays.radar_present[p, best]
-        obs[base + 1] = min(distance[best] / arrays.ref_range[p, best], FAR_RANGE_RATIO)
-        obs[base + 2] = math.cos(bearing)
-        obs[base + 3] = math.sin(bearing)
-        obs[base + 4] = (arrays.radar_xyz[p, best, 2] - z) / 1000.0
-        obs[base + 5] = visible[b, best]
-        obs[base + 6] = threat
-    obs[66] = step_fraction[b]
+        obs[base + RADAR_PRESENT] = arrays.radar_present[p, best]
+        obs[base + RADAR_RANGE] = min(distance[best] / arrays.ref_range[p, best], FAR_RANGE_RATIO)
+        obs[base + RADAR_BEARING_COS] = math.cos(bearing)
+        obs[base + RADAR_BEARING_SIN] = math.sin(bearing)
+        obs[base + RADAR_HEIGHT] = (arrays.radar_xyz[p, best, 2] - z) / 1000.0
+        obs[base + RADAR_VISIBLE] = visible[b, best]
+        obs[base + RADAR_THREAT] = threat
+    obs[STEP_FRACTION] = step_fraction[b]
     for i in range(OBSERVATION_SIZE):
         out[b, i] = clip(obs[i], -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
 

@@ -12,9 +12,11 @@ optional ``scenario_index`` ``(B,)`` into the pool.
   code, so it equals the summed ``-(reward)`` of the env flying the same controls.
 * :meth:`observe` packs the 67-slot observation of §7a.
 
-The physics itself is compiled (``kernels.py``, issue 10): every method above hands its batch to
+The physics itself is compiled (``kernels.py``): every method above hands its batch to
 one of a few numba loop kernels built from the same scalar functions, with the scenario passed as
-typed arrays (:class:`kernels.ModelArrays`). Results do not depend on the thread count; batches of
+typed arrays (:class:`kernels.ModelArrays`; the scalar settings once, by name, as the
+:class:`kernels.ModelConstants` and :class:`kernels.ModelOptions` of :func:`model_constants`,
+packed into vectors). Results do not depend on the thread count; batches of
 fewer than ``kernels.SERIAL_BELOW_ROWS`` rows run on the calling thread.
 """
 
@@ -33,19 +35,19 @@ from uav_penetration_env import checks, costtogo, kernels
 from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.cost import FuelParams, Normalisation
 from uav_penetration_env.costtogo import TerminalCost
-from uav_penetration_env.kernels import (
-    FAR_RANGE_RATIO,
+from uav_penetration_env.kernels import FAR_RANGE_RATIO, ModelArrays, ModelConstants, ModelOptions
+from uav_penetration_env.kinematics import UAVLimits, wrap_angle
+from uav_penetration_env.observation import (
     OBSERVATION_LIMIT,
     OBSERVATION_SIZE,
     OBSERVED_RADARS,
     RADAR_FEATURES,
     TERRAIN_ACROSS_M,
     TERRAIN_AHEAD_M,
-    ModelArrays,
 )
-from uav_penetration_env.kinematics import UAVLimits, wrap_angle
 from uav_penetration_env.radar import fuse, reference_snr
 from uav_penetration_env.scenario import Scenario, ScenarioError
+from uav_penetration_env.terrain import GridSpec
 from uav_penetration_env.types import BoolArray, FloatArray, IntArray
 
 __all__ = [
@@ -141,19 +143,8 @@ class PenetrationModel:
             raise ScenarioError(
                 "radar_model.fusion", "or", "'max' with the ratio detection (D is not a probability)"
             )
-        self.max_steps = first.time.max_steps
-        self.crash_penalty_per_step = first.crash_penalty_per_step
-        model = first.radar_model
-        self.earth_radius = model.effective_earth_radius_km * 1000.0
-        self.snr_ref = reference_snr(model.false_alarm_prob, model.reference_detection_prob)
-        self.ceiling = first.map.ceiling_m
-        self.bounds = (
-            np.array([first.map.x_km[0], first.map.x_km[1], first.map.y_km[0], first.map.y_km[1]]) * 1000.0
-        )
-        self.map_side = max(self.bounds[1] - self.bounds[0], self.bounds[3] - self.bounds[2])
-        self.clearance = first.uav.min_clearance_m
         self.rcs_table = built[0].rcs_table
-        self.threat_altitude_scale = first.terrain.threat_altitude_scale_m
+        self.constants, self.options = model_constants(first, self.grid, self.limits, self.fuel, self.normalisation)
         # Collision samples per segment: intervals of at most half a grid cell on the longest
         # possible step (model.md §1, §8). A fixed count keeps batches of any size identical.
         self.segment_samples = max(1, math.ceil(self.limits.max_step_length / (0.5 * self.grid.dx_m)))
@@ -199,64 +190,16 @@ class PenetrationModel:
             self.goal[p] = (s.goal.x_km * 1000.0, s.goal.y_km * 1000.0, s.goal.radius_km * 1000.0)
             self.start[p] = (s.start.x_km * 1000.0, s.start.y_km * 1000.0)
         self.floors = np.stack(floors) if floors else np.zeros((1, self.grid.nx, self.grid.ny))
-        self._decay = self.scenario.terrain.mountain_decay_per_km2
+        decay = self.constants.mountain_decay
         for b in built[1:]:
-            if b.scenario.terrain.mountain_decay_per_km2 != self._decay:
+            if b.scenario.terrain.mountain_decay_per_km2 != decay:
                 raise ScenarioError(
-                    "pool.terrain.mountain_decay_per_km2",
-                    b.scenario.terrain.mountain_decay_per_km2,
-                    f"{self._decay}",
+                    "pool.terrain.mountain_decay_per_km2", b.scenario.terrain.mountain_decay_per_km2, f"{decay}"
                 )
         self.arrays = self._kernel_arrays()
 
     def _kernel_arrays(self) -> ModelArrays:
-        """The pool, the RCS table and the constants as the typed arrays the kernels read."""
-        k = kernels
-        first = self.scenario
-        limits, fuel, norm = self.limits, self.fuel, self.normalisation
-        params = np.zeros(k.N_PARAMS)
-        params[k.P_DT] = limits.dt
-        params[k.P_SPEED_MIN] = limits.speed_min
-        params[k.P_SPEED_MAX] = limits.speed_max
-        params[k.P_DV_MAX] = limits.dv_max
-        params[k.P_DHEADING_MAX] = limits.dheading_max
-        params[k.P_DPITCH_MAX] = limits.dpitch_max
-        params[k.P_PITCH_MAX] = limits.pitch_max
-        params[k.P_GRID_X0] = self.grid.x0_m
-        params[k.P_GRID_Y0] = self.grid.y0_m
-        params[k.P_GRID_DX] = self.grid.dx_m
-        params[k.P_CLEARANCE] = self.clearance
-        params[[k.P_X_MIN, k.P_X_MAX, k.P_Y_MIN, k.P_Y_MAX]] = self.bounds
-        params[k.P_CEILING] = self.ceiling
-        params[k.P_MOUNTAIN_DECAY] = self._decay
-        fade = self.threat_altitude_scale is not None
-        params[k.P_THREAT_ALTITUDE_SCALE] = self.threat_altitude_scale if fade else 1.0
-        model = first.radar_model
-        params[k.P_MIN_RANGE] = model.min_range_m
-        params[k.P_HORIZON_SCALE] = math.sqrt(2.0 * self.earth_radius)
-        params[k.P_SOFTNESS] = model.masking_softness_m
-        params[k.P_LOG_FALSE_ALARM] = math.log(model.false_alarm_prob)
-        params[k.P_SNR_REF] = self.snr_ref
-        params[k.P_TSFC] = fuel.tsfc
-        params[k.P_WEIGHT] = fuel.weight_n
-        params[k.P_LEVEL_THRUST] = fuel.level_thrust_n
-        params[k.P_IDLE_THRUST] = fuel.idle_thrust_n
-        params[k.P_MAX_THRUST] = fuel.max_thrust_n
-        params[k.P_POTENTIAL_PER_M] = fuel.potential_per_m
-        params[[k.P_TERRAIN_LO, k.P_TERRAIN_HI]] = norm.terrain
-        params[[k.P_RADAR_LO, k.P_RADAR_HI]] = norm.radar
-        params[[k.P_THIRD_LO, k.P_THIRD_HI]] = norm.third
-        params[[k.P_W_TERRAIN, k.P_W_RADAR, k.P_W_THIRD]] = self.weights
-        params[k.P_CRASH_PER_STEP] = self.crash_penalty_per_step
-        params[k.P_MAX_STEP_LENGTH] = limits.max_step_length
-        params[k.P_MAP_SIDE] = self.map_side
-        options = np.zeros(k.N_OPTIONS, dtype=np.int64)
-        options[k.O_DETECTION] = k.DETECTION[self.detection]
-        options[k.O_MASKING] = k.MASKING[self.masking]
-        options[k.O_FUSION] = k.FUSION[model.fusion]
-        options[k.O_THIRD] = k.THIRD_TERM[first.cost.third_term]
-        options[k.O_ALTITUDE_FADE] = int(fade)
-        options[k.O_MAX_STEPS] = self.max_steps
+        """The pool, the RCS table and the packed constants and options, as the typed arrays the kernels read."""
 
         def f64(array: np.ndarray) -> np.ndarray:
             return np.ascontiguousarray(array, dtype=np.float64)
@@ -274,9 +217,57 @@ class PenetrationModel:
             goal=f64(self.goal),
             rcs_table=f64(self.rcs_table),
             sample_t=f64(self._sample_t),
-            params=params,
-            options=options,
+            params=kernels.pack(self.constants),
+            options=kernels.pack(self.options),
         )
+
+    # --- constants, as named in the scenario's terms -----------------------------------------
+
+    @property
+    def max_steps(self) -> int:
+        """K_max, the episode length in steps."""
+        return self.options.max_steps
+
+    @property
+    def bounds(self) -> FloatArray:
+        """(4,) map bounds x_min, x_max, y_min, y_max [m]."""
+        c = self.constants
+        return np.array([c.x_min, c.x_max, c.y_min, c.y_max])
+
+    @property
+    def ceiling(self) -> float:
+        """The map's ceiling [m]."""
+        return self.constants.ceiling
+
+    @property
+    def clearance(self) -> float:
+        """The minimum height above the terrain [m]."""
+        return self.constants.clearance
+
+    @property
+    def map_side(self) -> float:
+        """L, the larger map extent [m]."""
+        return self.constants.map_side
+
+    @property
+    def crash_penalty_per_step(self) -> float:
+        """The failure penalty per remaining step (model.md §7a)."""
+        return self.constants.crash_per_step
+
+    @property
+    def snr_ref(self) -> float:
+        """SNR_ref of the Swerling-I detection (model.md §4.6)."""
+        return self.constants.snr_ref
+
+    @property
+    def threat_altitude_scale(self) -> float | None:
+        """The scale s [m] of the terrain threat's fade with height, or None without the fade (model.md §3)."""
+        return self.constants.threat_altitude_scale if self.options.altitude_fade else None
+
+    @property
+    def earth_radius(self) -> float:
+        """The effective earth radius R_eff [m] (model.md §4.3)."""
+        return self.scenario.radar_model.effective_earth_radius_km * 1000.0
 
     def _rows(self, index: IntArray | int | None, batch: int) -> np.ndarray:
         """Pool index of each of ``batch`` rows as contiguous int64 (the kernels' layout)."""
@@ -588,15 +579,13 @@ class PenetrationModel:
         )
 
     def state_threats(
-        self, states: FloatArray, index: IntArray | None = None, altitude_agl: FloatArray | None = None
+        self, states: FloatArray, index: IntArray | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Threats that depend on the state alone: Th_e, per-radar threat, visibility, detection prob.
 
         Args:
             states: (B, 6) states.
             index: (B,) pool index of each row.
-            altitude_agl: ignored (the height above the terrain is looked up in the kernel); kept for
-                callers of the earlier signature.
 
         Returns:
             terrain threat (B,), per-radar threat (B, M), visibility (B, M), detection probability (B,).
@@ -822,7 +811,7 @@ class PenetrationModel:
     def _env_step_one(self, state: np.ndarray, action: np.ndarray, step_index: int) -> SingleStep | None:
         """One env step from ``state`` (6,) with the float64 ``action`` (3,) at k = ``step_index``.
 
-        The single env's hot path (issue 10): the action check and clip, :meth:`step` and
+        The single env's hot path: the action check and clip, :meth:`step` and
         :meth:`observe` of one row in one compiled call (:func:`kernels.env_step_one`), on
         arguments the env has already checked. The same numbers as the public methods.
 
@@ -857,7 +846,7 @@ class PenetrationModel:
     def _env_reset_one(self, state: np.ndarray, step_index: int) -> SingleReset:
         """The reset quantities and observation of ``state`` (6,) at k = ``step_index`` (one compiled call).
 
-        The single env's hot path for :meth:`reset_result` plus :meth:`observe` (issue 10): the
+        The single env's hot path for :meth:`reset_result` plus :meth:`observe`: the
         same numbers (the goal distance with ``np.hypot``, as :meth:`goal_distance`).
         """
         per_radar = np.empty((1, self.radar_slots))
@@ -869,6 +858,73 @@ class PenetrationModel:
         goal = self.goal[0]
         distance = float(np.hypot(goal[0] - state[0], goal[1] - state[1]))
         return SingleReset(terrain, radar, per_radar[0], detection, altitude_agl, distance, obs[0])
+
+
+def model_constants(
+    scenario: Scenario, grid: GridSpec, limits: UAVLimits, fuel: FuelParams, normalisation: Normalisation
+) -> tuple[ModelConstants, ModelOptions]:
+    """The kernels' named constants and options of ``scenario`` (with its grid and derived parameters).
+
+    The one place a scenario's settings become the numbers the kernels read: the model keeps the
+    result and packs it (:func:`kernels.pack`); its constant properties read it by name.
+    """
+    radar = scenario.radar_model
+    x_min, x_max = (value * 1000.0 for value in scenario.map.x_km)
+    y_min, y_max = (value * 1000.0 for value in scenario.map.y_km)
+    fade = scenario.terrain.threat_altitude_scale_m
+    w_terrain, w_radar, w_third = scenario.cost.weights
+    constants = ModelConstants(
+        dt=limits.dt,
+        speed_min=limits.speed_min,
+        speed_max=limits.speed_max,
+        dv_max=limits.dv_max,
+        dheading_max=limits.dheading_max,
+        dpitch_max=limits.dpitch_max,
+        pitch_max=limits.pitch_max,
+        grid_x0=grid.x0_m,
+        grid_y0=grid.y0_m,
+        grid_dx=grid.dx_m,
+        clearance=scenario.uav.min_clearance_m,
+        x_min=x_min,
+        x_max=x_max,
+        y_min=y_min,
+        y_max=y_max,
+        ceiling=scenario.map.ceiling_m,
+        mountain_decay=scenario.terrain.mountain_decay_per_km2,
+        threat_altitude_scale=1.0 if fade is None else fade,
+        min_range=radar.min_range_m,
+        horizon_scale=math.sqrt(2.0 * (radar.effective_earth_radius_km * 1000.0)),
+        softness=radar.masking_softness_m,
+        log_false_alarm=math.log(radar.false_alarm_prob),
+        snr_ref=reference_snr(radar.false_alarm_prob, radar.reference_detection_prob),
+        tsfc=fuel.tsfc,
+        weight=fuel.weight_n,
+        level_thrust=fuel.level_thrust_n,
+        idle_thrust=fuel.idle_thrust_n,
+        max_thrust=fuel.max_thrust_n,
+        potential_per_m=fuel.potential_per_m,
+        terrain_lo=normalisation.terrain[0],
+        terrain_hi=normalisation.terrain[1],
+        radar_lo=normalisation.radar[0],
+        radar_hi=normalisation.radar[1],
+        third_lo=normalisation.third[0],
+        third_hi=normalisation.third[1],
+        w_terrain=w_terrain,
+        w_radar=w_radar,
+        w_third=w_third,
+        crash_per_step=scenario.crash_penalty_per_step,
+        max_step_length=limits.max_step_length,
+        map_side=max(x_max - x_min, y_max - y_min),
+    )
+    options = ModelOptions(
+        detection=kernels.DETECTION[scenario.detection],
+        masking=kernels.MASKING[scenario.masking],
+        fusion=kernels.FUSION[radar.fusion],
+        third=kernels.THIRD_TERM[scenario.cost.third_term],
+        altitude_fade=int(fade is not None),
+        max_steps=scenario.time.max_steps,
+    )
+    return constants, options
 
 
 def _rollout_controls(controls: FloatArray) -> np.ndarray:

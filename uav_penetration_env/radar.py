@@ -114,29 +114,3 @@ def visibility_floor(
     line_floor = zr + distance * slope_star + distance * distance / two_r
     return np.where(has_sample, np.maximum(heights, line_floor), heights)
 
-
-def visibility_floor_exact(
-    heights: FloatArray, grid: GridSpec, radar_xyz: tuple[float, float, float], earth_radius_m: float
-) -> FloatArray:
-    """Per-node ray sampling of the visibility floor: the spec's literal method (slow; a test oracle).
-
-    Each node T at distance d gets ``S = ceil(d / (dx / 2))`` and samples ``t_j = j / S``,
-    ``j = 1..S-1``, along its own ray (model.md §4.4).
-    """
-    xr, yr, zr = radar_xyz
-    two_r = 2.0 * earth_radius_m
-    floor = heights.copy()
-    gx, gy = grid.mesh()
-    for i in range(grid.nx):
-        for j in range(grid.ny):
-            d = math.hypot(gx[i, j] - xr, gy[i, j] - yr)
-            samples = math.ceil(d / (0.5 * grid.dx_m))
-            if samples < 2:
-                continue
-            t = np.arange(1, samples) / samples
-            sx, sy = xr + t * (gx[i, j] - xr), yr + t * (gy[i, j] - yr)
-            fi, fj = grid.fractional_index(sx, sy)
-            s = t * d
-            slope = np.max((bilinear(heights, fi, fj) - s * s / two_r - zr) / s)
-            floor[i, j] = max(heights[i, j], zr + d * slope + d * d / two_r)
-    return floor

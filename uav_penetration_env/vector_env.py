@@ -281,7 +281,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         obs = self._model.observe(
             self._states, self._steps, None, None if self._model.pool_size == 1 else self._index
         )
-        info = batched_info(self._model, result, None)
+        info = batched_info(result)
         if len(rows) == n:
             return obs, _vector_info(info)
         return obs, _vector_info(info, rows, n)
@@ -350,7 +350,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         full = self._full_result(stepping, result, resetting)
         obs = self._model.observe(self._states, self._steps, full, index)
-        info = _vector_info(batched_info(self._model, full, None))
+        info = _vector_info(batched_info(full))
 
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
             finished = np.flatnonzero(done)
@@ -358,7 +358,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
             for i in finished:
                 final_obs[i] = obs[i].copy()
             final_info = _vector_info(
-                {k: v[finished] for k, v in batched_info(self._model, full, None).items()}, finished, n
+                {k: v[finished] for k, v in batched_info(full).items()}, finished, n
             )
             self._reset_rows(finished, [None] * len(finished))
             index = None if self._model.pool_size == 1 else self._index
@@ -366,7 +366,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 self._states[finished], None if index is None else index[finished]
             )
             obs = self._model.observe(self._states, self._steps, None, index)
-            reset_info = batched_info(self._model, fresh, None)
+            reset_info = batched_info(fresh)
             for key, value in reset_info.items():
                 info[key] = info[key].copy()
                 info[key][finished] = value

@@ -13,7 +13,14 @@ from hypothesis import strategies as st
 from uav_penetration_env import PenetrationModel
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.kinematics import wrap_angle
-from uav_penetration_env.model import OBSERVATION_SIZE, TERRAIN_ACROSS_M, TERRAIN_AHEAD_M
+from uav_penetration_env.observation import (
+    OBSERVATION_SIZE,
+    SLOTS,
+    TERRAIN_ACROSS_M,
+    TERRAIN_AHEAD_M,
+    radar_block,
+    terrain_block,
+)
 
 
 @pytest.fixture(scope="module")
@@ -202,34 +209,30 @@ def test_observation_slots_are_what_the_spec_says(model):
     s = result.state[0]
     x, y, z, v, phi, theta = s
     assert obs.shape == (OBSERVATION_SIZE,) and obs.dtype == np.float32
-    assert obs[0] == np.float32((x + 25e3) / 75e3) and obs[1] == np.float32((y + 25e3) / 75e3)
+    position = obs[SLOTS["position"]]
+    assert position[0] == np.float32((x + 25e3) / 75e3) and position[1] == np.float32((y + 25e3) / 75e3)
     ground = model.height(np.array([x]), np.array([y]))[0]
-    assert obs[2] == pytest.approx((z - ground) / 1000.0, abs=1e-6)
-    assert obs[3] == pytest.approx(z / 3000.0, abs=1e-6)
-    assert obs[4] == pytest.approx((v - 5.0) / 5.0, abs=1e-6)
-    assert obs[5] == pytest.approx(math.cos(phi), abs=1e-6) and obs[6] == pytest.approx(
-        math.sin(phi), abs=1e-6
-    )
-    assert obs[7] == pytest.approx(theta / math.radians(15), abs=1e-6)
+    assert obs[SLOTS["altitude_agl"]][0] == pytest.approx((z - ground) / 1000.0, abs=1e-6)
+    assert obs[SLOTS["altitude_ceiling"]][0] == pytest.approx(z / 3000.0, abs=1e-6)
+    assert obs[SLOTS["speed"]][0] == pytest.approx((v - 5.0) / 5.0, abs=1e-6)
+    np.testing.assert_allclose(obs[SLOTS["heading"]], [math.cos(phi), math.sin(phi)], atol=1e-6)
+    assert obs[SLOTS["pitch"]][0] == pytest.approx(theta / math.radians(15), abs=1e-6)
     gx, gy = 25e3 - x, 25e3 - y
-    assert obs[8] == pytest.approx(gx / 75e3, abs=1e-6) and obs[10] == pytest.approx(
-        math.hypot(gx, gy) / 75e3, abs=1e-6
-    )
+    assert obs[SLOTS["goal_offset"]][0] == pytest.approx(gx / 75e3, abs=1e-6)
+    assert obs[SLOTS["goal_distance"]][0] == pytest.approx(math.hypot(gx, gy) / 75e3, abs=1e-6)
     rel = math.atan2(gy, gx) - phi
-    assert obs[11] == pytest.approx(math.cos(rel), abs=1e-6) and obs[12] == pytest.approx(
-        math.sin(rel), abs=1e-6
-    )
-    # Terrain ahead: slot 13 + 5 * a + c is ahead TERRAIN_AHEAD_M[a], across TERRAIN_ACROSS_M[c] (left positive).
+    np.testing.assert_allclose(obs[SLOTS["goal_bearing"]], [math.cos(rel), math.sin(rel)], atol=1e-6)
+    # Terrain ahead: terrain[a, c] is ahead TERRAIN_AHEAD_M[a], across TERRAIN_ACROSS_M[c] (left positive).
     for a, c in [(0, 2), (4, 0), (2, 4)]:
         px = x + TERRAIN_AHEAD_M[a] * math.cos(phi) - TERRAIN_ACROSS_M[c] * math.sin(phi)
         py = y + TERRAIN_AHEAD_M[a] * math.sin(phi) + TERRAIN_ACROSS_M[c] * math.cos(phi)
         h = model.height(np.array([px]), np.array([py]))[0]
-        assert obs[13 + 5 * a + c] == pytest.approx((h - z) / 1000.0, abs=1e-6)
+        assert terrain_block(obs)[a, c] == pytest.approx((h - z) / 1000.0, abs=1e-6)
     # Radars: nearest first; two present radars, the last two slots are "missing".
     radars = model.built[0].radar_xyz
     ranges = np.linalg.norm(radars - s[:3], axis=1)
     nearest = int(np.argmin(ranges))
-    block = obs[38:66].reshape(4, 7)
+    block = radar_block(obs)
     assert block[0, 0] == 1.0 and block[1, 0] == 1.0
     assert block[0, 1] == pytest.approx(min(ranges[nearest] / 100e3, 5.0), abs=1e-6)
     bearing = math.atan2(radars[nearest, 1] - y, radars[nearest, 0] - x) - phi
@@ -237,7 +240,7 @@ def test_observation_slots_are_what_the_spec_says(model):
     assert block[0, 4] == pytest.approx((radars[nearest, 2] - z) / 1000.0, abs=1e-6)
     assert block[0, 6] == pytest.approx(result.radar_threat_per_radar[0, nearest], abs=1e-6)
     np.testing.assert_array_equal(block[2:], [[0, 5, 0, 0, 0, 0, 0]] * 2)
-    assert obs[66] == pytest.approx(7 / 30)
+    assert obs[SLOTS["step_fraction"]][0] == pytest.approx(7 / 30)
 
 
 def test_observe_without_result_equals_observe_with_it(model):

@@ -17,15 +17,11 @@ from numpy_model import (
     detection_ratio,
     horizon_range,
     swerling1_detection_probability,
+    visibility_floor_exact,
     visibility_probability,
 )
 
-from uav_penetration_env.radar import (
-    fuse,
-    reference_snr,
-    visibility_floor,
-    visibility_floor_exact,
-)
+from uav_penetration_env.radar import fuse, reference_snr, visibility_floor
 from uav_penetration_env.terrain import GridSpec, bilinear, gaussian_field, scale_to_height
 
 R_EFF_M = 8487.2e3  # model.md §4.3: 4120² / 2 m
