@@ -535,15 +535,15 @@ def failure_penalty(failed, k_next, max_steps, per_step):
 
 
 @njit(inline="always", cache=True)
-def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags):
-    """Score one transition ``start -> end`` (6-vectors) taken into step ``k_next`` (model.md §7a).
+def segment_events(arrays, p, start, end):
+    """The events of the segment ``start -> end`` in flight order (model.md §7a).
 
-    Events along the segment in flight order, the state threats at ``end``, the third term, the
-    normalised weighted cost J and the failure penalty; writes ``scalars`` (N_SCALARS,), ``flags``
-    (N_FLAGS,), ``per_radar`` and ``visible`` (M,). Returns J + penalty.
+    The terrain is sampled along the segment (``arrays.sample_t``); the goal counts as reached
+    when the segment passes within its radius before any terrain hit; a hit is a collision unless
+    the goal came first; leaving the map or the ceiling at ``end`` counts only without either.
+    Returns (reached, collided, out_of_area, the terrain height under ``end``).
     """
     params = arrays.params
-    options = arrays.options
     sample_t = arrays.sample_t
     samples = sample_t.shape[0]
     dx = end[0] - start[0]
@@ -581,6 +581,25 @@ def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags
         or z > params[P_CEILING]
     )
     out_of_area = outside and not reached and not collided
+    return reached, collided, out_of_area, ground
+
+
+@njit(inline="always", cache=True)
+def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags):
+    """Score one transition ``start -> end`` (6-vectors) taken into step ``k_next`` (model.md §7a).
+
+    Events along the segment in flight order, the state threats at ``end``, the third term, the
+    normalised weighted cost J and the failure penalty; writes ``scalars`` (N_SCALARS,), ``flags``
+    (N_FLAGS,), ``per_radar`` and ``visible`` (M,). Returns J + penalty.
+    """
+    params = arrays.params
+    options = arrays.options
+    reached, collided, out_of_area, ground = segment_events(arrays, p, start, end)
+    gx = arrays.goal[p, 0]
+    gy = arrays.goal[p, 1]
+    x = end[0]
+    y = end[1]
+    z = end[2]
     terminated = reached or collided or out_of_area
     max_steps = options[O_MAX_STEPS]
     truncated = k_next >= max_steps and not terminated
@@ -591,7 +610,7 @@ def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags
     threat_r = fuse(per_radar, options[O_FUSION])
 
     fuel = fuel_burned(end[5], params)
-    before = math.hypot(to_goal_x, to_goal_y)
+    before = math.hypot(gx - start[0], gy - start[1])
     after = math.hypot(gx - x, gy - y)
     third = third_term(options[O_THIRD], fuel, end[3] * params[P_DT], before, after, params)
 
