@@ -196,7 +196,7 @@ def test_cli_run_names_an_agent_by_its_file_stem(tiny_ppo, tmp_path):
     assert rows.loc[rows["policy"] != "greedy", "train_timesteps"].notna().all()
 
 
-# --- every file an agent needs is verified by its SHA-256 (issue 12) ---------------------------------
+# --- every file an agent needs is verified by its SHA-256 ----------------------------------------
 
 
 def test_the_sidecar_records_the_hash_of_every_file_the_agent_needs(tiny_ppo):

@@ -1,4 +1,4 @@
-"""Every cache and identity keyed by content (issue 12): files rewritten in place, at once.
+"""Every cache and identity keyed by content: files rewritten in place, at once.
 
 The rewrites here keep the file's name and size and happen within milliseconds of the first
 read, with no help from ``os.utime``: the case a (path, size, mtime) memo alone gets wrong when

@@ -1,4 +1,4 @@
-"""DEM rasters as real products deliver them (issue 12): GeoTIFF, longitude conventions incl. the
+"""DEM rasters as real products deliver them: GeoTIFF, longitude conventions incl. the
 antimeridian, missing data in every form, and identities keyed by the file's content.
 
 Synthetic rasters are planes, h = a * lon + b * lat + c (lon unwrapped across the antimeridian), so

@@ -49,7 +49,7 @@ def test_stable_baselines3_check_env(env_id):
 
 
 def test_ids_register_their_k_max_as_the_time_limit():
-    # Issue 18: the spec says where the env truncates itself (tests/env/test_gym_conventions.py).
+    # The spec says where the env truncates itself (tests/env/test_gym_conventions.py).
     for env_id in ENV_IDS:
         assert gym.spec(env_id).max_episode_steps == 150
         assert "TimeLimit" in repr(

@@ -1,4 +1,4 @@
-"""Gymnasium's own conventions on every id (issue 18): the time limit in the spec, make_vec in every
+"""Gymnasium's own conventions on every id: the time limit in the spec, make_vec in every
 mode and with max_episode_steps, vector seeding, exception types, and Gymnasium's common wrappers.
 """
 

@@ -1,6 +1,6 @@
 """Compiled physics (kernels.py) against the numpy oracle (tests/numpy_model.py), every option.
 
-Issue 10: the compiled model must reproduce the numpy formulation to 1e-12 relative for every
+The compiled model must reproduce the numpy formulation to 1e-12 relative for every
 profile and option, at hand-picked states that exercise every event of a window (start, near a
 radar, inside the minimum radar range, near the goal, low over a mountain, near the map edge,
 near the ceiling, a window cut short by K_max). The two are not bit-identical only because numpy

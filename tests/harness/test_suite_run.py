@@ -218,7 +218,7 @@ def test_leaderboard_refuses_a_pooled_table_under_a_frozen_suite_name(tmp_path, 
 
 
 def test_suite_tables_recompute_from_exported_rows(tmp_path):
-    """Issue 16: the published suite tables must be rebuilt from committed rows alone."""
+    """The published suite tables must be rebuilt from committed rows alone."""
     status, store = _run(tmp_path, "--members", *MEMBERS, "--policies", "greedy", "random", "--no-report")
     assert status == 0
     assert cli.main(["leaderboard", "--store", str(store), "--out", str(tmp_path / "from-store")]) == 0
