@@ -12,8 +12,10 @@ grow with every edit), else ``$UAV_PENETRATION_CACHE/numba/DIGEST`` (the project
 :func:`cache.cache_dir`, which other installed versions may share: nothing is removed there); a
 user's ``NUMBA_CACHE_DIR`` is honoured as the parent, ``NUMBA_CACHE_DIR/uav-penetration-DIGEST``.
 
-This module must be imported before any compiled module is (``uav_penetration_env/__init__.py``
-imports it first).
+Every module that defines compiled functions imports this one before its first definition
+(``kernels.py``, ``costtogo.py``, ``value_function.py``, ``checks.py``), so the folder is set however
+the package is entered; ``import uav_penetration_env`` alone loads no compiled code (the package's
+exports load on first use).
 """
 
 from __future__ import annotations
