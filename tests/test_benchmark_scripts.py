@@ -32,6 +32,15 @@ def test_bench_env_quick_run_reports_every_figure(capsys):
     assert {"vector_1", "vector_16", "vector_256", "vector_1024"} <= set(results)
 
 
+def test_bench_contention_measures_each_figure_idle_and_loaded(capsys):
+    results = load("bench_contention").main(["--seconds", "0.05", "--load", "1"])
+    assert list(results) == ["idle, OMP_WAIT_POLICY=PASSIVE", "with 1 busy processes, OMP_WAIT_POLICY=PASSIVE"]
+    for ratios in results.values():
+        assert {"rollout 100 x 5", "rollout 10000 x 5", "vector env 256", "single env"} <= set(ratios)
+        assert all(ratio > 0 for ratio in ratios.values())
+    assert "x" in capsys.readouterr().out
+
+
 @pytest.mark.slow
 def test_bench_harness_full_settings_run():
     results = load("bench_harness").main(["--steps", "3", "--max-evals", "2000", "--sweep-max-evals", "1000"])
