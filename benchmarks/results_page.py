@@ -238,8 +238,9 @@ def page(folder: Path) -> str:
     lines += ["", "The full study: [leaderboards/ctg-sensitivity/sensitivity.md](../leaderboards/ctg-sensitivity/sensitivity.md).", ""]
     lines += ["## Learned planners against swarm planners, on cost and on compute", ""]
     lines += [*rl_findings(folder), ""]
-    details = hl.headline(folder, list(tables)).replace("# Headline numbers from", "## The tables behind the findings, from", 1)
-    lines += [details.replace("\n## ", "\n### ").replace("\n### The tables", "\n## The tables", 1), "", REPRODUCE]
+    # headline.py's own title names the folder's path, which differs between checkouts: replaced.
+    details = hl.headline(folder, list(tables)).split("\n", 1)[1]
+    lines += ["## The tables behind the findings", details.replace("\n## ", "\n### "), "", REPRODUCE]
     return "\n".join(lines)
 
 

@@ -97,6 +97,59 @@ def test_the_progress_bar_counts_and_shows_an_eta():
     assert silent.n == 2
 
 
+class Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_the_eta_prices_each_remaining_episode_at_its_own_policy_median():
+    from uav_penetration_env.benchmark.progress import EpisodeETA, format_eta
+
+    clock = Clock()
+    eta = EpisodeETA(["slow"] * 4 + ["fast"] * 4, clock=clock)
+    assert eta.seconds_left() is None and format_eta(None) == "-:--:--"
+    # Two workers: after 10 s, two slow episodes of 10 s each (one compile-inflated: 30 s would not
+    # move the median of three) and two fast ones of 1 s finished.
+    clock.now = 10.0
+    for key, seconds in (("slow", 10.0), ("slow", 10.0), ("fast", 1.0), ("fast", 1.0)):
+        eta.finished(key, seconds)
+    # Left: 2 slow x 10 s + 2 fast x 1 s = 22 s of work; parallelism 22 s of episodes / 10 s = 2.2.
+    assert eta.seconds_left() == 22.0 / 2.2
+    assert format_eta(eta.seconds_left()) == "0:00:10" and format_eta(3725.4) == "1:02:05"
+    eta.finished("slow", 30.0)  # the median of (10, 10, 30) stays 10
+    clock.now = 20.0
+    assert eta.seconds_left() == (1 * 10.0 + 2 * 1.0) / (52.0 / 20.0)
+
+
+def test_a_policy_not_seen_yet_is_priced_at_the_median_of_all_finished_episodes():
+    from uav_penetration_env.benchmark.progress import EpisodeETA
+
+    clock = Clock()
+    eta = EpisodeETA(["a", "a", "b", "b"], clock=clock)
+    clock.now = 4.0
+    eta.finished("a", 2.0)
+    eta.finished("a", 6.0)
+    # b unseen: median of (2, 6) = 4 s each; parallelism (2 + 6) / 4 = 2.
+    assert eta.seconds_left() == 2 * 4.0 / 2.0
+
+
+def test_the_bar_shows_the_estimate_it_is_given():
+    from rich.console import Console
+
+    from uav_penetration_env.benchmark.progress import EpisodeETA
+
+    clock = Clock()
+    stream = io.StringIO()
+    console = Console(file=stream, width=120, force_terminal=False)
+    with ProgressBar(3, "episodes", unit="ep", console=console, eta=EpisodeETA(["p"] * 3, clock=clock)) as bar:
+        clock.now = 100.0
+        bar.finished("p", 100.0)
+    assert bar.n == 1 and "0:03:20" in stream.getvalue()  # two more episodes of 100 s, one at a time
+
+
 @pytest.fixture(scope="module")
 def tiny_yaml(tmp_path_factory):
     return str(

@@ -311,7 +311,9 @@ def evaluate(
             pending, run_id = _start_run(results, tasks, policies, hashes, scenario_list, command, settings)
         for scenario in {s.hash: s for s in scenario_list}.values():
             build_scenario(scenario)  # warm the disk cache once, so workers only load it
-        bar = _progress_bar(len(pending), len(tasks) - len(pending), progress)
+        if pending:
+            _compile_first(progress)
+        bar = _progress_bar(pending, len(tasks) - len(pending), progress)
         try:
             rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar)
         finally:
@@ -383,7 +385,7 @@ def _fly(
             results.write_episode(row, steps)
         rows.append(row)
         failures += row.get("outcome") == "error"
-        bar.update(1)
+        bar.finished(row["policy"], float(row.get("episode_seconds", float("nan"))))
         bar.set_postfix(failures=failures)
     return rows
 
@@ -411,8 +413,22 @@ def scenario_yaml(scenario: Scenario) -> str:
     return yaml.safe_dump(scenario.to_dict(), sort_keys=False)
 
 
-def _progress_bar(total: int, already: int, enabled: bool):
-    from uav_penetration_env.benchmark.progress import ProgressBar
+def _compile_first(progress: bool) -> None:
+    """On a first run, compile the physics here, saying so, before the workers start (they then load it)."""
+    from uav_penetration_env import warmup
+
+    if not warmup.is_cold():
+        return
+    if progress:
+        print("compiling the physics (first run only, about 25-60 s on 2 cores) ...", file=sys.stderr, flush=True)
+    seconds = warmup.compile_physics()
+    if progress:
+        print(f"compiled in {seconds:.0f} s", file=sys.stderr, flush=True)
+
+
+def _progress_bar(pending: list[EpisodeTask], already: int, enabled: bool):
+    from uav_penetration_env.benchmark.progress import EpisodeETA, ProgressBar
 
     description = f"episodes ({already} already stored)" if already else "episodes"
-    return ProgressBar(total, description, unit="ep", enabled=enabled)
+    eta = EpisodeETA(task.policy_name for task in pending)
+    return ProgressBar(len(pending), description, unit="ep", enabled=enabled, eta=eta)

@@ -28,6 +28,7 @@ BUILTIN_COMMANDS = (
     "windows",
     "best_known",
     "suite",
+    "compile",
 )
 
 
