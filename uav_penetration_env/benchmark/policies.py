@@ -288,15 +288,8 @@ class MPCPolicy:
         if self.model is None or self.rng is None or self._terminal is None:
             raise RuntimeError("MPCPolicy.act() before reset(model, seed)")
         state = np.asarray(info["state"], dtype=np.float64)
-        inside = [0.0]
         cost = mpc_objective(self.model, state, int(info["step"]), self.settings, terminal_cost=self._terminal)
-
-        def objective(flat: FloatArray) -> FloatArray:
-            start = time.perf_counter()
-            costs = cost(flat)
-            inside[0] += time.perf_counter() - start
-            return costs
-
+        objective = CountedObjective(cost)
         kwargs: dict[str, Any] = {"rng": self.rng, "max_evals": self.settings.max_evals}
         start = time.perf_counter()
         guess = self.initial_guess(observation, info)
@@ -304,20 +297,74 @@ class MPCPolicy:
             kwargs["x0"] = np.asarray(guess, dtype=np.float64).reshape(-1)
         result = self.optimizer.minimize(objective, cost.bounds, **kwargs)
         planning = time.perf_counter() - start
+        nfev = checked_result(result, objective, cost.bounds, self.settings.max_evals, type(self.optimizer).__name__)
         found = bool(np.isfinite(result.fun))
         horizon = self.horizon
         plan = np.asarray(result.x, dtype=np.float64).reshape(horizon, 3) if found else np.zeros((horizon, 3))
         self._plan = np.vstack([plan[1:], np.zeros((1, 3))]) if found else None
         self.last_record = {
-            "nfev": int(result.nfev),
+            "nfev": nfev,
             "planning_seconds": planning,
-            "objective_seconds": inside[0],
+            "objective_seconds": objective.seconds,
             "plan_cost": float(result.fun),
             "history": np.asarray(getattr(result, "history", []), dtype=np.float64).tolist(),
             "history_nfev": np.asarray(getattr(result, "history_nfev", []), dtype=np.int64).tolist(),
-            **trace_summary(getattr(result, "trace", {}), int(result.nfev), self.max_evals),
+            **trace_summary(getattr(result, "trace", {}), nfev, self.max_evals),
         }
         return plan[0].copy()
+
+
+class PlanError(ValueError):
+    """An optimiser's answer the harness will not fly: over its budget, or a plan outside the box."""
+
+
+class CountedObjective:
+    """An objective that counts the rows it evaluates and the seconds it spends.
+
+    The harness stores its own count, never the optimiser's claim: a plug-in that overspends and
+    reports ``nfev = max_evals`` would otherwise rank as an equal-budget run.
+    """
+
+    def __init__(self, objective: Callable[[FloatArray], FloatArray]) -> None:
+        self.objective = objective
+        self.rows = 0
+        self.seconds = 0.0
+
+    def __call__(self, flat: FloatArray) -> FloatArray:
+        """(n,) costs of (n, 3H) rows, counted."""
+        start = time.perf_counter()
+        costs = self.objective(flat)
+        self.seconds += time.perf_counter() - start
+        self.rows += len(flat)
+        return costs
+
+
+def checked_result(result: Any, counted: CountedObjective, bounds: Bounds, max_evals: int, where: str) -> int:
+    """The evaluations ``result`` really spent; refuse an overspent budget or a plan outside ``bounds``.
+
+    Raises:
+        PlanError: more rows evaluated than ``max_evals``, or a finite-cost ``result.x`` outside the
+            box (beyond rounding, 1e-9 of the box's width), naming ``where`` (the optimiser).
+    """
+    if counted.rows > max_evals:
+        raise PlanError(
+            f"{where}: evaluated {counted.rows} control sequences, over its budget max_evals={max_evals} "
+            f"(it reported nfev={getattr(result, 'nfev', None)})"
+        )
+    x = np.asarray(result.x, dtype=np.float64)
+    if not np.isfinite(result.fun):
+        return counted.rows  # no finite plan: nothing is flown from it
+    if x.shape != bounds.lb.shape:
+        raise PlanError(f"{where}: returned a plan of shape {x.shape}; expected shape {bounds.lb.shape}")
+    slack = 1e-9 * (bounds.ub - bounds.lb)
+    outside = ~((x >= bounds.lb - slack) & (x <= bounds.ub + slack))
+    if outside.any():
+        i = int(np.argmax(outside))
+        raise PlanError(
+            f"{where}: returned a plan with x[{i}] = {x[i]:.6g} outside the action box "
+            f"[{bounds.lb[i]:.6g}, {bounds.ub[i]:.6g}]; expected a plan inside the bounds it was given"
+        )
+    return counted.rows
 
 
 @dataclass(frozen=True, eq=False)

@@ -256,11 +256,20 @@ def run_window(optimizer: Any, window: Window, rng: Any, max_evals: int | None =
     """
     import inspect
 
+    from uav_penetration_env.benchmark.policies import CountedObjective, checked_result
+
     budget = window.objective.settings.max_evals if max_evals is None else max_evals
     kwargs: dict[str, Any] = {"rng": rng, "max_evals": int(budget)}
     if "x0" in inspect.signature(optimizer.minimize).parameters:
         kwargs["x0"] = window.x0
-    return optimizer.minimize(window.objective, window.objective.bounds, **kwargs)
+    counted = CountedObjective(window.objective)
+    result = optimizer.minimize(counted, window.objective.bounds, **kwargs)
+    # The harness's own count is the run's nfev (a plug-in's claim is not trusted).
+    nfev = checked_result(result, counted, window.objective.bounds, int(budget), type(optimizer).__name__)
+    if dataclasses.is_dataclass(result):
+        return dataclasses.replace(result, nfev=nfev)
+    result.nfev = nfev  # scipy's OptimizeResult and other plain results
+    return result
 
 
 def run_windows(

@@ -1,0 +1,74 @@
+"""The harness trusts no plug-in's word: it counts the evaluations itself and refuses a plan outside the box."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from conftest import tiny_scenario
+
+from optimizers import OptimizeResult
+from uav_penetration_env.benchmark import MPCPolicy, evaluate
+from uav_penetration_env.benchmark.policies import CountedObjective, PlanError, checked_result
+from uav_penetration_env.mpc import MPCSettings
+
+SETTINGS = MPCSettings(horizon=2, max_evals=60, terminal="none")
+
+
+@dataclass(frozen=True)
+class Liar:
+    """Spends ``spend`` x its budget (or returns a plan scaled by ``scale``) and reports nfev = max_evals."""
+
+    spend: int = 1
+    scale: float = 1.0
+
+    def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
+        rng = np.random.default_rng(rng)
+        xs = rng.uniform(bounds.lb, bounds.ub, size=(max_evals * self.spend, bounds.lb.size))
+        fs = np.concatenate([fun(chunk) for chunk in np.array_split(xs, self.spend)])
+        i = int(np.argmin(fs))
+        return OptimizeResult(x=xs[i] * self.scale, fun=float(fs[i]), nfev=max_evals, nit=0,
+                              history=np.array([fs[i]]), history_nfev=np.array([max_evals]), message="done")  # fmt: skip
+
+
+def episode(optimizer) -> dict:
+    frame = evaluate({"p": MPCPolicy(optimizer, SETTINGS)}, [tiny_scenario(time={"max_steps": 4})], [0], progress=False)
+    return frame.iloc[0].to_dict()
+
+
+def test_an_honest_plugin_is_stored_with_the_harness_count():
+    row = episode(Liar())
+    assert row["error"] == "" and row["nfev_per_step"] == SETTINGS.max_evals
+
+
+def test_a_plugin_that_overspends_gets_an_error_row_naming_its_real_count():
+    row = episode(Liar(spend=20))
+    assert "evaluated 1200 control sequences, over its budget max_evals=60 (it reported nfev=60)" in row["error"]
+    assert row["outcome"] == "error"
+
+
+def test_a_plan_outside_the_box_is_an_error_row_not_a_clipped_flight():
+    row = episode(Liar(scale=1e6))
+    assert row["outcome"] == "error" and "outside the action box" in row["error"]
+
+
+def test_checked_result_counts_rows_and_allows_rounding_at_the_walls():
+    from scipy.optimize import Bounds
+
+    bounds = Bounds(np.array([-1.0, -2.0]), np.array([1.0, 2.0]))
+    counted = CountedObjective(lambda x: x.sum(axis=1))
+    counted(np.zeros((3, 2)))
+    counted(np.zeros((4, 2)))
+    at_wall = OptimizeResult(x=np.array([1.0 + 1e-12, -2.0]), fun=0.0, nfev=99, nit=0,
+                             history=np.zeros(1), history_nfev=np.zeros(1, int), message="")  # fmt: skip
+    assert checked_result(at_wall, counted, bounds, 7, "x") == 7  # its own count, not the claimed 99
+    with pytest.raises(PlanError, match=r"x: evaluated 7 control sequences, over its budget max_evals=6"):
+        checked_result(at_wall, counted, bounds, 6, "x")
+    wrong_shape = OptimizeResult(x=np.zeros(3), fun=0.0, nfev=7, nit=0, history=np.zeros(1),
+                                 history_nfev=np.zeros(1, int), message="")  # fmt: skip
+    with pytest.raises(PlanError, match=r"shape \(3,\); expected shape \(2,\)"):
+        checked_result(wrong_shape, counted, bounds, 7, "x")
+    no_plan = OptimizeResult(x=np.full(2, 1e9), fun=np.inf, nfev=7, nit=0, history=np.zeros(1),
+                             history_nfev=np.zeros(1, int), message="no finite cost")  # fmt: skip
+    assert checked_result(no_plan, counted, bounds, 7, "x") == 7  # no finite plan: nothing is flown from it
