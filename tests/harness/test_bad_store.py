@@ -209,3 +209,19 @@ def test_a_good_store_still_opens_for_every_reader(good_store, tiny_yaml, tmp_pa
     for argv in list(commands(store, tiny_yaml, tmp_path / "out").values())[1:]:
         assert run_cli(*argv) == 0
     capsys.readouterr()
+
+
+def test_a_short_main_file_with_a_pending_write_ahead_log_is_left_to_sqlite(tmp_path, good_store):
+    """An interrupted checkpoint leaves the new header in the main file and the pages in the -wal file.
+
+    The size check then cannot tell a truncated copy from a store SQLite reads whole, so it steps
+    aside while a non-empty ``-wal`` file is present; without one the short file is still refused.
+    """
+    from uav_penetration_env.benchmark.store import StoreError, _check_header
+
+    short = truncated(tmp_path, good_store)
+    header, size = short.read_bytes()[:100], short.stat().st_size
+    with pytest.raises(StoreError, match="truncated or copied while written"):
+        _check_header(short, header, size)
+    short.with_name(short.name + "-wal").write_bytes(b"\0" * 32)
+    _check_header(short, header, size)  # no error: SQLite replays the log when it opens the store

@@ -68,7 +68,9 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     page count, header bytes 16-17 and 28-31, valid when bytes 24-27 equal bytes 92-95) is
     refused as damaged, rather than opened and failing on the first missing page, which for a
     store truncated mid-copy may be deep inside a leaderboard build. The check reads 100 bytes;
-    a full ``PRAGMA integrity_check`` would read the whole store on every command.
+    a full ``PRAGMA integrity_check`` would read the whole store on every command. It steps aside
+    while a non-empty ``-wal`` file is beside the store: a checkpoint interrupted by a full disk or
+    a kill leaves a short main file whose missing pages SQLite reads back from the log.
 
     Args:
         path: the store's path.
@@ -134,7 +136,11 @@ def _check_header(path: Path, header: bytes, size: int) -> None:
     page_size = 65536 if page_size == 1 else page_size
     pages = int.from_bytes(header[28:32], "big")
     header_valid = header[24:28] == header[92:96]
-    if header_valid and pages and size < page_size * pages:
+    wal = path.with_name(path.name + "-wal")
+    # A checkpoint interrupted by a full disk or a kill leaves the new header in the main file and the
+    # pages still in the write-ahead log, which SQLite reads back: the store is short, not damaged.
+    pending_wal = wal.is_file() and wal.stat().st_size > 0
+    if header_valid and pages and size < page_size * pages and not pending_wal:
         raise StoreError(
             path,
             f"damaged: the file has {size} bytes but its SQLite header declares {pages} pages of "
