@@ -19,6 +19,7 @@ import hashlib
 import importlib
 import json
 import os
+import re
 import sys
 import time
 import traceback
@@ -32,6 +33,7 @@ import pandas as pd
 
 from uav_penetration_env import __version__
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
+from uav_penetration_env.benchmark.plugins import stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
@@ -44,11 +46,18 @@ BACKENDS = ("loky", "dask", "sequential")
 
 
 def policy_config(policy: Any) -> dict[str, Any]:
-    """A policy's configuration: its ``config()`` when it has one, else its class and repr."""
+    """A policy's configuration: its ``config()`` when it has one, else its class and repr.
+
+    A repr that names a memory address differs in every process, so its attributes stand in for it
+    (:func:`~.plugins.stable_parameters`; a policy with neither is refused with a one-line error).
+    """
     if hasattr(policy, "config"):
         config = dict(policy.config())
     else:
-        config = {"class": f"{type(policy).__module__}.{type(policy).__qualname__}", "repr": repr(policy)}
+        text = repr(policy)
+        if re.search(r" at 0x[0-9a-fA-F]+", text):  # a default repr: another in every process
+            text = stable_parameters(policy, "policies")
+        config = {"class": f"{type(policy).__module__}.{type(policy).__qualname__}", "repr": text}
     config["package_version"] = __version__
     return config
 

@@ -149,3 +149,36 @@ def plugin_policy_forms() -> list[str]:
         if kind.hybrid is not None:
             forms.append(f"PLANNER{HYBRID_SEPARATOR}{kind.usage}")
     return forms
+
+
+def stable_parameters(obj: Any, what: str) -> Any:
+    """Plain data describing ``obj``'s configuration, the same in every process (hashed into store keys).
+
+    A dataclass gives its fields; another object its ``repr`` when that names no memory address,
+    else its attributes when they are plain JSON data.
+
+    Raises:
+        ValueError: ``obj`` has no stable description (a default ``repr`` holding ``at 0x...`` and
+            attributes that are not plain data), naming ``what`` and how to make it hashable: every
+            process would give it another hash, so a resumed run would fly everything again.
+    """
+    import dataclasses
+    import json
+    import re
+
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return dataclasses.asdict(obj)
+    text = repr(obj)
+    if not re.search(r" at 0x[0-9a-fA-F]+", text):
+        return text
+    attributes = {k: v for k, v in vars(obj).items() if not k.startswith("_")} if hasattr(obj, "__dict__") else None
+    try:
+        json.dumps(attributes, allow_nan=True)
+    except (TypeError, ValueError):
+        attributes = None
+    if attributes is None:
+        raise ValueError(
+            f"{what}: {type(obj).__qualname__} has no stable configuration (its repr names a memory address "
+            "and its attributes are not plain data); make it a dataclass, or give it a repr or a config() of plain data"
+        )
+    return {"class": f"{type(obj).__module__}.{type(obj).__qualname__}", "attributes": attributes}

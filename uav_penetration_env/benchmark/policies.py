@@ -26,6 +26,7 @@ from uav_penetration_env.benchmark.plugins import (  # the plug-in forms, re-exp
     PluginUnavailable,
     plugin_policy_forms,
     policy_kinds,
+    stable_parameters,
 )
 from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
@@ -239,7 +240,7 @@ class MPCPolicy:
     def config(self) -> dict[str, Any]:
         """Everything that determines this policy's behaviour (hashed into the results store key)."""
         optimizer = self.optimizer
-        params = dataclasses.asdict(optimizer) if dataclasses.is_dataclass(optimizer) else repr(optimizer)
+        params = stable_parameters(optimizer, f"optimizer {type(optimizer).__qualname__}")
         return {
             "kind": "mpc",
             "optimizer": f"{type(optimizer).__module__}.{type(optimizer).__qualname__}",
