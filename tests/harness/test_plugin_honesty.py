@@ -72,3 +72,21 @@ def test_checked_result_counts_rows_and_allows_rounding_at_the_walls():
     no_plan = OptimizeResult(x=np.full(2, 1e9), fun=np.inf, nfev=7, nit=0, history=np.zeros(1),
                              history_nfev=np.zeros(1, int), message="no finite cost")  # fmt: skip
     assert checked_result(no_plan, counted, bounds, 7, "x") == 7  # no finite plan: nothing is flown from it
+
+
+@dataclass(frozen=True)
+class Quitter:
+    """Calls sys.exit(0) mid-run, as a careless script-style plug-in does."""
+
+    def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
+        raise SystemExit(0)
+
+
+def test_a_plugin_that_exits_is_an_error_row_and_the_other_episodes_are_kept(tmp_path):
+    from uav_penetration_env.benchmark import GreedyPolicy
+
+    frame = evaluate({"quitter": MPCPolicy(Quitter(), SETTINGS), "greedy": GreedyPolicy()},
+                     [tiny_scenario(time={"max_steps": 4})], [0, 1], progress=False, store=tmp_path / "s.sqlite")  # fmt: skip
+    by_policy = frame.groupby("policy")["outcome"].apply(set).to_dict()
+    assert by_policy["quitter"] == {"error"} and "error" not in by_policy["greedy"]
+    assert frame.loc[frame["policy"] == "quitter", "error"].str.startswith("SystemExit: 0").all()

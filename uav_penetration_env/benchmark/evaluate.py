@@ -145,7 +145,9 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         metadata = getattr(policy, "metadata", None)
         if isinstance(metadata, Mapping):
             row.update({k: v for k, v in metadata.items() if k in ("train_timesteps", "train_seconds")})
-    except Exception as error:
+    except (Exception, SystemExit) as error:
+        # A plug-in's SystemExit (even exit code 0) is its episode's failure, not the end of the run:
+        # the other episodes go on and this one is stored as an error row. Ctrl-C still propagates.
         row.update(
             {"outcome": "error", "error": f"{type(error).__name__}: {error}\n{traceback.format_exc(limit=6)}"}
         )
