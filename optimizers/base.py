@@ -354,6 +354,8 @@ class BudgetedObjective:
             raise RuntimeError("the evaluation budget is spent; check BudgetedObjective.remaining first")
         m = n if n <= r else r
         raw = self.fun(np.array(X[:m], dtype=np.float64))  # a fresh copy: fun may mutate or keep it
+        if np.iscomplexobj(raw):  # numpy would drop the imaginary part with only a warning
+            raise ValueError(f"objective returned complex values, expected an ({m},) array of real costs")
         try:
             f = np.array(raw, dtype=np.float64)
         except (TypeError, ValueError) as exc:

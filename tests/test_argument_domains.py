@@ -354,3 +354,17 @@ def test_the_domains_edges_are_accepted(model):
     assert model.rollout_cost(state, np.zeros((2, 3, 3)), step=K_MAX).tolist() == [0.0, 0.0]
     assert model.step(state[None], np.zeros((1, 3)), np.int64(0)).step_index.tolist() == [1]
     assert model.height(0.0, 0.0).shape == ()
+
+
+def test_complex_input_is_refused_not_silently_made_real():
+    import numpy as np
+
+    from optimizers import get_optimizer
+    from uav_penetration_env import PenetrationModel
+
+    model = PenetrationModel(TINY)
+    state = model.initial_state()
+    with pytest.raises(TypeError, match=r"controls: got complex values, expected .*\(real numbers\)"):
+        model.rollout_cost(state, np.zeros((1, 2, 3), complex) + 1j, step=0)
+    with pytest.raises(ValueError, match=r"objective returned complex values, expected an \(\d+,\) array of real costs"):
+        get_optimizer("pso").minimize(lambda x: x.sum(axis=1) * (1 + 1j), [(-1, 1)] * 2, rng=0, max_evals=50)

@@ -58,6 +58,8 @@ def as_float_array(value: Any, name: str, expected: str) -> np.ndarray:
         return value  # the hot path: no copy, no conversion
     if isinstance(value, (str, bytes)) or value is None:
         raise TypeError(f"{name}: got {value!r}, expected {expected}")
+    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a warning
+        raise TypeError(f"{name}: got complex values, expected {expected} (real numbers)")
     try:
         array = np.asarray(value, dtype=np.float64)  # not ascontiguousarray: it makes 0-d arrays 1-d
         return array if array.flags.c_contiguous else np.ascontiguousarray(array)
