@@ -14,8 +14,7 @@ policy = load_policy("results/models/ppo-paper-s0.zip")    # a Policy for evalua
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from uav_penetration_env.lazy import lazy_exports
 
 # Imported on first use (PEP 562): the harness loads this package's entry points to list its
 # commands, which must not import the env or torch.
@@ -31,14 +30,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'baselines' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

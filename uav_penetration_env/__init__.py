@@ -7,12 +7,10 @@ the project's model specification.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
 from gymnasium.envs.registration import register, registry
 
 from uav_penetration_env._version import __version__
+from uav_penetration_env.lazy import lazy_exports
 
 # The public names, imported on first use (PEP 562): `import uav_penetration_env` registers the env
 # ids without loading the compiled physics, so `uav-bench --help` and `gym.pprint_registry()` answer
@@ -33,17 +31,7 @@ _EXPORTS = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'uav_penetration_env' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 
 __all__ = [

@@ -98,6 +98,11 @@ class StepResult:
         return -(self.J + self.penalty)
 
 
+def _constant(field: str, doc: str) -> property:
+    """A read-only attribute of the model that reads ``field`` of its :class:`ModelConstants` (one home)."""
+    return property(lambda model: getattr(model.constants, field), doc=doc)
+
+
 class PenetrationModel:
     """The batched physics and cost model of one scenario or of a compatible pool of scenarios.
 
@@ -234,30 +239,11 @@ class PenetrationModel:
         c = self.constants
         return np.array([c.x_min, c.x_max, c.y_min, c.y_max])
 
-    @property
-    def ceiling(self) -> float:
-        """The map's ceiling [m]."""
-        return self.constants.ceiling
-
-    @property
-    def clearance(self) -> float:
-        """The minimum height above the terrain [m]."""
-        return self.constants.clearance
-
-    @property
-    def map_side(self) -> float:
-        """L, the larger map extent [m]."""
-        return self.constants.map_side
-
-    @property
-    def crash_penalty_per_step(self) -> float:
-        """The failure penalty per remaining step (model.md §7a)."""
-        return self.constants.crash_per_step
-
-    @property
-    def snr_ref(self) -> float:
-        """SNR_ref of the Swerling-I detection (model.md §4.6)."""
-        return self.constants.snr_ref
+    ceiling = _constant("ceiling", "The map's ceiling [m].")
+    clearance = _constant("clearance", "The minimum height above the terrain [m].")
+    map_side = _constant("map_side", "L, the larger map extent [m].")
+    crash_penalty_per_step = _constant("crash_per_step", "The failure penalty per remaining step (model.md §7a).")
+    snr_ref = _constant("snr_ref", "SNR_ref of the Swerling-I detection (model.md §4.6).")
 
     @property
     def threat_altitude_scale(self) -> float | None:

@@ -6,8 +6,7 @@ package, answers ``--help`` and argument errors without loading the physics.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from uav_penetration_env.lazy import lazy_exports
 
 _EXPORTS = {
     "evaluate": "uav_penetration_env.benchmark.evaluate",
@@ -24,14 +23,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'uav_penetration_env.benchmark' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

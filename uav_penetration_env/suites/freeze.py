@@ -129,16 +129,9 @@ def freeze_suite(
 
 def _versions() -> dict[str, str]:
     """The versions the fingerprints depend on: Python and the numerical libraries."""
-    import platform
-    from importlib import metadata
+    from uav_penetration_env._version import installed_versions
 
-    versions = {"python": platform.python_version()}
-    for name in ("numpy", "scipy", "numba", "matplotlib"):  # matplotlib ships the DEM raster
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
+    return installed_versions(("numpy", "scipy", "numba", "matplotlib"))  # matplotlib ships the DEM raster
 
 
 def _write_new(path: Path, text: str) -> None:

@@ -23,7 +23,6 @@ import copy
 import datetime as dt
 import json
 import math
-import platform
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from functools import cache
@@ -252,17 +251,9 @@ def utc_now() -> str:
 
 def library_versions() -> dict[str, str]:
     """Versions of the package and the libraries the search's numbers depend on."""
-    from importlib import metadata
+    from uav_penetration_env._version import __version__, installed_versions
 
-    from uav_penetration_env import __version__
-
-    versions = {"uav-penetration": __version__, "python": platform.python_version()}
-    for name in VERSION_LIBRARIES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
+    return {"uav-penetration": __version__, **installed_versions(VERSION_LIBRARIES)}
 
 
 def relative_difference(value: float, reference: float) -> float:
