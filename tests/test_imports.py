@@ -257,3 +257,18 @@ def test_the_package_exports_load_on_first_use():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "module 'uav_penetration_env' has no attribute 'no_such_name'"
+
+
+def test_an_export_named_like_its_submodule_stays_the_export_after_the_submodule_is_imported():
+    import subprocess
+    import sys
+
+    code = (
+        "import uav_penetration_env.benchmark.store\n"
+        "from uav_penetration_env.benchmark.evaluate import policy_hash\n"  # binds the submodule on the package
+        "from uav_penetration_env.benchmark import evaluate\n"
+        "import uav_penetration_env.benchmark as b\n"
+        "print(callable(evaluate), b.evaluate is evaluate, evaluate.__module__)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.split() == ["True", "True", "uav_penetration_env.benchmark.evaluate"]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -11,8 +13,14 @@ def lazy_exports(package: str, exports: Mapping[str, str], namespace: dict[str, 
     """The ``__getattr__`` and ``__dir__`` of ``package`` for ``exports`` (name -> the module that defines it).
 
     A name is imported from its module when first read and kept in ``namespace`` (the package's
-    globals), so later reads cost nothing.
+    globals), so later reads cost nothing. An export named like the submodule that defines it
+    (``benchmark.evaluate``, the function in ``benchmark/evaluate.py``) stays the export: importing
+    the submodule binds the module object to that name on the package, which would otherwise hide
+    the function from ``from package import name``.
     """
+    shadowed = frozenset(name for name, module in exports.items() if module.rsplit(".", 1)[-1] == name)
+    if shadowed:
+        sys.modules[package].__class__ = _package_class(shadowed)
 
     def __getattr__(name: str) -> Any:
         module = exports.get(name)
@@ -26,3 +34,16 @@ def lazy_exports(package: str, exports: Mapping[str, str], namespace: dict[str, 
         return sorted({*namespace, *exports})
 
     return __getattr__, __dir__
+
+
+def _package_class(shadowed: frozenset[str]) -> type:
+    """A module type whose ``shadowed`` attributes, when a submodule of that name was bound, read as its export."""
+
+    class Package(types.ModuleType):
+        def __getattribute__(self, name: str) -> Any:
+            value = super().__getattribute__(name)
+            if name in shadowed and isinstance(value, types.ModuleType):
+                return getattr(value, name)
+            return value
+
+    return Package
