@@ -47,6 +47,18 @@ class DistillConfig:
         batch_size, learning_rate: the Adam minibatches and step size.
         seed: seeds the network's initialisation, the minibatches, the episodes and the mixing.
         torch_threads: torch's intra-op threads (1: repeatable sums, and fastest for this MLP).
+
+    DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
+    Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
+    (behaviour cloning), round 1 mixes half and half, and by round 4 the learner flies 15 steps of
+    16, so the data soon come from the learner's own state distribution while the first refits,
+    from a weak network, still see mostly the expert's route.
+
+    DECISION (docs/rl.md §4.4): the default training scenarios are the paper scenario and the
+    procedural scenarios of seeds 50000-50019 at difficulty 0.5, one episode each per round: the
+    paper scenario is the one the greedy floor is measured on, the procedural ones (disjoint from
+    every evaluation seed, :data:`RESERVED_SEEDS`) give the network other terrain and radar
+    layouts, so it is not a lookup table of one route.
     """
 
     out: Path = Path("results/distill/run")

@@ -10,6 +10,7 @@ with its sidecar after the fit; rerunning continues from the last finished round
 from __future__ import annotations
 
 import dataclasses
+import json
 import shutil
 import time
 from dataclasses import dataclass
@@ -70,8 +71,6 @@ def _check_key(folder: RunFolder, key: dict[str, Any]) -> None:
     if not folder.config.is_file():
         write_json(folder.config, key)
         return
-    import json
-
     found = json.loads(folder.config.read_text())
     for name in sorted(set(found) | set(key)):
         if found.get(name) != key.get(name):
@@ -86,6 +85,11 @@ def collect_round(context: _Context, folder: RunFolder, k: int, learner: dict[st
     """Fly (or read back) every episode of round ``k``; returns the round's arrays and tallies.
 
     An episode already on disk is read, not flown: its expert labels are never computed again.
+
+    DECISION (docs/rl.md §4.3): every visited state is labelled, including the steps the expert
+    flies under beta-mixing (its label is then the action it applied), and each episode is saved
+    as soon as it is flown: with an MPC expert at seconds per label, a cut round loses at most one
+    episode of labels.
     """
     config = context.config
     beta = config.beta(k)
@@ -161,16 +165,17 @@ def run_round(context: _Context, folder: RunFolder, key: dict[str, Any], k: int,
     arrays = fitted[0]
     save_npz(folder.net(k), arrays)
     sidecar = _round_sidecar(key, k, collected, fitted, time.perf_counter() - tick)
-    sidecar["weights_sha256"] = sha256_file(folder.net(k))
-    write_json(folder.net_sidecar(k), sidecar)  # last: the round is finished
+    # Each round's network is a policy of its own (``distill:OUT/nets/round-K.npz``), so the
+    # rounds can be scored side by side; its sidecar is the policy sidecar plus the round's record.
+    rounds = [*_read_rounds(folder, k), sidecar]
+    full = policy_sidecar(context.config, key, rounds, sha256_file(folder.net(k)))
+    write_json(folder.net_sidecar(k), {**full, "this_round": sidecar})  # last: the round is finished
     shutil.rmtree(folder.episode(k, 0).parent, ignore_errors=True)  # the round file holds them all
     return arrays, sidecar
 
 
 def _read_rounds(folder: RunFolder, count: int) -> list[dict[str, Any]]:
-    import json
-
-    return [json.loads(folder.net_sidecar(k).read_text()) for k in range(count)]
+    return [json.loads(folder.net_sidecar(k).read_text())["this_round"] for k in range(count)]
 
 
 def policy_sidecar(config: DistillConfig, key: dict[str, Any], rounds: list[dict[str, Any]], weights_sha256: str) -> dict[str, Any]:
@@ -229,10 +234,10 @@ def run_distill(config: DistillConfig | None = None, /, *, log: Any = None, **fi
         start, sidecar = run_round(context, folder, key, k, start)
         if log is not None:
             log(_round_line(sidecar))
-    rounds = _read_rounds(folder, max(done, config.rounds + 1))[: config.rounds + 1]
     last = config.rounds
     shutil.copyfile(folder.net(last), folder.policy)
-    sidecar = policy_sidecar(config, key, rounds, sha256_file(folder.policy))
+    sidecar = json.loads(folder.net_sidecar(last).read_text())
+    rounds = _read_rounds(folder, last + 1)
     write_json(folder.policy_sidecar, sidecar)
     return DistillResult(folder, sidecar, rounds)
 

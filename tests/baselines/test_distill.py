@@ -142,6 +142,10 @@ def test_the_policy_is_scored_by_the_evaluator(distilled):
     df = evaluate({"distill": policy}, [tiny_scenario()], seeds=range(2), progress=False)
     assert df["error"].tolist() == ["", ""]
     assert (df["train_timesteps"] == distilled.sidecar["data_rows"]).all()
+    # Each round's network is a policy too (behaviour cloning alone is round 0).
+    bc = load_distill_policy(distilled.folder.net(0))
+    assert bc.sidecar["rounds"] == 0 and bc.sidecar["data_rows"] == distilled.rounds[0]["data_rows"]
+    assert bc.config() != policy.config()
 
 
 def test_the_store_key_is_the_same_in_another_process(distilled):
