@@ -36,6 +36,10 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
     add("--epochs", type=int, default=DEFAULTS.epochs, help=f"passes over the data per refit (default: {DEFAULTS.epochs})")
     add("--batch-size", dest="batch_size", type=int, default=DEFAULTS.batch_size, help=f"minibatch (default: {DEFAULTS.batch_size})")
     add("--learning-rate", dest="learning_rate", type=float, default=DEFAULTS.learning_rate, help=f"Adam step (default: {DEFAULTS.learning_rate})")
+    add("--loss", default=DEFAULTS.loss, help="mse: the normalised action's channels alike; mse-std: each divided by "
+        f"its spread in the round-0 labels (default: {DEFAULTS.loss})")
+    add("--select", default=DEFAULTS.select, help="the policy is the round with the best mean validation cost on the "
+        f"training scenarios (best) or the last round (last; default: {DEFAULTS.select})")
     add("--seed", type=int, default=DEFAULTS.seed, help=f"the run's seed (default: {DEFAULTS.seed})")
     add("--torch-threads", dest="torch_threads", type=int, default=DEFAULTS.torch_threads, help="torch threads (default: 1)")  # fmt: skip
 
@@ -53,7 +57,7 @@ def distill_command(args: argparse.Namespace) -> int:
         out=Path(args.out), expert=args.expert, scenarios=tuple(args.scenarios), difficulty=args.difficulty,
         rounds=args.rounds, episodes=args.episodes, beta0=args.beta0, decay=args.decay, hidden=tuple(args.hidden),
         epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate, seed=args.seed,
-        torch_threads=args.torch_threads,
+        torch_threads=args.torch_threads, loss=args.loss, select=args.select,
     )  # fmt: skip
     try:
         config = checked(config)

@@ -26,6 +26,8 @@ RESERVED_SEEDS: dict[str, range] = {
     "the tuning validation": range(40000, 40050),
 }
 DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
+LOSSES = ("mse", "mse-std")
+SELECTIONS = ("best", "last")
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,10 @@ class DistillConfig:
         batch_size, learning_rate: the Adam minibatches and step size.
         seed: seeds the network's initialisation, the minibatches, the episodes and the mixing.
         torch_threads: torch's intra-op threads (1: repeatable sums, and fastest for this MLP).
+        loss: ``mse`` (the normalised action's three channels weighted alike) or ``mse-std``
+            (each channel divided by its spread in the round-0 labels; docs/rl.md §4.2).
+        select: which round's network becomes the policy: ``best`` (lowest mean validation cost)
+            or ``last`` (docs/rl.md §4.5); not part of the key, so a finished run can be re-selected.
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -75,6 +81,8 @@ class DistillConfig:
     learning_rate: float = 1e-3
     seed: int = 0
     torch_threads: int = 1
+    loss: str = "mse"
+    select: str = "best"
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
@@ -95,6 +103,7 @@ class DistillConfig:
             "epochs": self.epochs,
             "batch_size": self.batch_size,
             "learning_rate": self.learning_rate,
+            "loss": self.loss,
             "seed": self.seed,
         }
 
@@ -123,6 +132,9 @@ def _check_numbers(config: DistillConfig) -> None:
     rate = config.learning_rate
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
         raise ValueError(f"--learning-rate: got {rate!r}, expected a positive number")
+    for name, choices in (("loss", LOSSES), ("select", SELECTIONS)):
+        if getattr(config, name) not in choices:
+            raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
         raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
 

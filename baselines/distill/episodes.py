@@ -108,3 +108,18 @@ def fly_episode(
     }
     summary = {"total_J": total_j, "steps": len(rows["steps"]), "outcome": _outcome(info, truncated)}
     return EpisodeData(arrays, summary), len(rows["steps"])
+
+
+def fly_learner(env: UAVPenetrationEnv, learner: Callable[[np.ndarray], np.ndarray], seeds: np.random.SeedSequence) -> dict[str, Any]:
+    """Fly one episode with the learner alone, no expert asked; returns its total J, penalty, steps, outcome."""
+    observation, info = env.reset(seed=int(seeds.generate_state(1)[0]))
+    _, from_unit = normalisers(env.model)
+    total_j, steps, done, truncated = 0.0, 0, False, False
+    while not done:
+        unit = np.clip(learner(observation[None])[0], -1.0, 1.0)
+        observation, _, terminated, truncated, info = env.step(from_unit(unit))
+        total_j += float(info["J"])
+        steps += 1
+        done = terminated or truncated
+    penalty = float(info["penalty"])
+    return {"total_J": total_j, "penalty": penalty, "cost": total_j + penalty, "steps": steps, "outcome": _outcome(info, truncated)}

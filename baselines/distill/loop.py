@@ -19,13 +19,15 @@ from typing import Any
 import numpy as np
 
 from baselines.distill.config import DistillConfig, checked
-from baselines.distill.episodes import FIELDS, fly_episode
+from baselines.distill.episodes import FIELDS, fly_episode, fly_learner
 from baselines.distill.files import RunFolder, load_npz, save_npz, sha256_file, write_json
 from baselines.distill.network import fit, forward, observation_scaling
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import OBSERVATION_SIZE
 
 FORMAT = "uav-penetration-distill-1"
+# The third entropy word of the validation episodes' seeds (the rounds' episodes use the round index).
+VALIDATION_STREAM = 1_000_003
 
 
 @dataclass(frozen=True)
@@ -133,7 +135,7 @@ def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str
     arrays, loss = fit(
         data["observations"], data["actions"], start=start, scaling=scaling, hidden=config.hidden,
         epochs=config.epochs, batch_size=config.batch_size, learning_rate=config.learning_rate,
-        seed=(config.seed, k),
+        seed=(config.seed, k), loss=config.loss,
     )  # fmt: skip
     return arrays, loss, len(data["actions"]), time.process_time() - tick
 
@@ -165,6 +167,9 @@ def run_round(context: _Context, folder: RunFolder, key: dict[str, Any], k: int,
     arrays = fitted[0]
     save_npz(folder.net(k), arrays)
     sidecar = _round_sidecar(key, k, collected, fitted, time.perf_counter() - tick)
+    tock = time.process_time()
+    sidecar["validation"] = validate(context, arrays)
+    sidecar["validate_cpu_seconds"] = time.process_time() - tock
     # Each round's network is a policy of its own (``distill:OUT/nets/round-K.npz``), so the
     # rounds can be scored side by side; its sidecar is the policy sidecar plus the round's record.
     rounds = [*_read_rounds(folder, k), sidecar]
@@ -172,6 +177,35 @@ def run_round(context: _Context, folder: RunFolder, key: dict[str, Any], k: int,
     write_json(folder.net_sidecar(k), {**full, "this_round": sidecar})  # last: the round is finished
     shutil.rmtree(folder.episode(k, 0).parent, ignore_errors=True)  # the round file holds them all
     return arrays, sidecar
+
+
+def validate(context: _Context, arrays: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+    """The network alone on each training scenario (one episode, no expert): its cost per scenario.
+
+    The same seeds for every round, so the rounds' networks are compared on the same starts.
+    """
+    rows = []
+    for i, scenario in enumerate(context.scenarios):
+        seeds = np.random.SeedSequence([context.config.seed, VALIDATION_STREAM, i])
+        row = fly_learner(context.env(i), lambda obs: forward(arrays, obs), seeds)
+        rows.append({"scenario": scenario.name, **row})
+    return rows
+
+
+def select_round(rounds: list[dict[str, Any]], rule: str) -> int:
+    """The round whose network becomes the policy: the last, or the lowest mean validation cost.
+
+    DECISION (docs/rl.md §4.5): by default the round with the lowest mean validation cost (total
+    J + failure penalty, the tuning objective of §1.1) over the training scenarios, ties to the
+    later round, as Ross et al. return the best of the rounds' policies on validation: the last
+    refit is the one network never flown before it is chosen, and one refit can break a route
+    the previous network flew (measured in §4.6). The held-out scenarios are never used to choose.
+    """
+    if rule == "last":
+        return len(rounds) - 1
+    costs = [float(np.mean([v["cost"] for v in r["validation"]])) for r in rounds]
+    best = min(costs)
+    return max(k for k, c in enumerate(costs) if c == best)
 
 
 def _read_rounds(folder: RunFolder, count: int) -> list[dict[str, Any]]:
@@ -185,7 +219,7 @@ def policy_sidecar(config: DistillConfig, key: dict[str, Any], rounds: list[dict
     scenarios = config._scenario_objects or ()
     expert = _make_expert(config.expert)
     expert_config = expert.config() if callable(getattr(expert, "config", None)) else None
-    collect = sum(r["collect_cpu_seconds"] for r in rounds)
+    collect = sum(r["collect_cpu_seconds"] + r["validate_cpu_seconds"] for r in rounds)
     fitting = sum(r["fit_cpu_seconds"] for r in rounds)
     return {
         "format": FORMAT,
@@ -234,11 +268,17 @@ def run_distill(config: DistillConfig | None = None, /, *, log: Any = None, **fi
         start, sidecar = run_round(context, folder, key, k, start)
         if log is not None:
             log(_round_line(sidecar))
-    last = config.rounds
-    shutil.copyfile(folder.net(last), folder.policy)
-    sidecar = json.loads(folder.net_sidecar(last).read_text())
-    rounds = _read_rounds(folder, last + 1)
+    rounds = _read_rounds(folder, config.rounds + 1)
+    chosen = select_round(rounds, config.select)
+    shutil.copyfile(folder.net(chosen), folder.policy)
+    sidecar = json.loads(folder.net_sidecar(chosen).read_text())
+    sidecar["selected_round"] = chosen
+    sidecar["select"] = config.select
+    sidecar["validation_costs"] = [float(np.mean([v["cost"] for v in r["validation"]])) for r in rounds]
     write_json(folder.policy_sidecar, sidecar)
+    if log is not None:
+        log(f"selected round {chosen} ({config.select}); mean validation cost per round: "
+            + ", ".join(f"{c:.2f}" for c in sidecar["validation_costs"]))  # fmt: skip
     return DistillResult(folder, sidecar, rounds)
 
 
@@ -249,9 +289,15 @@ def _round_line(sidecar: dict[str, Any]) -> str:
     return (
         f"round {sidecar['round']}: beta {sidecar['beta']:.3g}, {success}/{len(episodes)} episodes reached the goal "
         f"(mean J {mean_j:.2f}), +{sidecar['new_rows']} rows ({sidecar['learner_rows']} flown by the learner), "
-        f"{sidecar['data_rows']} in all, loss {sidecar['loss']:.4g}, "
+        f"{sidecar['data_rows']} in all, loss {sidecar['loss']:.4g}, validation: {_validation_text(sidecar)}, "
         f"CPU {sidecar['collect_cpu_seconds']:.1f} s flying + {sidecar['fit_cpu_seconds']:.1f} s fitting"
     )
+
+
+def _validation_text(sidecar: dict[str, Any]) -> str:
+    rows = sidecar["validation"]
+    success = sum(v["outcome"] == "success" for v in rows)
+    return f"{success}/{len(rows)} reached the goal, mean cost {np.mean([v['cost'] for v in rows]):.2f}"
 
 
 def _set_threads(threads: int) -> None:

@@ -54,6 +54,11 @@ def observation_scaling(observations: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return mean.astype(np.float32), scale.astype(np.float32)
 
 
+def action_spread(actions: np.ndarray) -> np.ndarray:
+    """Each action channel's spread in the labels (std, at least 0.01 of the [-1, 1] range)."""
+    return np.maximum(np.asarray(actions, dtype=np.float64).std(axis=0), 0.01).astype(np.float32)
+
+
 def _torch() -> Any:
     try:
         import torch
@@ -104,6 +109,7 @@ def fit(
     batch_size: int,
     learning_rate: float,
     seed: Sequence[int],
+    loss: str = "mse",
 ) -> tuple[Arrays, float]:
     """Fit the MLP to (observation, normalised expert action) pairs by MSE; returns arrays and final loss.
 
@@ -113,7 +119,10 @@ def fit(
 
     DECISION (docs/rl.md §4.2): MSE on the action normalised to [-1, 1] by the action box, a
     fresh Adam at each refit, ``epochs`` passes over the whole aggregated data set (DAgger's
-    "train on all data so far"), warm-started from the last round's network.
+    "train on all data so far"), warm-started from the last round's network. ``loss="mse-std"``
+    divides each channel's error by that channel's spread in the labels (the ``action_scale``
+    saved with the arrays, frozen at round 0 as the observation scaling is), so the pitch
+    channel, whose labels are 40 times narrower than the turn's, is not left to noise.
     """
     torch = _torch()
     generator = torch.Generator().manual_seed(int(np.random.SeedSequence(list(seed)).generate_state(1)[0]))
@@ -124,6 +133,11 @@ def fit(
     mean, scale = scaling
     x = torch.from_numpy(((observations - mean) / scale).astype(np.float32))
     y = torch.from_numpy(np.asarray(actions, dtype=np.float32))
+    if start is not None and "action_scale" in start:
+        action_scale = np.asarray(start["action_scale"], dtype=np.float32)
+    else:
+        action_scale = action_spread(actions) if loss == "mse-std" else np.ones(actions.shape[1], np.float32)
+    weight = torch.from_numpy(1.0 / action_scale**2)
     optimiser = torch.optim.Adam(net.parameters(), lr=learning_rate)
     loss = torch.zeros(())
     for _ in range(epochs):
@@ -131,10 +145,10 @@ def fit(
         for begin in range(0, len(x), batch_size):
             batch = order[begin : begin + batch_size]
             optimiser.zero_grad()
-            loss = torch.mean((net(x[batch]) - y[batch]) ** 2)
+            loss = torch.mean(weight * (net(x[batch]) - y[batch]) ** 2)
             loss.backward()
             optimiser.step()
     with torch.no_grad():
-        final = float(torch.mean((net(x) - y) ** 2))
+        final = float(torch.mean(weight * (net(x) - y) ** 2))
     del loss
-    return _to_arrays(net, mean, scale), final
+    return {**_to_arrays(net, mean, scale), "action_scale": action_scale}, final

@@ -58,8 +58,9 @@ def tiny_config(out, **changes):
     return DistillConfig(**{**base, **changes})
 
 
-def test_behaviour_cloning_reproduces_a_linear_expert(tmp_path):
-    result = run_distill(tiny_config(tmp_path / "bc", rounds=0, epochs=400, learning_rate=3e-3))
+@pytest.mark.parametrize("loss", ["mse", "mse-std"])
+def test_behaviour_cloning_reproduces_a_linear_expert(tmp_path, loss):
+    result = run_distill(tiny_config(tmp_path / "bc", rounds=0, epochs=400, learning_rate=3e-3, loss=loss))
     folder = result.folder
     data = load_npz(folder.round_data(0))
     assert data["expert_flew"].all() and len(data["actions"]) == 11
@@ -80,7 +81,16 @@ def test_dagger_labels_the_states_the_learner_visits(tmp_path):
     expected = np.array([LinearExpert().unit(o) for o in round1["observations"]])
     np.testing.assert_allclose(round1["actions"], expected, atol=1e-6)
     rows = len(expert_states) + len(round1["states"])
-    assert result.sidecar["data_rows"] == rows and result.sidecar["expert_labels"] == rows
+    assert result.rounds[1]["data_rows"] == rows and sum(r["expert_labels"] for r in result.rounds) == rows
+
+
+def test_the_policy_is_the_round_of_lowest_validation_cost(distilled):
+    from baselines.distill.loop import select_round
+
+    costs = distilled.sidecar["validation_costs"]
+    assert len(costs) == 2 and costs[distilled.sidecar["selected_round"]] == min(costs)
+    rounds = [{"validation": [{"cost": c}]} for c in (5.0, 3.0, 3.0, 4.0)]
+    assert select_round(rounds, "best") == 2 and select_round(rounds, "last") == 3
 
 
 def test_beta_schedule():
@@ -105,10 +115,12 @@ def test_resume_after_an_interrupted_round_gives_the_same_weights(tmp_path, monk
     assert RunFolder(tmp_path / "cut").finished_rounds() == 1
     monkeypatch.setattr(loop, "fit", real_fit)
     resumed = run_distill(tiny_config(tmp_path / "cut", rounds=2))
-    for name, array in load_npz(whole.folder.policy).items():
-        np.testing.assert_array_equal(load_npz(resumed.folder.policy)[name], array)
+    for k in range(3):
+        for name, array in load_npz(whole.folder.net(k)).items():
+            np.testing.assert_array_equal(load_npz(resumed.folder.net(k))[name], array)
     assert resumed.sidecar["weights_sha256"] == whole.sidecar["weights_sha256"]
-    assert LinearExpert.calls[0] == whole.sidecar["expert_labels"]  # no label computed twice
+    assert resumed.sidecar["selected_round"] == whole.sidecar["selected_round"]
+    assert LinearExpert.calls[0] == sum(r["expert_labels"] for r in whole.rounds)  # no label computed twice
 
 
 def test_a_folder_of_other_settings_is_refused(tmp_path):
@@ -145,7 +157,8 @@ def test_the_policy_is_scored_by_the_evaluator(distilled):
     # Each round's network is a policy too (behaviour cloning alone is round 0).
     bc = load_distill_policy(distilled.folder.net(0))
     assert bc.sidecar["rounds"] == 0 and bc.sidecar["data_rows"] == distilled.rounds[0]["data_rows"]
-    assert bc.config() != policy.config()
+    other = 1 - distilled.sidecar["selected_round"]
+    assert load_distill_policy(distilled.folder.net(other)).config() != policy.config()
 
 
 def test_the_store_key_is_the_same_in_another_process(distilled):
@@ -170,6 +183,7 @@ def test_the_store_key_is_the_same_in_another_process(distilled):
         (["--scenarios", "random:10005"], "--scenarios: got 'random:10005', whose seed 10005 belongs to the held-out set"),
         (["--scenarios", "random:29990-30001"], "belongs to the suite uavpen-v1"),
         (["--expert", "lattise"], "--expert: unknown policy 'lattise'"),
+        (["--loss", "l1"], "--loss: got 'l1', expected one of mse, mse-std"),
     ],
 )
 def test_cli_errors_name_the_flag(argv, message, capsys, tmp_path):
