@@ -78,7 +78,8 @@ def distill_command(args: argparse.Namespace) -> int:
         return 130
     side = result.sidecar
     print(
-        f"policy: {result.folder.policy} ({side['data_rows']} rows, {side['expert_labels']} expert labels, "
-        f"{side['train_cpu_seconds']:.1f} CPU s); score it with: uav-bench run --policies distill:{config.out}"
+        f"policy: {result.folder.policy} (round {side['round']}, fitted on {side['data_rows']} rows; the run: "
+        f"{side['expert_labels']} expert labels, {side['train_cpu_seconds']:.1f} CPU s); "
+        f"score it with: uav-bench run --policies distill:{config.out}"
     )
     return 0

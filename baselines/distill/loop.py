@@ -173,7 +173,7 @@ def run_round(context: _Context, folder: RunFolder, key: dict[str, Any], k: int,
     # Each round's network is a policy of its own (``distill:OUT/nets/round-K.npz``), so the
     # rounds can be scored side by side; its sidecar is the policy sidecar plus the round's record.
     rounds = [*_read_rounds(folder, k), sidecar]
-    full = policy_sidecar(context.config, key, rounds, sha256_file(folder.net(k)))
+    full = policy_sidecar(context.config, key, rounds, sha256_file(folder.net(k)), k)
     write_json(folder.net_sidecar(k), {**full, "this_round": sidecar})  # last: the round is finished
     shutil.rmtree(folder.episode(k, 0).parent, ignore_errors=True)  # the round file holds them all
     return arrays, sidecar
@@ -212,8 +212,15 @@ def _read_rounds(folder: RunFolder, count: int) -> list[dict[str, Any]]:
     return [json.loads(folder.net_sidecar(k).read_text())["this_round"] for k in range(count)]
 
 
-def policy_sidecar(config: DistillConfig, key: dict[str, Any], rounds: list[dict[str, Any]], weights_sha256: str) -> dict[str, Any]:
-    """The final policy's sidecar: what it imitates, how long it took, what it was trained on."""
+def policy_sidecar(
+    config: DistillConfig, key: dict[str, Any], rounds: list[dict[str, Any]], weights_sha256: str, chosen: int
+) -> dict[str, Any]:
+    """A policy's sidecar: what it imitates, what it was fitted on, what the run cost.
+
+    ``rounds`` are every round the run flew (the cost: labels and CPU seconds of them all, since
+    choosing round ``chosen`` needed them); ``chosen`` is the round whose network this is (its
+    data rows).
+    """
     from uav_penetration_env.benchmark.provenance import provenance
 
     scenarios = config._scenario_objects or ()
@@ -226,7 +233,8 @@ def policy_sidecar(config: DistillConfig, key: dict[str, Any], rounds: list[dict
         "expert": key["expert"],
         "expert_config": expert_config,
         "rounds": len(rounds) - 1,
-        "data_rows": rounds[-1]["data_rows"],
+        "round": chosen,
+        "data_rows": rounds[chosen]["data_rows"],
         "learner_rows": sum(r["learner_rows"] for r in rounds),
         "expert_labels": sum(r["expert_labels"] for r in rounds),
         "train_cpu_seconds": collect + fitting,
@@ -271,7 +279,7 @@ def run_distill(config: DistillConfig | None = None, /, *, log: Any = None, **fi
     rounds = _read_rounds(folder, config.rounds + 1)
     chosen = select_round(rounds, config.select)
     shutil.copyfile(folder.net(chosen), folder.policy)
-    sidecar = json.loads(folder.net_sidecar(chosen).read_text())
+    sidecar = policy_sidecar(config, key, rounds, sha256_file(folder.policy), chosen)
     sidecar["selected_round"] = chosen
     sidecar["select"] = config.select
     sidecar["validation_costs"] = [float(np.mean([v["cost"] for v in r["validation"]])) for r in rounds]

@@ -56,9 +56,9 @@ class DistillPolicy:
 
     @property
     def metadata(self) -> dict[str, Any]:
-        """The training budget copied into every episode row: env steps labelled, CPU seconds."""
+        """The training budget copied into every episode row: the run's expert labels and CPU seconds."""
         return {
-            "train_timesteps": int(self.sidecar["data_rows"]),
+            "train_timesteps": int(self.sidecar["expert_labels"]),
             "train_seconds": float(self.sidecar["train_cpu_seconds"]),
         }
 

@@ -153,7 +153,7 @@ def test_the_policy_is_scored_by_the_evaluator(distilled):
     assert isinstance(policy, DistillPolicy)
     df = evaluate({"distill": policy}, [tiny_scenario()], seeds=range(2), progress=False)
     assert df["error"].tolist() == ["", ""]
-    assert (df["train_timesteps"] == distilled.sidecar["data_rows"]).all()
+    assert (df["train_timesteps"] == sum(r["expert_labels"] for r in distilled.rounds)).all()
     # Each round's network is a policy too (behaviour cloning alone is round 0).
     bc = load_distill_policy(distilled.folder.net(0))
     assert bc.sidecar["rounds"] == 0 and bc.sidecar["data_rows"] == distilled.rounds[0]["data_rows"]
