@@ -163,13 +163,18 @@ def test_the_policy_is_scored_by_the_evaluator(distilled):
 
 def test_the_store_key_is_the_same_in_another_process(distilled):
     here = policy_hash(load_distill_policy(distilled.folder.out))
+    # Another process loads and flies it, and never imports torch (a distilled policy needs no extra).
     code = (
+        "import sys; sys.path[:0] = ['tests'];"
+        "from conftest import tiny_scenario;"
         "from baselines.distill import load_distill_policy;"
-        "from uav_penetration_env.benchmark.evaluate import policy_hash;"
-        f"print(policy_hash(load_distill_policy({str(distilled.folder.out)!r})))"
+        "from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash;"
+        f"p = load_distill_policy({str(distilled.folder.out)!r});"
+        "df = evaluate({'d': p}, [tiny_scenario()], seeds=[0], progress=False, n_jobs=1);"
+        "print(policy_hash(p), df['error'].tolist() == [''], 'torch' in sys.modules)"
     )
-    there = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
-    assert there == here
+    there = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert there == [here, "True", "False"]
     side = json.loads(distilled.folder.policy_sidecar.read_text())
     assert side["expert"] == {"object": "LinearExpert", "kind": "linear-test-expert"}
     assert side["scenarios"] == [{"name": "tiny", "hash": tiny_scenario().hash}]

@@ -38,6 +38,7 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert isinstance(plugin.DISTILL_POLICY_KIND, PolicyKind) and plugin.DISTILL_POLICY_KIND.prefix == "distill"
     assert plugin.DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill:lattice-s0"
     assert isinstance(plugin.DISTILL_COMMAND, Command) and plugin.DISTILL_COMMAND.name == "distill"
+    assert plugin.DISTILL_POLICY_KIND.needs.modules == ()  # flown with NumPy: no extra needed
 
 
 # A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl
