@@ -2,8 +2,11 @@
 
 - ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` and
   the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
+  ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill:RUN_FOLDER`` (a planner imitated by
+  an MLP, :mod:`baselines.distill`);
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
-  -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
+  -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies), ``distill`` -> :data:`DISTILL_COMMAND`
+  (``uav-bench distill``) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
 
 The harness never imports ``baselines`` by name; it finds these objects through the entry
 points and checks :data:`RL_EXTRA` before it uses the first two, so without the ``rl`` extra
@@ -38,6 +41,10 @@ add_curve_arguments, curves_command = later("baselines.curves", "add_curve_argum
 add_tune_arguments, tune_command = later("baselines.tune", "add_tune_arguments"), later("baselines.tune", "tune_command")
 load_hybrid = later("baselines.hybrid", "load_hybrid")
 load_policy, sb3_label = later("baselines.policy", "load_policy"), later("baselines.policy", "sb3_label")
+add_distill_arguments = later("baselines.distill.cli", "add_distill_arguments")
+distill_command = later("baselines.distill.cli", "distill_command")
+load_distill_policy = later("baselines.distill.policy", "load_distill_policy")
+distill_label = later("baselines.distill.policy", "distill_label")
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
@@ -47,6 +54,10 @@ RL_EXTRA = Needs(
 
 SB3_POLICY_KIND = PolicyKind(
     prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA, hybrid=load_hybrid
+)
+# A distilled network flies with NumPy alone (docs/rl.md §4): loading it needs no extra.
+DISTILL_POLICY_KIND = PolicyKind(
+    prefix="distill", load=load_distill_policy, usage="distill:RUN_FOLDER", label=distill_label
 )
 TRAIN_COMMAND = Command(
     name="train",
@@ -63,6 +74,13 @@ TUNE_COMMAND = Command(
     add_arguments=add_tune_arguments,
     run=tune_command,
     needs=TUNE_EXTRA,
+)
+DISTILL_COMMAND = Command(
+    name="distill",
+    help="imitate a planner with behaviour cloning + DAgger into a small MLP (extra rl)",
+    add_arguments=add_distill_arguments,
+    run=distill_command,
+    needs=RL_EXTRA,
 )
 LEARNING_CURVES = CommandExtension(
     command="plot",

@@ -48,9 +48,13 @@ def baselines_plugins(monkeypatch):
     from uav_penetration_env.benchmark import plugins
 
     found = {
-        plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND)},
+        plugins.POLICY_GROUP: {
+            "sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND),
+            "distill": plugins.Plugin("distill", plugin.DISTILL_POLICY_KIND),
+        },
         plugins.COMMAND_GROUP: {
             "train": plugins.Plugin("train", plugin.TRAIN_COMMAND),
+            "distill": plugins.Plugin("distill", plugin.DISTILL_COMMAND),
             "tune": plugins.Plugin("tune", plugin.TUNE_COMMAND),
             "plot.models": plugins.Plugin("plot.models", plugin.LEARNING_CURVES),
         },

@@ -19,9 +19,13 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_pyproject_declares_the_plugins_of_baselines():
     tomllib = pytest.importorskip("tomllib")
     entry_points = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
-    assert entry_points[POLICY_GROUP] == {"sb3": "baselines.plugin:SB3_POLICY_KIND"}
+    assert entry_points[POLICY_GROUP] == {
+        "sb3": "baselines.plugin:SB3_POLICY_KIND",
+        "distill": "baselines.plugin:DISTILL_POLICY_KIND",
+    }
     assert entry_points[COMMAND_GROUP] == {
         "train": "baselines.plugin:TRAIN_COMMAND",
+        "distill": "baselines.plugin:DISTILL_COMMAND",
         "tune": "baselines.plugin:TUNE_COMMAND",
         "plot.models": "baselines.plugin:LEARNING_CURVES",
     }
@@ -31,6 +35,10 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert "optuna" in plugin.TUNE_COMMAND.needs.modules
     assert isinstance(plugin.LEARNING_CURVES, CommandExtension) and plugin.LEARNING_CURVES.command == "plot"
     assert plugin.SB3_POLICY_KIND.label("models/ppo-paper-s0.zip") == "sb3:ppo-paper-s0"
+    assert isinstance(plugin.DISTILL_POLICY_KIND, PolicyKind) and plugin.DISTILL_POLICY_KIND.prefix == "distill"
+    assert plugin.DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill:lattice-s0"
+    assert isinstance(plugin.DISTILL_COMMAND, Command) and plugin.DISTILL_COMMAND.name == "distill"
+    assert plugin.DISTILL_POLICY_KIND.needs.modules == ()  # flown with NumPy: no extra needed
 
 
 # A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl
@@ -50,8 +58,10 @@ WITHOUT_RL = textwrap.dedent(
     import baselines.plugin as rl
 
     found = {
-        plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", rl.SB3_POLICY_KIND)},
+        plugins.POLICY_GROUP: {"sb3": plugins.Plugin("sb3", rl.SB3_POLICY_KIND),
+                               "distill": plugins.Plugin("distill", rl.DISTILL_POLICY_KIND)},
         plugins.COMMAND_GROUP: {"train": plugins.Plugin("train", rl.TRAIN_COMMAND),
+                                "distill": plugins.Plugin("distill", rl.DISTILL_COMMAND),
                                 "tune": plugins.Plugin("tune", rl.TUNE_COMMAND),
                                 "plot.models": plugins.Plugin("plot.models", rl.LEARNING_CURVES)},
     }
@@ -99,6 +109,9 @@ def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_li
     tune = uav_bench_without_rl("tune", "--algo", "ppo", "--trials", 1, cwd=tmp_path)
     assert tune.returncode == 2 and tune.stderr.count("\n") == 1
     assert "uav-bench tune needs stable_baselines3, torch, optuna (not installed)" in tune.stderr
+    distill = uav_bench_without_rl("distill", "--out", tmp_path / "results" / "d", cwd=tmp_path)
+    assert distill.returncode == 2 and distill.stderr.count("\n") == 1
+    assert "uav-bench distill needs stable_baselines3, torch (not installed)" in distill.stderr
     assert not (tmp_path / "results").exists()
 
 

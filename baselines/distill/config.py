@@ -1,0 +1,186 @@
+"""What a distillation run is: :class:`DistillConfig`, checked into the scenarios it trains on.
+
+Every field is a flag of ``uav-bench distill`` (``--FIELD`` with ``_`` as ``-``), so a bad value is
+refused in one line naming that flag. The training scenarios are checked against the scenarios the
+published results are measured on: a procedural seed of the held-out set, a frozen suite or the
+tuning validation is refused (docs/rl.md §4.4).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
+from uav_penetration_env.scenario import Scenario
+
+# Seeds of procedural scenarios that some published number is measured on (docs/rl.md §1.1): the
+# held-out set, the frozen suite's procedural members, the learning-curve and tuning-validation seeds.
+RESERVED_SEEDS: dict[str, range] = {
+    "the held-out set": range(10000, 10050),
+    "the learning curves": range(20000, 20020),
+    "the suite uavpen-v1": range(30000, 30220),
+    "the tuning validation": range(40000, 40050),
+}
+DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
+LOSSES = ("mse", "mse-std")
+SELECTIONS = ("best", "last")
+
+
+@dataclass(frozen=True)
+class DistillConfig:
+    """One behaviour-cloning + DAgger run (docs/rl.md §4).
+
+    Attributes:
+        out: the run folder (round data, networks, the final policy and its sidecar).
+        expert: a harness policy spec (:func:`~uav_penetration_env.benchmark.policies.make_policy`),
+            or, from Python, a policy object with ``reset``, ``act`` and ``config``.
+        scenarios: scenario specs (names, ``random:SEED``, ``random:A-B``, YAML paths).
+        difficulty: the difficulty of the ``random:`` forms.
+        rounds: DAgger rounds after the behaviour-cloning round 0.
+        episodes: episodes per scenario and round.
+        beta0, decay: the expert flies a step with probability ``beta0 * decay**k`` in round k
+            (round 0: the expert alone).
+        hidden: the MLP's hidden widths.
+        epochs: passes over the aggregated data at each refit.
+        batch_size, learning_rate: the Adam minibatches and step size.
+        seed: seeds the network's initialisation, the minibatches, the episodes and the mixing.
+        torch_threads: torch's intra-op threads (1: repeatable sums, and fastest for this MLP).
+        loss: ``mse`` (the normalised action's three channels weighted alike) or ``mse-std``
+            (each channel divided by its spread in the round-0 labels; docs/rl.md §4.2).
+        select: which round's network becomes the policy: ``best`` (lowest mean validation cost)
+            or ``last`` (docs/rl.md §4.5); not part of the key, so a finished run can be re-selected.
+
+    DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
+    Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
+    (behaviour cloning), round 1 mixes half and half, and by round 4 the learner flies 15 steps of
+    16, so the data soon come from the learner's own state distribution while the first refits,
+    from a weak network, still see mostly the expert's route.
+
+    DECISION (docs/rl.md §4.4): the default training scenarios are the paper scenario and the
+    procedural scenarios of seeds 50000-50019 at difficulty 0.5, one episode each per round: the
+    paper scenario is the one the greedy floor is measured on, the procedural ones (disjoint from
+    every evaluation seed, :data:`RESERVED_SEEDS`) give the network other terrain and radar
+    layouts, so it is not a lookup table of one route.
+    """
+
+    out: Path = Path("results/distill/run")
+    expert: Any = "lattice"
+    scenarios: tuple[str, ...] = DEFAULT_SCENARIOS
+    difficulty: float = 0.5
+    rounds: int = 6
+    episodes: int = 1
+    beta0: float = 1.0
+    decay: float = 0.5
+    hidden: tuple[int, ...] = (256, 256)
+    epochs: int = 100
+    batch_size: int = 256
+    learning_rate: float = 1e-3
+    seed: int = 0
+    torch_threads: int = 1
+    loss: str = "mse"
+    select: str = "best"
+    _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
+
+    def beta(self, round_index: int) -> float:
+        """The probability that the expert flies a step of round ``round_index`` (1 in round 0)."""
+        return 1.0 if round_index == 0 else self.beta0 * self.decay**round_index
+
+    def key(self) -> dict[str, Any]:
+        """What must match for a run folder to be continued (all but ``rounds``, ``out``, threads)."""
+        expert = self.expert if isinstance(self.expert, str) else _object_config(self.expert)
+        return {
+            "expert": expert,
+            "scenarios": list(self.scenarios),
+            "difficulty": self.difficulty,
+            "episodes": self.episodes,
+            "beta0": self.beta0,
+            "decay": self.decay,
+            "hidden": list(self.hidden),
+            "epochs": self.epochs,
+            "batch_size": self.batch_size,
+            "learning_rate": self.learning_rate,
+            "loss": self.loss,
+            "seed": self.seed,
+        }
+
+
+def _object_config(expert: Any) -> dict[str, Any]:
+    config = getattr(expert, "config", None)
+    described = config() if callable(config) else {}
+    return {"object": type(expert).__name__, **described}
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _check_numbers(config: DistillConfig) -> None:
+    """Raise ``ValueError`` naming the flag of the first number out of its domain."""
+    integers = {"rounds": 0, "episodes": 1, "epochs": 1, "batch_size": 1, "torch_threads": 1, "seed": 0}
+    for name, low in integers.items():
+        value = getattr(config, name)
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            raise ValueError(f"{_flag(name)}: got {value!r}, expected an integer >= {low}")
+    for name, domain in (("beta0", "[0, 1]"), ("decay", "[0, 1]"), ("difficulty", "[0, 1]")):
+        value = getattr(config, name)
+        if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
+            raise ValueError(f"{_flag(name)}: got {value!r}, expected a number in {domain}")
+    rate = config.learning_rate
+    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
+        raise ValueError(f"--learning-rate: got {rate!r}, expected a positive number")
+    for name, choices in (("loss", LOSSES), ("select", SELECTIONS)):
+        if getattr(config, name) not in choices:
+            raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
+    if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
+        raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
+
+
+def _check_seeds(spec: str) -> None:
+    """Refuse a procedural training scenario whose seed a published result is measured on."""
+    if not spec.startswith(RANDOM_PREFIX):
+        return
+    seeds = random_seeds(spec)
+    for what, reserved in RESERVED_SEEDS.items():
+        clash = [s for s in seeds if s in reserved]
+        if clash:
+            raise ValueError(
+                f"--scenarios: got {spec!r}, whose seed {clash[0]} belongs to {what} "
+                f"({reserved.start}-{reserved.stop - 1}); train on other seeds, e.g. random:50000-50019"
+            )
+
+
+def checked(config: DistillConfig) -> DistillConfig:
+    """``config`` with its scenarios resolved, after checking every field.
+
+    Raises:
+        ValueError: one line naming the flag and the expected value.
+    """
+    _check_numbers(config)
+    if isinstance(config.expert, str):
+        from uav_penetration_env.benchmark.policies import make_policy
+
+        try:
+            make_policy(config.expert)
+        except (KeyError, ValueError, ImportError) as error:
+            message = error.args[0] if isinstance(error, KeyError) and error.args else error
+            raise ValueError(f"--expert: {message}") from None
+    elif not (callable(getattr(config.expert, "act", None)) and callable(getattr(config.expert, "reset", None))):
+        raise ValueError(f"--expert: got {config.expert!r}, expected a policy spec or a Policy object")
+    if not config.scenarios:
+        raise ValueError("--scenarios: got none, expected one or more scenario specs")
+    scenarios: list[Scenario] = []
+    for spec in config.scenarios:
+        if isinstance(spec, Scenario):
+            scenarios.append(spec)
+            continue
+        _check_seeds(spec)
+        try:
+            scenarios.extend(resolve_scenarios(spec, config.difficulty))
+        except Exception as error:  # the catalogue's errors name the scenario; the flag is ours
+            raise ValueError(f"--scenarios: {error}") from None
+    names = tuple(s if isinstance(s, str) else s.name for s in config.scenarios)
+    return dataclasses.replace(config, out=Path(config.out), scenarios=names, _scenario_objects=tuple(scenarios))

@@ -1,0 +1,130 @@
+"""A distilled network as a harness Policy: ``distill:PATH`` (PATH: a run folder or its ``policy.npz``).
+
+The network is plain arrays (:mod:`baselines.distill.network`), flown with NumPy: loading needs
+neither torch nor a pickle, and the policy pickles small into the evaluator's workers. The sidecar
+(``policy.json`` beside the weights) records the SHA-256 of the weights; :func:`load_distill_policy`
+refuses weights that do not match it, and the results store keys the policy by that hash.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from baselines.distill.files import load_npz, sha256_file
+from baselines.distill.network import forward, layer_count
+from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
+from uav_penetration_env.types import FloatArray
+
+
+class DistillPolicy:
+    """The deterministic action of a distilled MLP, mapped from [-1, 1] to the env's action box.
+
+    Args:
+        weights: the ``.npz`` file.
+        arrays: its arrays (checked against the sidecar's hash).
+        sidecar: the parsed sidecar.
+    """
+
+    deterministic = True
+
+    def __init__(self, weights: Path, arrays: dict[str, np.ndarray], sidecar: dict[str, Any]) -> None:
+        self.weights = weights
+        self.arrays = arrays
+        self.sidecar = sidecar
+        self._from_unit: Any = None
+
+    def __repr__(self) -> str:
+        return f"DistillPolicy({str(self.weights)!r}, expert={self.sidecar['expert']!r})"
+
+    def config(self) -> dict[str, Any]:
+        """What determines behaviour (the store key): the weights' hash and the network's form.
+
+        Hashes, not paths, and nothing measured (training seconds), so the key is the same in
+        every process and for a moved file.
+        """
+        return {
+            "kind": "distill",
+            "weights_sha256": self.sidecar["weights_sha256"],
+            "hidden": list(self.sidecar["hidden"]),
+            "activation": self.sidecar["activation"],
+            "deterministic": True,
+        }
+
+    @property
+    def metadata(self) -> dict[str, Any]:
+        """The training budget copied into every episode row: the run's expert labels and CPU seconds."""
+        return {
+            "train_timesteps": int(self.sidecar["expert_labels"]),
+            "train_seconds": float(self.sidecar["train_cpu_seconds"]),
+        }
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Bind the env's action box; refuse a physics profile the network was not trained under."""
+        del seed
+        from baselines.distill.episodes import normalisers
+
+        profile = model.scenario.profile
+        if profile not in self.sidecar["profiles"]:
+            raise ValueError(
+                f"distill policy {self.weights} was trained under the profile(s) {self.sidecar['profiles']}, "
+                f"not {profile!r} (scenario {model.scenario.name!r})"
+            )
+        _, self._from_unit = normalisers(model)
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The network's action for ``observation``, in physical units [dv, dphi, dtheta]."""
+        del info
+        if self._from_unit is None:
+            raise RuntimeError("DistillPolicy.act() before reset(model, seed)")
+        unit = forward(self.arrays, np.asarray(observation).reshape(1, -1))[0]
+        return self._from_unit(unit)
+
+
+def weights_path(path: str | Path) -> Path:
+    """A run folder -> its ``policy.npz``; a file path as given (``.npz`` may be omitted)."""
+    path = Path(path)
+    if path.is_dir():
+        return path / "policy.npz"
+    return path if path.suffix == ".npz" else path.with_suffix(".npz")
+
+
+def load_distill_policy(path: str | Path) -> DistillPolicy:
+    """The harness Policy of a distilled network (``distill:PATH``).
+
+    Raises:
+        FileNotFoundError: no weights or no sidecar (naming the path).
+        ValueError: weights whose SHA-256 is not the sidecar's, a corrupt sidecar, or a network
+            for another observation size.
+    """
+    weights = weights_path(path)
+    sidecar_path = weights.with_suffix(".json")
+    for needed in (weights, sidecar_path):
+        if not needed.is_file():
+            raise FileNotFoundError(f"{needed}: no such file (a distill policy is OUT/policy.npz with OUT/policy.json)")
+    try:
+        sidecar = json.loads(sidecar_path.read_text())
+        expected = sidecar["weights_sha256"]
+    except (ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{sidecar_path}: not a distill sidecar ({error})") from None
+    found = sha256_file(weights)
+    if found != expected:
+        raise ValueError(
+            f"{weights}: SHA-256 {found[:12]}… is not the {expected[:12]}… its sidecar {sidecar_path} records "
+            "(the weights were changed or replaced)"
+        )
+    arrays = load_npz(weights)
+    first = arrays["W0"].shape[1] if layer_count(arrays) else None
+    if first != OBSERVATION_SIZE or sidecar.get("observation_size") != OBSERVATION_SIZE:
+        raise ValueError(f"{weights}: a network for observations of size {first}, this env's are {OBSERVATION_SIZE}")
+    return DistillPolicy(weights, arrays, sidecar)
+
+
+def distill_label(path: str | Path) -> str:
+    """A distilled policy's name in result tables: its run folder's name (``distill:NAME``)."""
+    weights = weights_path(path)
+    name = weights.parent.name if weights.stem == "policy" else weights.stem
+    return f"distill:{name}"
