@@ -32,7 +32,7 @@ from typing import NamedTuple
 # than spin (OMP_WAIT_POLICY=PASSIVE unless the user set it). Spinning threads take the cores a busy
 # machine's other work needs and wait for cores themselves: with two busy processes on 2 cores an
 # MPC planner's 100 x 5 rollout ran 0.03-0.43 M particle-steps/s on 2 spinning threads against
-# 0.67-1.28 M on one, and 0.68-1.06 M on 2 sleeping threads. OpenMP reads it when its runtime loads
+# 0.51-1.28 M on one, and 0.68-1.50 M on 2 sleeping threads. OpenMP reads it when its runtime loads
 # (numba's first parallel kernel), so setting it here, on import, is early enough.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
