@@ -89,18 +89,22 @@ def run_kernel(parallel_kernel, serial_kernel, rows: int, *args) -> None:
         parallel_kernel(*args)
 
 
-def limit_worker_threads() -> int:
-    """One compiled thread per worker process unless the user set ``NUMBA_NUM_THREADS``.
+def limit_worker_threads(threads: int | None = None) -> int:
+    """The compiled threads of an episode: ``threads`` when given, else one per worker process.
 
     Episodes run in parallel worker processes (joblib/loky, dask); a kernel spreading its batch
-    over every core in each of them would oversubscribe the machine. The main process keeps
-    numba's default (all cores).
+    over every core in each of them would oversubscribe the machine, so a worker uses one thread
+    unless the user set ``NUMBA_NUM_THREADS``. The main process keeps numba's default (all cores).
+    ``threads`` (``uav-bench run --threads``) overrides both, capped at the cores numba knows.
 
     Returns:
         The thread count now in force.
     """
     import multiprocessing
 
+    if threads is not None:
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        return numba.get_num_threads()
     in_worker = multiprocessing.parent_process() is not None or (
         multiprocessing.current_process().name != "MainProcess"
     )

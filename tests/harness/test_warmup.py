@@ -37,3 +37,25 @@ def test_the_compile_command_reports_the_folder_and_its_size(capsys):
     assert cli.main(["compile"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("uav-bench compile: ") and compile_cache.COMPILE_CACHE_DIR in out and " MB" in out
+
+
+def test_threads_sets_the_compiled_threads_of_each_episode_and_changes_no_result(tmp_path, capsys):
+    import numba
+    import pytest
+
+    from uav_penetration_env.kernels import limit_worker_threads
+
+    before = numba.get_num_threads()
+    try:
+        assert limit_worker_threads(1) == 1
+        assert limit_worker_threads(10_000) == numba.config.NUMBA_NUM_THREADS  # capped at the known cores
+        scenario = tiny_scenario(time={"max_steps": 6})
+        one = evaluate({"greedy": GreedyPolicy()}, [scenario], [0], progress=False, threads=1)
+        every = evaluate({"greedy": GreedyPolicy()}, [scenario], [0], progress=False, threads=numba.config.NUMBA_NUM_THREADS)
+        assert one["total_cost"].tolist() == every["total_cost"].tolist()
+        with pytest.raises(ValueError, match=r"threads: got 0, expected None or an integer >= 1"):
+            evaluate({"greedy": GreedyPolicy()}, [scenario], [0], progress=False, threads=0)
+        assert cli.main(["run", "--threads", "0", "--policies", "greedy", "--store", str(tmp_path / "s.sqlite")]) == 2
+        assert "--threads: got 0, expected an integer >= 1" in capsys.readouterr().err
+    finally:
+        numba.set_num_threads(before)

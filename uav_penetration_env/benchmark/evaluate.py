@@ -79,6 +79,7 @@ class EpisodeTask:
     seed: int
     imports: tuple[str, ...] = ()
     extra: Mapping[str, Any] = field(default_factory=dict)
+    threads: int | None = None  # compiled threads of the episode (None: one per worker process)
 
     @property
     def key(self) -> tuple[str, str, int]:
@@ -108,7 +109,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         The episode row (the ``episodes`` columns) and one dict per track point, the start state's
         step-0 row first (no step rows for an ``error`` row).
     """
-    limit_worker_threads()  # workers share the cores: one compiled thread each unless NUMBA_NUM_THREADS is set
+    limit_worker_threads(task.threads)  # workers share the cores: one compiled thread each unless told otherwise
     started = time.perf_counter()
     scenario = task.scenario
     row: dict[str, Any] = {
@@ -274,6 +275,7 @@ def evaluate(
     command: str | None = None,
     include: Callable[[str, Any, Scenario, int], bool] | None = None,
     run_settings: Mapping[str, Any] | None = None,
+    threads: int | None = None,
 ) -> pd.DataFrame:
     """Score every policy on every scenario and seed; one row per episode (api.md).
 
@@ -292,6 +294,8 @@ def evaluate(
         include: ``(policy name, policy, scenario, seed) -> bool``: fly only the episodes it accepts
             (default: every policy x scenario x seed); a suite's seed rule (docs/suite.md §4).
         run_settings: extra entries of the run's settings record (e.g. ``{"suite": "uavpen-v1"}``).
+        threads: compiled threads per episode (``None``: one per worker process, numba's default in
+            this process; model.md §8). Results do not depend on it.
 
     Returns:
         One row per requested episode (stored ones included when a store is given).
@@ -304,6 +308,8 @@ def evaluate(
         KeyboardInterrupt: propagated after the store is left consistent.
     """
     seed_list = check_arguments(policies, scenarios, seeds, n_jobs, backend, store)
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
+        raise ValueError(f"threads: got {threads!r}, expected None or an integer >= 1")
     import_plugins(imports)
     scenario_list = [load_scenario(s) for s in scenarios]
     hashes = {name: policy_hash(policy) for name, policy in policies.items()}
@@ -311,7 +317,7 @@ def evaluate(
         raise ValueError(
             f"policies: two names share one configuration ({hashes}); give each configuration one name"
         )
-    tasks = episode_tasks(policies, hashes, scenario_list, seed_list, tuple(imports), include)
+    tasks = episode_tasks(policies, hashes, scenario_list, seed_list, tuple(imports), include, threads)
     own_store = store is not None and not isinstance(store, ResultsStore)
     results = ResultsStore(store) if own_store else store
     try:
@@ -342,6 +348,7 @@ def episode_tasks(
     seeds: Sequence[int],
     imports: tuple[str, ...],
     include: Callable[[str, Any, Scenario, int], bool] | None,
+    threads: int | None = None,
 ) -> list[EpisodeTask]:
     """Every (scenario, seed, policy) episode ``include`` accepts, in that nesting order."""
     tasks = []
@@ -355,7 +362,7 @@ def episode_tasks(
                     for k in ("horizon", "max_evals")
                     if isinstance(getattr(policy, k, None), int)
                 }
-                tasks.append(EpisodeTask(name, policy, hashes[name], scenario, seed, imports, extra))
+                tasks.append(EpisodeTask(name, policy, hashes[name], scenario, seed, imports, extra, threads))
     return tasks
 
 

@@ -46,6 +46,7 @@ RUN_DEFAULTS: dict[str, Any] = {
     "weights": None,
     "seeds": "5",
     "jobs": None,
+    "threads": None,
     "backend": "loky",
     "scheduler": None,
     "store": str(DEFAULT_STORE),
@@ -80,6 +81,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--weights", help="objective weights terrain,radar,third, e.g. 0.3,0.5,0.2")
     parser.add_argument("--seeds", help="N (seeds 0..N-1) or START:STOP (default: 5)")
     parser.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
+    parser.add_argument(
+        "--threads", type=int, help="compiled threads per worker (default: 1 per worker; results do not change)"
+    )
     parser.add_argument("--backend", help="loky (default), dask or sequential")
     parser.add_argument(
         "--scheduler", help="dask scheduler address (backend dask; none starts a local cluster)"
@@ -185,6 +189,7 @@ def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
     rules: dict[str, tuple[Any, Any, str]] = {
         "difficulty": (float, lambda v: 0.0 <= v <= 1.0, "a number in [0, 1]"),
         "jobs": (int, lambda v: True, "an integer (0: all cores, -N: all but N-1)"),
+        "threads": (int, lambda v: v >= 1, "an integer >= 1"),
     }
     checked = dict(settings)
     for key, (kind, allowed, expected) in rules.items():
@@ -318,6 +323,7 @@ def run(args: argparse.Namespace) -> int:
             command=command,
             include=include,
             run_settings=suite_settings,
+            threads=settings["threads"],
         )
     except KeyboardInterrupt:
         done = len(store.done_keys())
