@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sqlite3
@@ -552,3 +553,45 @@ def test_run_writes_its_report_next_to_its_store_unless_out_says_otherwise(tmp_p
     assert code == 0
     assert (tmp_path / "results" / "index.html").read_text() == "the main job's report"
     assert (store.parent / "index.html").exists()
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
+def test_sigterm_mid_run_keeps_finished_episodes_exits_143_and_leaves_no_worker(tmp_path, tiny_yaml):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent), os.environ.get("PYTHONPATH", "")]))
+    store = tmp_path / "term.sqlite"
+    argv = [sys.executable, "-m", "uav_penetration_env.benchmark.cli", "run", "--scenarios", tiny_yaml,
+            "--policies", "pso", "greedy", "--seeds", "12", "--max-evals", "1500", "--jobs", "2",
+            "--no-report", "--no-progress", "--store", str(store)]  # fmt: skip
+    process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+    def children() -> set[int]:
+        found = set()
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            with contextlib.suppress(OSError):
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+                if int(fields[1]) == process.pid:
+                    found.add(int(stat.parent.name))
+        return found
+
+    deadline, stored, workers = time.monotonic() + 180, 0, set()
+    while time.monotonic() < deadline and process.poll() is None and stored < 2:
+        workers |= children()
+        with contextlib.suppress(sqlite3.OperationalError):
+            if store.exists():
+                with sqlite3.connect(store, timeout=1) as connection:
+                    stored = connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
+        time.sleep(0.05)
+    assert process.poll() is None, "the run finished before it could be terminated"
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err.decode()[-500:]
+    assert "terminated (signal 15): " in err.decode() and "rerun the same command to resume" in err.decode()
+    assert len(stored_rows(store)) >= 2
+    time.sleep(1.0)  # killed workers take a moment to leave the process table
+    alive = {}
+    for pid in workers:
+        with contextlib.suppress(OSError):
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            if state != "Z":  # a zombie has exited, only its entry waits to be reaped
+                alive[pid] = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")[:200]
+    assert not alive, f"processes outlived the run: {alive}"

@@ -24,7 +24,8 @@ EXIT_STATUS = """exit status:
   1    some work failed (e.g. `run` episodes that ended in an error: stored as error rows,
        counted in the summary line, retried by rerunning the same command)
   2    bad arguments or inputs (one line `uav-bench: error: ...`; nothing written)
-  130  interrupted (Ctrl-C); finished work is kept"""
+  130  interrupted (Ctrl-C); finished work is kept
+  143  terminated (SIGTERM; 128 + the signal's number); finished work is kept"""
 
 
 class UsageError(CLIError):

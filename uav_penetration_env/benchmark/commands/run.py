@@ -13,7 +13,9 @@ leaves every finished episode stored (exit status 130); rerunning the same comma
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -309,6 +311,7 @@ def run(args: argparse.Namespace) -> int:
     announce(settings, policies, scenarios, seeds, include, store_path)
     command = command_line(args)
     jobs = settings["jobs"]
+    previous = _catch_sigterm()
     try:
         frame = evaluate(
             policies,
@@ -325,14 +328,19 @@ def run(args: argparse.Namespace) -> int:
             run_settings=suite_settings,
             threads=settings["threads"],
         )
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as error:
+        # joblib aborts its loky workers when the interruption reaches its generator (tested).
         done = len(store.done_keys())
         store.close()
+        what = f"terminated (signal {error.signum})" if isinstance(error, Terminated) else "interrupted"
         print(
-            f"\ninterrupted: {done} finished episodes are stored in {store_path}; rerun the same command to resume",
+            f"\n{what}: {done} finished episodes are stored in {store_path}; rerun the same command to resume",
             file=sys.stderr,
         )
-        return 130
+        return 128 + error.signum if isinstance(error, Terminated) else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     store.close()
     errors = print_outcome(frame, store_path)
     if settings["report"] and settings["suite"] is not None:
@@ -340,6 +348,25 @@ def run(args: argparse.Namespace) -> int:
     elif settings["report"]:
         report(store_path, out, command)
     return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (what Slurm, Kubernetes and systemd send), taken as Ctrl-C is: finished episodes are kept."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"signal {signum}")
+        self.signum = signum
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise Terminated(signum)
+
+
+def _catch_sigterm() -> Any:
+    """Route SIGTERM to :class:`Terminated` for the run; returns the previous handler (None off the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None  # signal handlers can only be set there (a run started from a thread keeps the default)
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 def episode_plan(
