@@ -345,6 +345,8 @@ class UAVPenetrationEnv(gym.Env):
             ValueError: ``options`` with any key: the env takes no reset options, and a key it
                 silently ignored (a start state, a scenario) would fly something else than asked.
         """
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"options: got {type(options).__name__} {options!r}, expected None or an empty dict")
         if options:
             raise ValueError(
                 f"options: got the key(s) {', '.join(map(repr, options))}, expected none "

@@ -266,6 +266,8 @@ def test_reset_refuses_options_it_would_ignore(tiny):
     env = UAVPenetrationEnv(tiny)
     with pytest.raises(ValueError, match=r"options: got the key\(s\) 'state', expected none"):
         env.reset(seed=0, options={"state": [0, 0, 100, 10, 0, 0]})
+    with pytest.raises(TypeError, match=r"options: got str 'not a dict', expected None or an empty dict"):
+        env.reset(seed=0, options="not a dict")
     env.reset(seed=0, options={})  # what Gymnasium's vector envs pass after taking their own keys
     env.reset(seed=0, options=None)
     # Gymnasium's vector env takes its reset_mask and hands the sub-envs what is left.
