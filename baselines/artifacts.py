@@ -33,6 +33,19 @@ REQUIRED_SIDECAR_KEYS = (
     "timesteps_done",
     "wall_seconds",
 )
+# The JSON types of the keys read before a model is loaded; a hand-edited or foreign sidecar with
+# another type is refused naming the key, not met later as an AttributeError.
+SIDECAR_TYPES: dict[str, tuple[type, ...]] = {
+    "format": (int,),
+    "algorithm": (str,),
+    "env_id": (str,),
+    "profile": (str,),
+    "observation_space": (dict,),
+    "action_space": (dict,),
+    "vecnormalize": (str, type(None), bool),
+    "timesteps_done": (int,),
+    "wall_seconds": (int, float),
+}
 
 
 @dataclass(frozen=True)
@@ -210,6 +223,14 @@ def read_sidecar(path: Path) -> dict[str, Any]:
     missing = [key for key in REQUIRED_SIDECAR_KEYS if key not in data]
     if missing:
         raise ValueError(f"{path}: corrupt sidecar, missing key(s) {', '.join(missing)}")
+    for key, kinds in SIDECAR_TYPES.items():
+        value = data[key]
+        if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+            expected = " or ".join("null" if k is type(None) else k.__name__ for k in kinds)
+            raise ValueError(f"{path}: corrupt sidecar, {key}: got {value!r}, expected {expected}")
+    shape = data["observation_space"].get("shape")
+    if not (isinstance(shape, list) and all(isinstance(n, int) and not isinstance(n, bool) for n in shape)):
+        raise ValueError(f"{path}: corrupt sidecar, observation_space.shape: got {shape!r}, expected a list of integers")
     if data["format"] != SIDECAR_FORMAT:
         raise ValueError(f"{path}: sidecar format {data['format']!r}, expected {SIDECAR_FORMAT}")
     return data

@@ -127,6 +127,20 @@ def test_corrupt_sidecar_names_the_path(tiny_ppo, tmp_path):
         load_policy(copied.model)
 
 
+@pytest.mark.parametrize(
+    ("key", "value", "expected"),
+    [("observation_space", None, "expected dict"), ("timesteps_done", "many", "expected int"),
+     ("format", True, "expected int"), ("observation_space", {"shape": "67"}, "expected a list of integers")],
+)  # fmt: skip
+def test_a_sidecar_field_of_the_wrong_type_is_refused_naming_it(tiny_ppo, tmp_path, key, value, expected):
+    copied = copy_model(tiny_ppo.files, tmp_path)
+    sidecar = json.loads(copied.sidecar.read_text())
+    sidecar[key] = value
+    copied.sidecar.write_text(json.dumps(sidecar))
+    with pytest.raises(ValueError, match=rf"copy\.json: corrupt sidecar, {key}(\.shape)?: got .*{expected}"):
+        load_policy(copied.model)
+
+
 def test_model_and_sidecar_must_belong_together(tiny_ppo, tmp_path):
     copied = copy_model(tiny_ppo.files, tmp_path)
     shutil.copyfile(tiny_ppo.files.checkpoints / "ppo-tiny-s0-128steps.zip", copied.model)
