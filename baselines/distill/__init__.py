@@ -13,8 +13,17 @@ Torch is imported only when fitting, so the policy kind loads and flies without 
 
 from __future__ import annotations
 
-from baselines.distill.config import DistillConfig
-from baselines.distill.loop import DistillResult, run_distill
-from baselines.distill.policy import DistillPolicy, load_distill_policy
+from uav_penetration_env.lazy import lazy_exports
 
-__all__ = ["DistillConfig", "DistillPolicy", "DistillResult", "load_distill_policy", "run_distill"]
+# Imported on first use, so that `uav-bench distill --help` loads neither the env nor torch.
+_EXPORTS = {
+    "DistillConfig": "baselines.distill.config",
+    "DistillResult": "baselines.distill.loop",
+    "run_distill": "baselines.distill.loop",
+    "DistillPolicy": "baselines.distill.policy",
+    "load_distill_policy": "baselines.distill.policy",
+}
+
+__all__ = sorted(_EXPORTS)
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
