@@ -15,6 +15,19 @@ from __future__ import annotations
 
 from baselines.distill.config import DistillConfig
 from baselines.distill.loop import DistillResult, run_distill
-from baselines.distill.policy import DistillPolicy, load_distill_policy
+from baselines.distill.policy import (
+    DistillPolicy,
+    SafeDistillPolicy,
+    load_distill_policy,
+    load_safe_distill_policy,
+)
 
-__all__ = ["DistillConfig", "DistillPolicy", "DistillResult", "load_distill_policy", "run_distill"]
+__all__ = [
+    "DistillConfig",
+    "DistillPolicy",
+    "DistillResult",
+    "SafeDistillPolicy",
+    "load_distill_policy",
+    "load_safe_distill_policy",
+    "run_distill",
+]
