@@ -3,7 +3,8 @@
 - ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` and
   the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
   ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill:RUN_FOLDER`` (a planner imitated by
-  an MLP, :mod:`baselines.distill`);
+  an MLP, :mod:`baselines.distill`); ``distill-safe`` -> :data:`SAFE_DISTILL_POLICY_KIND`, the same
+  network behind a safety layer on its pitch;
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
   -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies), ``distill`` -> :data:`DISTILL_COMMAND`
   (``uav-bench distill``) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
@@ -45,6 +46,8 @@ add_distill_arguments = later("baselines.distill.cli", "add_distill_arguments")
 distill_command = later("baselines.distill.cli", "distill_command")
 load_distill_policy = later("baselines.distill.policy", "load_distill_policy")
 distill_label = later("baselines.distill.policy", "distill_label")
+load_safe_distill_policy = later("baselines.distill.policy", "load_safe_distill_policy")
+safe_distill_label = later("baselines.distill.policy", "safe_distill_label")
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
@@ -58,6 +61,10 @@ SB3_POLICY_KIND = PolicyKind(
 # A distilled network flies with NumPy alone (docs/rl.md §4): loading it needs no extra.
 DISTILL_POLICY_KIND = PolicyKind(
     prefix="distill", load=load_distill_policy, usage="distill:RUN_FOLDER", label=distill_label
+)
+# The same network behind the safety layer that limits its pitch toward the terrain (docs/rl.md §4.7).
+SAFE_DISTILL_POLICY_KIND = PolicyKind(
+    prefix="distill-safe", load=load_safe_distill_policy, usage="distill-safe:RUN_FOLDER", label=safe_distill_label
 )
 TRAIN_COMMAND = Command(
     name="train",

@@ -21,7 +21,9 @@ _EXPORTS = {
     "DistillResult": "baselines.distill.loop",
     "run_distill": "baselines.distill.loop",
     "DistillPolicy": "baselines.distill.policy",
+    "SafeDistillPolicy": "baselines.distill.policy",
     "load_distill_policy": "baselines.distill.policy",
+    "load_safe_distill_policy": "baselines.distill.policy",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -4,6 +4,10 @@ The network is plain arrays (:mod:`baselines.distill.network`), flown with NumPy
 neither torch nor a pickle, and the policy pickles small into the evaluator's workers. The sidecar
 (``policy.json`` beside the weights) records the SHA-256 of the weights; :func:`load_distill_policy`
 refuses weights that do not match it, and the results store keys the policy by that hash.
+
+``distill-safe:PATH`` flies the same network behind a safety layer (:class:`SafeDistillPolicy`):
+it may raise the network's pitch change to the greedy floor's terrain-following one, and
+nothing else.
 """
 
 from __future__ import annotations
@@ -16,8 +20,10 @@ import numpy as np
 
 from baselines.distill.files import load_npz, sha256_file
 from baselines.distill.network import forward, layer_count
+from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
+from uav_penetration_env.value_function import terrain_following_dtheta
 
 
 class DistillPolicy:
@@ -84,6 +90,81 @@ class DistillPolicy:
         return self._from_unit(unit)
 
 
+def safe_action(
+    model: PenetrationModel, state: FloatArray, action: FloatArray, clearance_m: float, lookahead_steps: float
+) -> tuple[FloatArray, bool]:
+    """``action`` with its pitch change raised to the terrain-following minimum where it falls short.
+
+    The minimum is the greedy floor's pitch change (:func:`terrain_following_dtheta`) toward
+    ``clearance_m`` above the highest terrain under the next ``lookahead_steps`` steps along the
+    heading and at the speed ``action`` itself chooses, so the layer answers the network's own
+    course. A smaller pitch change would end the step below that altitude; a larger one is the
+    network's to keep, and dv and dphi are never touched. Returns the action and whether the
+    pitch change was raised.
+    """
+    limits = model.limits
+    dv, dphi, dtheta = (float(a) for a in action)
+    heading = float(state[HEADING]) + dphi
+    speed = float(np.clip(state[SPEED] + dv, limits.speed_min, limits.speed_max))
+    floor = terrain_following_dtheta(model, state, heading, speed, clearance_m, lookahead_steps)
+    if dtheta >= floor:
+        return np.asarray(action, dtype=np.float64), False
+    return np.array([dv, dphi, floor]), True
+
+
+class SafeDistillPolicy(DistillPolicy):
+    """A distilled network behind a safety layer that limits its pitch toward the terrain.
+
+    DECISION (docs/rl.md §4.7): the layer may override the network's pitch change only, and only
+    upward, to the greedy floor's terrain-following pitch change at the lattice's clearance
+    (100 m, two steps ahead, along the network's own new heading): the failures of the unguarded
+    networks are pitch-ups they under-do near rising terrain (§4.6), and a floor on one channel
+    keeps every other choice the network's. ``last_record["safety_override"]`` is 1 on a step
+    the layer changed, 0 otherwise, so the episodes count its overrides.
+
+    Args:
+        clearance_m: the height above the terrain ahead the layer keeps.
+        lookahead_steps: how many steps ahead the terrain counts.
+    """
+
+    def __init__(
+        self,
+        weights: Path,
+        arrays: dict[str, np.ndarray],
+        sidecar: dict[str, Any],
+        clearance_m: float = 100.0,
+        lookahead_steps: float = 2.0,
+    ) -> None:
+        super().__init__(weights, arrays, sidecar)
+        self.clearance_m = clearance_m
+        self.lookahead_steps = lookahead_steps
+        self.model: PenetrationModel | None = None
+        self.last_record: dict[str, Any] = {}
+
+    def __repr__(self) -> str:
+        return f"SafeDistillPolicy({str(self.weights)!r}, expert={self.sidecar['expert']!r})"
+
+    def config(self) -> dict[str, Any]:
+        """The unguarded network's key plus the layer's settings, so the two are stored apart."""
+        safety = {"clearance_m": float(self.clearance_m), "lookahead_steps": float(self.lookahead_steps)}
+        return {**super().config(), "safety": safety}
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """As the unguarded policy's; the layer keeps the model for the terrain."""
+        super().reset(model, seed)
+        self.model = model
+        self.last_record = {}
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The network's action, its pitch change raised where it would descend below the clearance."""
+        proposed = super().act(observation, info)
+        assert self.model is not None  # bound with _from_unit by reset()
+        state = np.asarray(info["state"], dtype=np.float64)
+        action, overridden = safe_action(self.model, state, proposed, self.clearance_m, self.lookahead_steps)
+        self.last_record = {"safety_override": int(overridden)}
+        return action
+
+
 def weights_path(path: str | Path) -> Path:
     """A run folder -> its ``policy.npz``; a file path as given (``.npz`` may be omitted)."""
     path = Path(path)
@@ -121,6 +202,17 @@ def load_distill_policy(path: str | Path) -> DistillPolicy:
     if first != OBSERVATION_SIZE or sidecar.get("observation_size") != OBSERVATION_SIZE:
         raise ValueError(f"{weights}: a network for observations of size {first}, this env's are {OBSERVATION_SIZE}")
     return DistillPolicy(weights, arrays, sidecar)
+
+
+def load_safe_distill_policy(path: str | Path) -> SafeDistillPolicy:
+    """The harness Policy ``distill-safe:PATH``: the network of ``distill:PATH`` behind the safety layer."""
+    plain = load_distill_policy(path)
+    return SafeDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+
+
+def safe_distill_label(path: str | Path) -> str:
+    """A guarded policy's name in result tables: ``distill-safe:NAME``."""
+    return "distill-safe:" + distill_label(path).partition(":")[2]
 
 
 def distill_label(path: str | Path) -> str:

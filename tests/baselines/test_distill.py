@@ -196,3 +196,51 @@ def test_cli_errors_name_the_flag(argv, message, capsys, tmp_path):
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (tmp_path / "never").exists()
+
+
+def low_and_high_states(model, state):
+    """The start state moved to 10 m above the highest terrain ahead, and to 3 km above it."""
+    from uav_penetration_env.kinematics import HEADING
+
+    reach = 2 * model.limits.max_step_length
+    distance = np.linspace(0.0, reach, 50)
+    heading = float(state[HEADING])
+    ground = model.height(state[0] + distance * np.cos(heading), state[1] + distance * np.sin(heading))
+    low, high = state.copy(), state.copy()
+    low[2] = float(np.max(ground)) + 10.0
+    high[2] = float(np.max(ground)) + 3000.0
+    return low, high
+
+
+def test_the_safety_layer_raises_only_the_pitch_and_only_when_needed():
+    from baselines.distill.policy import safe_action
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    _, info = env.reset(seed=0)
+    model = env.model
+    low, high = low_and_high_states(model, np.asarray(info["state"], dtype=np.float64))
+    dive = np.array([0.5, 0.0, -model.limits.dpitch_max])
+    # Diving 10 m above a ridge: the pitch change is raised, dv and dphi are kept bit for bit.
+    guarded, overridden = safe_action(model, low, dive, 100.0, 2.0)
+    assert overridden and guarded[2] > dive[2]
+    assert guarded[0] == dive[0] and guarded[1] == dive[1]
+    # Pitching up harder than the floor needs: untouched.
+    climb = np.array([-0.5, 0.1, model.limits.dpitch_max])
+    same, overridden = safe_action(model, low, climb, 100.0, 2.0)
+    assert not overridden and np.array_equal(same, climb)
+    # Far above the terrain, even a dive stays above the clearance: untouched.
+    same, overridden = safe_action(model, high, dive, 100.0, 2.0)
+    assert not overridden and np.array_equal(same, dive)
+
+
+def test_the_guarded_policy_is_keyed_apart_and_counts_its_overrides(distilled):
+    from baselines.distill import SafeDistillPolicy
+
+    plain = make_policy(f"distill:{distilled.folder.out}")
+    safe = make_policy(f"distill-safe:{distilled.folder.out}")
+    assert isinstance(safe, SafeDistillPolicy)
+    assert policy_hash(safe) != policy_hash(plain)
+    assert safe.config()["weights_sha256"] == plain.config()["weights_sha256"]
+    df = evaluate({"safe": safe}, [tiny_scenario()], seeds=[0], progress=False)
+    assert df["error"].tolist() == [""]

@@ -22,6 +22,7 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert entry_points[POLICY_GROUP] == {
         "sb3": "baselines.plugin:SB3_POLICY_KIND",
         "distill": "baselines.plugin:DISTILL_POLICY_KIND",
+        "distill-safe": "baselines.plugin:SAFE_DISTILL_POLICY_KIND",
     }
     assert entry_points[COMMAND_GROUP] == {
         "train": "baselines.plugin:TRAIN_COMMAND",
@@ -39,6 +40,7 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert plugin.DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill:lattice-s0"
     assert isinstance(plugin.DISTILL_COMMAND, Command) and plugin.DISTILL_COMMAND.name == "distill"
     assert plugin.DISTILL_POLICY_KIND.needs.modules == ()  # flown with NumPy: no extra needed
+    assert plugin.SAFE_DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill-safe:lattice-s0"
 
 
 # A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl
