@@ -76,9 +76,11 @@ COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 
 # DECISION (model.md §8): batches smaller than this run on the calling thread alone (the serial twin
 # of a kernel: the same row function in a plain loop). Waking the thread pool costs more than a
-# few rows of physics (a single env's step), and on a busy machine a parallel launch can wait
-# milliseconds for a core; results are the same either way.
-SERIAL_BELOW_ROWS = 32
+# few rows of physics, and on a busy machine a parallel launch waits for a core: beside two busy
+# processes on 2 cores the vector env's 256-row step ran 0.41-0.99x its one-thread rate on two
+# threads, and a planner's 100 x 5 rollout once 0.76x on an idle machine, while 10 000 rows kept
+# 1.26-1.79x in every run (benchmarks/bench_contention.py). Results are the same either way.
+SERIAL_BELOW_ROWS = 512
 
 
 def run_kernel(parallel_kernel, serial_kernel, rows: int, *args) -> None:

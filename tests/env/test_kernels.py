@@ -263,3 +263,28 @@ def test_package_cache_probe_detects_an_unwritable_folder(tmp_path):
     blocked = tmp_path / "blocked"
     blocked.write_text("a file where the package folder should be")
     assert not compile_cache._package_cache_writable(blocked)
+
+
+def test_the_parallel_kernels_equal_their_serial_twins_row_for_row():
+    """A batch at the threshold runs in parallel, below it on the calling thread: the rows must agree bitwise."""
+    from uav_penetration_env import kernels
+
+    model = PenetrationModel(paper_scenario())
+    state = model.initial_state()
+    high = model.limits.action_high
+    rows = kernels.SERIAL_BELOW_ROWS
+    controls = np.random.default_rng(3).uniform(-high, high, size=(rows, 4, 3)) * [1.0, 1.0, 0.3]
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        parallel = model.rollout_cost(state, controls, step=2, terminal_cost=0.06)  # rows == threshold
+        serial = np.concatenate([model.rollout_cost(state, controls[i : i + rows // 2], step=2, terminal_cost=0.06)
+                                 for i in (0, rows // 2)])  # fmt: skip
+    finally:
+        numba.set_num_threads(before)
+    assert np.array_equal(parallel, serial)
+    states = np.repeat(state[None], rows, axis=0)
+    stepped = model.step(states, controls[:, 0], 0)
+    halves = [model.step(states[i : i + rows // 2], controls[i : i + rows // 2, 0], 0) for i in (0, rows // 2)]
+    assert np.array_equal(stepped.state, np.concatenate([h.state for h in halves]))
+    assert np.array_equal(stepped.J, np.concatenate([h.J for h in halves]))
