@@ -20,7 +20,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 # The one reason every test that needs Stable-Baselines3/torch gives when the `rl` extra is absent
 # (a core-only install, `pip install -e ".[dev]"`, skips them and passes the rest).
-RL_EXTRA = "the RL tests need the rl extra: pip install -e '.[rl]' (torch CPU wheel: see README)"
+RL_EXTRA = "the RL tests need the rl extra: pip install -e '.[rl]' (install the CPU torch wheel first: docs/guide.md, Installing)"
 
 
 # --- a tiny, fast scenario: a 75 km map on a 1 km grid, one mountain, two radars ----------------
