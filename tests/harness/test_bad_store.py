@@ -91,9 +91,33 @@ def folder_store(folder: Path, good: Path) -> Path:
     return path
 
 
+def zeroed(folder: Path, good: Path) -> Path:
+    """Same size, valid header, the pages after the schema zeroed (a sparse copy, a failed sync)."""
+    path = folder / "zeroed.sqlite"
+    data = bytearray(good.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    data[2 * page :] = bytes(len(data) - 2 * page)
+    path.write_bytes(bytes(data))
+    return path
+
+
+def zeroed_middle(folder: Path, good: Path) -> Path:
+    """Pages in the middle zeroed, header and size intact: what a run would otherwise write into."""
+    path = folder / "zeroed-middle.sqlite"
+    data = bytearray(good.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    pages = len(data) // page
+    start, stop = (pages * 2 // 5) * page, (pages * 3 // 5) * page
+    data[start:stop] = bytes(stop - start)
+    path.write_bytes(bytes(data))
+    return path
+
+
 BAD = {
     "truncated": (truncated, "damaged"),
+    "zeroed-middle": (zeroed_middle, "damaged"),
     "garbled": (garbled, "damaged"),
+    "zeroed": (zeroed, "damaged"),
     "text": (text_file, "not a results store"),
     "other-app": (other_app, "not a results store"),
     "newer-schema": (newer_schema, f"schema version {SCHEMA_VERSION + 1} is newer"),
@@ -225,3 +249,15 @@ def test_a_short_main_file_with_a_pending_write_ahead_log_is_left_to_sqlite(tmp_
         _check_header(short, header, size)
     short.with_name(short.name + "-wal").write_bytes(b"\0" * 32)
     _check_header(short, header, size)  # no error: SQLite replays the log when it opens the store
+
+
+def test_the_integrity_check_reads_every_page(tmp_path, good_store):
+    """Pages damaged inside a file of the right size pass the header checks; SQLite's own check finds them."""
+    from uav_penetration_env.benchmark.store import StoreError, check_integrity, inspect_store_file
+
+    check_integrity(good_store)
+    check_integrity(tmp_path / "absent.sqlite")  # nothing to check: a new store
+    damaged = zeroed_middle(tmp_path, good_store)
+    inspect_store_file(damaged)  # the header and the size are intact
+    with pytest.raises(StoreError, match="damaged"):
+        check_integrity(damaged)

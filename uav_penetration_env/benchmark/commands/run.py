@@ -402,10 +402,16 @@ def open_store(store_path: Path, out: Path | None) -> Any:
     Raises:
         CLIError: the store is damaged or not a results store, or its folder (or ``out``) is not writable.
     """
-    from uav_penetration_env.benchmark.store import ResultsStore, StoreError, inspect_store_file
+    from uav_penetration_env.benchmark.store import (
+        ResultsStore,
+        StoreError,
+        check_integrity,
+        inspect_store_file,
+    )
 
     try:
         inspect_store_file(store_path)  # before anything is written
+        check_integrity(store_path)  # pages damaged inside a file of the right size, which run would write into
     except StoreError as error:
         raise store_error(error) from None
     check_writable_folder(store_path.parent, "--store", store_path)
