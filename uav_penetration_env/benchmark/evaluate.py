@@ -19,7 +19,6 @@ import hashlib
 import importlib
 import json
 import os
-import re
 import sys
 import time
 import traceback
@@ -33,7 +32,7 @@ import pandas as pd
 
 from uav_penetration_env import __version__
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
-from uav_penetration_env.benchmark.plugins import stable_parameters
+from uav_penetration_env.benchmark.plugins import has_address_repr, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
@@ -54,9 +53,8 @@ def policy_config(policy: Any) -> dict[str, Any]:
     if hasattr(policy, "config"):
         config = dict(policy.config())
     else:
-        text = repr(policy)
-        if re.search(r" at 0x[0-9a-fA-F]+", text):  # a default repr: another in every process
-            text = stable_parameters(policy, "policies")
+        # A default repr differs in every process: the policy's plain attributes stand in for it.
+        text = stable_parameters(policy, "policies") if has_address_repr(policy) else repr(policy)
         config = {"class": f"{type(policy).__module__}.{type(policy).__qualname__}", "repr": text}
     config["package_version"] = __version__
     return config

@@ -151,6 +151,13 @@ def plugin_policy_forms() -> list[str]:
     return forms
 
 
+def has_address_repr(obj: Any) -> bool:
+    """Whether ``repr(obj)`` names a memory address (``<... at 0x...>``), so differs in every process."""
+    import re
+
+    return re.search(r" at 0x[0-9a-fA-F]+", repr(obj)) is not None
+
+
 def stable_parameters(obj: Any, what: str) -> Any:
     """Plain data describing ``obj``'s configuration, the same in every process (hashed into store keys).
 
@@ -164,13 +171,11 @@ def stable_parameters(obj: Any, what: str) -> Any:
     """
     import dataclasses
     import json
-    import re
 
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return dataclasses.asdict(obj)
-    text = repr(obj)
-    if not re.search(r" at 0x[0-9a-fA-F]+", text):
-        return text
+    if not has_address_repr(obj):
+        return repr(obj)
     attributes = {k: v for k, v in vars(obj).items() if not k.startswith("_")} if hasattr(obj, "__dict__") else None
     try:
         json.dumps(attributes, allow_nan=True)

@@ -103,6 +103,11 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     )
 
 
+def _read_only(path: Path) -> sqlite3.Connection:
+    """A connection that cannot write to ``path`` (the checks run before any write)."""
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+
+
 def check_integrity(path: str | Path) -> None:
     """SQLite's own ``PRAGMA quick_check`` of an existing store, read-only (before ``run`` writes into it).
 
@@ -118,7 +123,7 @@ def check_integrity(path: str | Path) -> None:
     if not path.is_file() or path.stat().st_size == 0:
         return
     try:
-        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+        connection = _read_only(path)
         try:
             rows = connection.execute("PRAGMA quick_check").fetchall()
         finally:
@@ -184,7 +189,7 @@ def _schema_version(path: Path, must_exist: bool) -> tuple[set[str], Any]:
         StoreError: unreadable, damaged, or an SQLite database without the table every store has.
     """
     try:
-        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+        connection = _read_only(path)
     except sqlite3.Error as error:
         raise StoreError(path, f"cannot read it ({error})") from None
     try:
