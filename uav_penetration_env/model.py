@@ -179,7 +179,7 @@ class PenetrationModel:
         self.mountain_present = np.zeros((pool, peaks))
         self.goal = np.zeros((pool, 3))  # x, y, radius [m]
         self.start = np.zeros((pool, 2))
-        floors = []
+        floors: list[np.ndarray] = []
         for p, b in enumerate(built):
             s = b.scenario
             m = len(b.radar_xyz)

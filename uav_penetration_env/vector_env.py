@@ -75,9 +75,11 @@ def _vector_info(
 
     With ``rows``, ``info`` holds only those rows and is scattered into ``num_envs``-sized arrays.
     """
+    if rows is not None and num_envs is None:
+        raise TypeError("_vector_info: rows given without num_envs")
     out: dict[str, Any] = {}
     for key, value in info.items():
-        if rows is None:
+        if rows is None or num_envs is None:
             out[key] = value
             out[f"_{key}"] = np.ones(len(value), dtype=bool)
         else:
@@ -161,7 +163,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
         if isinstance(self.source, FixedScenarioSource):
             self._load([self.source.scenario])
-            limits = self._model.limits
+            limits = self.model.limits
         else:
             limits = UAVLimits.from_scenario(Scenario())
         self.single_observation_space = observation_space()
@@ -251,7 +253,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 self._index[i] = position[scenario.hash]
 
     def _rows_index(self, rows: np.ndarray) -> np.ndarray | None:
-        return None if self._model.pool_size == 1 else self._index[rows]
+        return None if self.model.pool_size == 1 else self._index[rows]
 
     # --- Gymnasium API ---------------------------------------------------------------------------------
 
@@ -274,12 +276,13 @@ class UAVPenetrationVectorEnv(VectorEnv):
         rows = np.flatnonzero(mask)
         self._reset_rows(rows, [seeds[i] for i in rows])
         self._started = True
-        self._np_random_seed = tuple(self._sub_seeds)
-        result = self._model.reset_result(self._states[rows], self._rows_index(rows))
+        # Gymnasium's VectorEnv annotates an int; its own vector envs keep one seed per sub-env too.
+        self._np_random_seed = tuple(self._sub_seeds)  # type: ignore[assignment]
+        result = self.model.reset_result(self._states[rows], self._rows_index(rows))
         # observe() without a result re-evaluates the radars at each state: the same numbers a step
         # into that state reported, so rows that were not reset keep their observation.
-        obs = self._model.observe(
-            self._states, self._steps, None, None if self._model.pool_size == 1 else self._index
+        obs = self.model.observe(
+            self._states, self._steps, None, None if self.model.pool_size == 1 else self._index
         )
         info = batched_info(result)
         if len(rows) == n:
@@ -297,7 +300,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         for i, scenario in zip(rows, chosen, strict=True):
             self._scenarios[i] = scenario
             self._index[i] = position[scenario.hash]
-        self._states[rows] = self._model.initial_states([self._rngs[i] for i in rows], self._index[rows])
+        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows], self._index[rows])
         self._steps[rows] = 0
         self._autoreset[rows] = False
         if self.render_mode is not None:
@@ -329,8 +332,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         if len(resetting):
             self._reset_rows(resetting, [None] * len(resetting))
-        index = None if self._model.pool_size == 1 else self._index
-        result = self._model.step(
+        index = None if self.model.pool_size == 1 else self._index
+        result = self.model.step(
             self._states[stepping],
             controls[stepping],
             self._steps[stepping],
@@ -349,7 +352,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 self._tracks[i].append(self._states[i].copy())
 
         full = self._full_result(stepping, result, resetting)
-        obs = self._model.observe(self._states, self._steps, full, index)
+        obs = self.model.observe(self._states, self._steps, full, index)
         info = _vector_info(batched_info(full))
 
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
@@ -361,11 +364,11 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 {k: v[finished] for k, v in batched_info(full).items()}, finished, n
             )
             self._reset_rows(finished, [None] * len(finished))
-            index = None if self._model.pool_size == 1 else self._index
-            fresh = self._model.reset_result(
+            index = None if self.model.pool_size == 1 else self._index
+            fresh = self.model.reset_result(
                 self._states[finished], None if index is None else index[finished]
             )
-            obs = self._model.observe(self._states, self._steps, None, index)
+            obs = self.model.observe(self._states, self._steps, None, index)
             reset_info = batched_info(fresh)
             for key, value in reset_info.items():
                 info[key] = info[key].copy()
@@ -381,8 +384,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         if not len(resetting):
             return result
         n = self.num_envs
-        index = None if self._model.pool_size == 1 else self._index
-        fresh = self._model.reset_result(self._states[resetting], None if index is None else index[resetting])
+        index = None if self.model.pool_size == 1 else self._index
+        fresh = self.model.reset_result(self._states[resetting], None if index is None else index[resetting])
         merged = {}
         for name in StepResult.__dataclass_fields__:
             a, b = getattr(result, name), getattr(fresh, name)
@@ -399,7 +402,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         frames = []
         for i in range(self.num_envs):
-            model = PenetrationModel(self._model.built[self._index[i]])
+            model = PenetrationModel(self.model.built[self._index[i]])
             renderer = SceneRenderer(model, human=False)
             frames.append(renderer.draw(np.array(self._tracks[i]), self._states[i]))
             renderer.close()

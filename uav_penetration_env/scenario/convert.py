@@ -128,7 +128,7 @@ def _convert(tp: Any, value: Any, path: str, owner: type, name: str) -> Any:
         if len(options) == 1:
             return _convert(options[0], value, path, owner, name)
         return _convert_tagged(options, value, path)
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return from_mapping(tp, value, path)
     if tp in _SCALARS:
         accepts, expected = _SCALARS[tp]
