@@ -161,7 +161,7 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     ("argv", "message"),
     [
         (["--policies", "ihspo"], "did you mean 'ihpso'"),
-        (["--scenarios", "nowhere.yaml"], "unknown scenario 'nowhere.yaml'"),
+        (["--scenarios", "nowhere.yaml"], "no such scenario file 'nowhere.yaml'"),
         (["--seeds", "many"], "--seeds"),
         (["--backend", "spark"], "--backend"),
         (["--weights", "1,2"], "--weights"),
