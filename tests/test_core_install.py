@@ -80,7 +80,9 @@ def test_the_harness_extra_lists_what_the_commands_check():
     tomllib = pytest.importorskip("tomllib")  # Python 3.11+
     pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
     project = pyproject["project"]
-    core = {requirement.split(">")[0].split("=")[0].strip().lower() for requirement in project["dependencies"]}
+    core = {
+        requirement.split(">")[0].split("=")[0].strip().lower() for requirement in project["dependencies"]
+    }
     extra = {
         requirement.split(">")[0].split("=")[0].strip().lower()
         for requirement in project["optional-dependencies"]["harness"]

@@ -39,7 +39,9 @@ def configurations(store: Any) -> list[dict[str, Any]]:
     known = store.policies()
     counts: dict[str, list[int]] = {h: [0, 0] for h in known}
     names = {h: name for h, (name, _) in known.items()}
-    for policy_hash, name, error in zip(episodes["policy_hash"], episodes["policy"], episodes["error"], strict=True):
+    for policy_hash, name, error in zip(
+        episodes["policy_hash"], episodes["policy"], episodes["error"], strict=True
+    ):
         counts.setdefault(policy_hash, [0, 0])
         names.setdefault(policy_hash, name)
         counts[policy_hash][0] += 1
@@ -97,7 +99,9 @@ def run(args: argparse.Namespace) -> int:
         except StoreError as error:
             raise store_error(error) from None
         for row in rows:
-            print(f"{row['label']:<32} {row['policy_hash']}  {row['episodes']:>6} episodes  {row['errors']:>4} errors")
+            print(
+                f"{row['label']:<32} {row['policy_hash']}  {row['episodes']:>6} episodes  {row['errors']:>4} errors"
+            )
         return 0
     if not args.policy:
         raise CLIError("--policy: required by `store drop` (a label from `uav-bench store list`)")
