@@ -14,7 +14,6 @@ import numpy as np
 
 from uav_penetration_env import dem, rcs
 from uav_penetration_env.cache import cached_arrays
-from uav_penetration_env.files import file_digest
 from uav_penetration_env.radar import visibility_floor
 from uav_penetration_env.scenario import (
     ConstantRCS,
@@ -79,13 +78,17 @@ def _terrain_inputs(scenario: Scenario) -> dict:
         terrain.pop("seed")  # deterministic surfaces: share one cache entry across seeds
     inputs = {"terrain": terrain, "map": dataclasses.asdict(scenario.map)}
     if isinstance(scenario.terrain.natural, DEMTerrain):
-        # Keyed by the raster's content, not its name: a file rewritten in place is rebuilt.
-        inputs["raster_sha256"] = file_digest(scenario.terrain.natural.file)
+        # Keyed by the raster's content as the scenario's hash saw it, not by its name: a file
+        # rewritten in place is a new key, and the build reads only bytes with this digest.
+        inputs["raster_sha256"] = scenario.input_digests["terrain.natural.file"]
     return inputs
 
 
-def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:
-    """The natural terrain h_nat on the grid (model.md §2.3), drawn from ``config.seed``."""
+def natural_terrain(config: TerrainConfig, grid: GridSpec, raster_digest: str | None = None) -> FloatArray:
+    """The natural terrain h_nat on the grid (model.md §2.3), drawn from ``config.seed``.
+
+    ``raster_digest``: the SHA-256 a DEM raster's bytes must have (``None``: the file as it is).
+    """
     natural = config.natural
     shape = (grid.nx, grid.ny)
     rng = np.random.default_rng(config.seed)
@@ -103,7 +106,7 @@ def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:
     if isinstance(natural, FlatTerrain):
         return np.full(shape, natural.height_m)
     if isinstance(natural, DEMTerrain):
-        return dem.dem_heights(natural, grid)
+        return dem.dem_heights(natural, grid, raster_digest)
     raise TypeError(f"unknown natural terrain {natural!r}")  # the schema admits no other type
 
 
@@ -114,7 +117,8 @@ def compose_terrain(scenario: Scenario) -> FloatArray:
     threat (§3); the raster already contains them, so they do not reshape it.
     """
     grid = grid_for(scenario)
-    heights = natural_terrain(scenario.terrain, grid)
+    digest = scenario.input_digests.get("terrain.natural.file")
+    heights = natural_terrain(scenario.terrain, grid, digest)
     if not isinstance(scenario.terrain.natural, DEMTerrain) and scenario.terrain.mountains:
         gx, gy = grid.mesh()
         centres, peak_heights = _mountain_arrays(scenario)

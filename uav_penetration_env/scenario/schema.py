@@ -516,18 +516,27 @@ class Scenario(Checked):
     def hash(self) -> str:
         """A 16-hex-digit content hash of every field (weights and normalisation included).
 
-        It also covers the bytes of every file the scenario reads (:meth:`input_files`), as they
-        are when the hash is first asked for. Computed once per (immutable) instance: envs look
-        scenarios up by hash at every reset.
+        It also covers the bytes of every file the scenario reads (:attr:`input_digests`), as they
+        are when first digested. Computed once per (immutable) instance: envs look scenarios up by
+        hash at every reset.
         """
         payload: Any = self.to_dict()
-        files = self.input_files()
-        if files:
+        if self.input_digests:
             # DECISION: the content of every file the scenario reads is part of its identity
             # (model.md §7a); scenarios that read no file keep the hash of their fields alone.
-            payload = [payload, {field: file_digest(name) for field, name in files.items()}]
+            payload = [payload, dict(self.input_digests)]
         text = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @cached_property
+    def input_digests(self) -> dict[str, str]:
+        """SHA-256 (hex) of each file the scenario reads, by field path, taken once per instance.
+
+        The hash is made of these digests, and the build reads only files whose bytes still have
+        them (model.md §2.5, "identity by content"), so a scenario object never labels terrain
+        built from other bytes than those it was hashed with.
+        """
+        return {field: file_digest(name) for field, name in self.input_files().items()}
 
     def input_files(self) -> dict[str, str]:
         """The files this scenario reads, by field path (a DEM raster, an RCS table)."""
