@@ -10,7 +10,9 @@ Longitudes (model.md §2.5, "longitude convention"): inside the project a raster
 one strictly increasing axis that starts in [-180, 180) and may run past 180 (a raster that crosses
 the antimeridian, stored either as 179..181 or as 179..180, -180..-179, becomes 179..181). The
 window ``lon_deg`` is shifted by a whole number of turns (360 deg) into that frame, so a window
-written in [-180, 180) or in [0, 360) selects the same terrain.
+written in [-180, 180) or in [0, 360) selects the same terrain. Columns stored east to west are
+flipped (across the antimeridian too), and a raster that goes all the way round serves a window
+across its own first and last column (:func:`_wrapped`).
 
 Missing data (model.md §2.5, "missing data"): a cell is missing when it is NaN or infinite, equals
 the file's declared nodata value or the scenario's ``nodata``, is masked by a GeoTIFF's mask band
@@ -304,7 +306,9 @@ def load_raster(config: DEMTerrain, digest: str | None = None) -> Raster:
         raise ScenarioError("terrain.natural.file", str(path), "finite latitude and longitude coordinates")
     if latitude[0] > latitude[-1]:
         latitude, heights = latitude[::-1], heights[::-1]
-    if longitude[0] > longitude[-1] and np.all(np.diff(longitude) < 0):
+    # East to west, possibly across the antimeridian (-178 .. -180, 179.95 .. 178): judged unwrapped.
+    stored = np.unwrap(np.mod(longitude + 180.0, 360.0) - 180.0, period=360.0)
+    if stored[0] > stored[-1] and np.all(np.diff(stored) < 0):
         longitude, heights = longitude[::-1], heights[:, ::-1]
     if not np.all(np.diff(latitude) > 0):
         raise ScenarioError("terrain.natural.file", str(path), "strictly ordered latitudes")
@@ -316,6 +320,34 @@ def load_raster(config: DEMTerrain, digest: str | None = None) -> Raster:
     heights = np.where(missing, np.nan, heights)
     heights[undeclared_voids(heights)] = np.nan
     return Raster(np.ascontiguousarray(heights), latitude, longitude, path)
+
+
+def _is_global(longitude: FloatArray) -> tuple[bool, float]:
+    """Whether evenly spaced cell centres go all the way round (n cells x step = 360 deg), and the step."""
+    step = (longitude[-1] - longitude[0]) / (longitude.size - 1)
+    even = np.allclose(np.diff(longitude), step, rtol=1e-6, atol=1e-9)
+    return bool(even and abs(longitude.size * step - 360.0) <= 1e-6 * 360.0), float(step)
+
+
+def _wrapped(raster: Raster, west: float, east: float) -> Raster:
+    """The columns of a global raster that cover longitudes ``west..east``, taken round the globe.
+
+    A raster that goes all the way round serves any window, across its own first and last column
+    too (0..360 across the prime meridian, -180..180 across the antimeridian): the columns are
+    taken modulo the raster's width, shifted by whole turns.
+    """
+    global_, step = _is_global(raster.longitude)
+    if not global_ or (west >= raster.longitude[0] and east <= raster.longitude[-1]):
+        return raster
+    n = raster.longitude.size
+    index = np.arange(
+        math.floor((west - raster.longitude[0]) / step) - 1,
+        math.ceil((east - raster.longitude[0]) / step) + 2,
+    )
+    columns, turns = np.mod(index, n), np.floor_divide(index, n)
+    longitude = raster.longitude[columns] + 360.0 * turns
+    heights = np.ascontiguousarray(raster.heights[:, columns])
+    return Raster(heights, raster.latitude, longitude, raster.path)
 
 
 def window_longitudes(config: DEMTerrain, raster: Raster) -> tuple[float, float]:
@@ -426,6 +458,8 @@ def dem_heights(config: DEMTerrain, grid: GridSpec, digest: str | None = None) -
     gx, gy = grid.mesh()
     lon = west + np.degrees(gx / (EARTH_RADIUS_M * math.cos(lat_c)))
     lat = config.lat_deg[0] + np.degrees(gy / EARTH_RADIUS_M)
+    raster = _wrapped(raster, float(lon.min()), float(lon.max()))
+    latitude, longitude = raster.latitude, raster.longitude
     tolerance = 1e-9
     if (
         lon.min() < longitude[0] - tolerance

@@ -104,6 +104,44 @@ def test_unordered_longitudes_are_refused(tmp_path):
         load_raster(DEMTerrain(file=file))
 
 
+def test_a_descending_raster_across_the_antimeridian_is_flipped(tmp_path):
+    stored = np.arange(179.0, 181.0001, 0.05)[::-1]  # east to west: -179 .. -180, 179.95 .. 179
+    stored = np.where(stored >= 180.0, stored - 360.0, stored)
+    heights = plane(np.where(stored < 0.0, stored + 360.0, stored)[None, :] - 179.0, LAT[:, None])
+    file = write_npz(tmp_path / "desc.npz", stored, LAT, heights)
+    raster = load_raster(DEMTerrain(file=file))
+    assert raster.longitude[0] == pytest.approx(179.0) and raster.longitude[-1] == pytest.approx(181.0)
+    config = DEMTerrain(file=file, lat_deg=(49.5, 50.0), lon_deg=(179.5, 180.3))
+    np.testing.assert_allclose(dem_heights(config, GRID), expected_heights(config, GRID, 179.0), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("start", "window"), [(0.0, (-0.8, 0.8)), (-180.0, (179.2, 180.8))], ids=["0-360", "signed"]
+)
+def test_a_global_raster_serves_a_window_across_its_seam(tmp_path, start, window):
+    # The same periodic surface stored from `start` (the window crosses its first/last column) and
+    # from a longitude that puts the window inside: the same cells, so the same terrain.
+    def surface(lon):
+        return 1000.0 + 500.0 * np.cos(np.radians(lon))[None, :] + 10.0 * LAT[:, None]
+
+    seam = np.arange(3600) * 0.1 + start
+    inside = np.arange(3600) * 0.1 + start + 90.0
+    config = {"lat_deg": (49.5, 50.0), "lon_deg": window}
+    across = dem_heights(
+        DEMTerrain(file=write_npz(tmp_path / "seam.npz", seam, LAT, surface(seam)), **config), GRID
+    )
+    within = dem_heights(
+        DEMTerrain(file=write_npz(tmp_path / "inside.npz", inside, LAT, surface(inside)), **config), GRID
+    )
+    np.testing.assert_allclose(across, within, atol=1e-9)
+    # A raster that is not global still refuses a window beyond its edge.
+    part = seam[:3000]
+    with pytest.raises(ScenarioError, match="a map inside the raster"):
+        dem_heights(
+            DEMTerrain(file=write_npz(tmp_path / "part.npz", part, LAT, surface(part)), **config), GRID
+        )
+
+
 # --- missing data ------------------------------------------------------------------------------------
 
 
