@@ -139,6 +139,34 @@ def _geographic_crs_problem(crs: object) -> str | None:
     return None
 
 
+# What a GDAL sidecar may hold that changes heights (statistics and histograms do not).
+_HEIGHT_CHANGING_PAM = (b"NoDataValue", b"<Offset>", b"<Scale>", b"<MaskBand>")
+
+
+def _refuse_sidecars(path: Path) -> None:
+    """Refuse a GeoTIFF whose heights a sidecar file would change: the hash covers the .tif alone.
+
+    DECISION (model.md §2.5): the raster is read from the hashed bytes of the .tif, so a ``.msk`` mask or an
+    ``.aux.xml`` that declares nodata, a scale, an offset or a mask is refused instead of ignored;
+    an ``.aux.xml`` of statistics alone (GIS tools write them) is no part of the terrain.
+    """
+    mask = path.with_name(path.name + ".msk")
+    aux = path.with_name(path.name + ".aux.xml")
+    try:
+        aux_changes = aux.is_file() and any(key in aux.read_bytes() for key in _HEIGHT_CHANGING_PAM)
+    except OSError:
+        aux_changes = True
+    for sidecar, found in ((mask, mask.exists()), (aux, aux_changes)):
+        if found:
+            raise ScenarioError(
+                "terrain.natural.file",
+                path.name,
+                f"a GeoTIFF without a {sidecar.name[len(path.name) :]} sidecar that changes its heights (the "
+                "scenario hash covers the .tif alone): fold it in, e.g. gdal_translate -co "
+                "GDAL_TIFF_INTERNAL_MASK=YES, or remove it",
+            )
+
+
 def _read_geotiff(
     path: Path, content: bytes, config: DEMTerrain
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -149,15 +177,7 @@ def _read_geotiff(
         raise ScenarioError(
             "terrain.natural.file", str(path), "rasterio to read GeoTIFF: pip install -e '.[geo]'"
         ) from None
-    for sidecar in (path.with_name(path.name + ".msk"), path.with_name(path.name + ".aux.xml")):
-        if sidecar.exists():
-            # The scenario's identity covers the .tif's bytes only: what a sidecar adds must live inside.
-            raise ScenarioError(
-                "terrain.natural.file",
-                path.name,
-                f"a GeoTIFF without a {sidecar.name[len(path.name) :]} sidecar (the scenario hash covers the .tif "
-                "alone): fold it in, e.g. gdal_translate -co GDAL_TIFF_INTERNAL_MASK=YES, or remove it",
-            )
+    _refuse_sidecars(path)
     with MemoryFile(content) as memory, memory.open() as source:
         problem = _geographic_crs_problem(source.crs)
         if problem is not None:

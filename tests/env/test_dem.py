@@ -340,6 +340,15 @@ def test_a_geographic_crs_on_another_datum_in_degrees_is_read(tmp_path):
 
 def test_a_geotiff_with_a_sidecar_the_hash_misses_is_refused(tmp_path):
     file, _ = _geotiff_plane(tmp_path)
+    statistics = b"<PAMDataset><PAMRasterBand band='1'><Metadata><MDI key='STATISTICS_MEAN'>5</MDI>"
+    (tmp_path / "dem.tif.aux.xml").write_bytes(statistics + b"</Metadata></PAMRasterBand></PAMDataset>")
+    load_raster(DEMTerrain(file=file))  # statistics change no height
+    (tmp_path / "dem.tif.aux.xml").write_bytes(
+        statistics.replace(b"<Metadata>", b"<NoDataValue>0</NoDataValue>")
+    )
+    with pytest.raises(ScenarioError, match=r"\.aux\.xml sidecar"):
+        load_raster(DEMTerrain(file=file))
+    (tmp_path / "dem.tif.aux.xml").unlink()
     (tmp_path / "dem.tif.msk").write_bytes(b"")
     with pytest.raises(ScenarioError, match=r"\.msk sidecar"):
         load_raster(DEMTerrain(file=file))
