@@ -14,6 +14,7 @@ import numpy as np
 
 from uav_penetration_env import dem, rcs
 from uav_penetration_env.cache import cached_arrays
+from uav_penetration_env.files import file_digest
 from uav_penetration_env.radar import visibility_floor
 from uav_penetration_env.scenario import (
     ConstantRCS,
@@ -150,9 +151,18 @@ def rcs_table(scenario: Scenario) -> FloatArray:
         return rcs.constant_rcs_table(config.rcs_m2)
     if isinstance(config, TableRCS):
         try:
-            return rcs.load_rcs_table(config.path)
+            table = rcs.load_rcs_table(config.path)
         except (OSError, ValueError) as error:
             raise ScenarioError("uav.rcs.path", config.path, f"a readable RCS table ({error})") from None
+        # Digested after the read: a table rewritten since the scenario's hash is refused (model.md §2.5,
+        # "identity by content"), never built under the old identity.
+        if file_digest(config.path) != scenario.input_digests["uav.rcs.path"]:
+            raise ScenarioError(
+                "uav.rcs.path",
+                config.path,
+                "the file as it was when the scenario was hashed (it changed since; load the scenario again)",
+            )
+        return table
     if isinstance(config, PrimitivesRCS):
         airframe = rcs.AirframeRCS(frequency_ghz=config.frequency_ghz)
         inputs = {"airframe": repr(airframe), "subsamples": RCS_TABLE_SUBSAMPLES}
