@@ -54,10 +54,7 @@ class StrictLoader(yaml.SafeLoader):
                     seen.add(key)
                 except TypeError:
                     raise yaml.constructor.ConstructorError(
-                        None,
-                        None,
-                        f"a key that is not a plain value ({type(key).__name__})",
-                        key_node.start_mark,
+                        None, None, f"a key that is not a plain value ({type(key).__name__})", key_node.start_mark
                     ) from None
                 if duplicate:
                     raise yaml.constructor.ConstructorError(
@@ -75,11 +72,7 @@ def _expanded_size(node: Any, memo: dict[int, int]) -> int:
     children = node.value if isinstance(node.value, list) else []
     size = 1
     for child in children:
-        size += (
-            sum(_expanded_size(n, memo) for n in child)
-            if isinstance(child, tuple)
-            else _expanded_size(child, memo)
-        )
+        size += sum(_expanded_size(n, memo) for n in child) if isinstance(child, tuple) else _expanded_size(child, memo)
         if size > MAX_NODES:
             break
     memo[id(node)] = size
@@ -100,9 +93,7 @@ def load_yaml_text(text: str, where: str) -> Any:
             return None
         size = _expanded_size(node, {})
         if size > MAX_NODES:
-            raise ScenarioError(
-                "path", where, f"at most {MAX_NODES:,} YAML nodes with aliases expanded (an alias bomb?)"
-            )
+            raise ScenarioError("path", where, f"at most {MAX_NODES:,} YAML nodes with aliases expanded (an alias bomb?)")
         return loader.construct_document(node)
     except yaml.YAMLError as error:
         raise ScenarioError("path", where, f"valid YAML ({_one_line(error)})") from None
@@ -116,9 +107,7 @@ def _one_line(error: yaml.YAMLError) -> str:
     mark = getattr(error, "problem_mark", None)
     if problem is None:
         return " ".join(str(error).split())[:300]
-    return (
-        f"{problem} at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else str(problem)
-    )
+    return f"{problem} at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else str(problem)
 
 
 def read_yaml(path: Path) -> Any:
@@ -133,9 +122,7 @@ def read_yaml(path: Path) -> Any:
     except OSError as error:
         raise ScenarioError("path", str(path), f"a readable scenario file ({error.strerror})") from error
     except UnicodeDecodeError as error:
-        raise ScenarioError(
-            "path", str(path), f"a UTF-8 text file (byte {error.start} is not UTF-8)"
-        ) from None
+        raise ScenarioError("path", str(path), f"a UTF-8 text file (byte {error.start} is not UTF-8)") from None
     return load_yaml_text(text, str(path))
 
 
