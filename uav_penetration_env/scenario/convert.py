@@ -192,11 +192,10 @@ def _convert_tagged(options: list[type], value: Any, path: str) -> Any:
     if not isinstance(value, Mapping):
         raise ScenarioError(path, value, f"a mapping with '{tag_field}' in {sorted(tags)}")
     tag = value.get(tag_field, _tag(options[0]))
-    if tag not in tags:
+    if not isinstance(tag, str) or tag not in tags:  # a list or mapping is no tag (and unhashable)
+        hint = did_you_mean(tag, tags) if isinstance(tag, str) else ""
         raise ScenarioError(
-            f"{path}.{tag_field}",
-            tag,
-            f"a known {tag_field} ({did_you_mean(tag, tags)}one of {', '.join(tags)})",
+            f"{path}.{tag_field}", tag, f"a known {tag_field} ({hint}one of {', '.join(tags)})"
         )
     return from_mapping(tags[tag], value, path)
 
