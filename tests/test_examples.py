@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import re
 import shlex
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +13,14 @@ import pytest
 from conftest import tiny_scenario
 from scipy.optimize import Bounds
 
-from optimizers import OptimizeResult, get_optimizer, normalize_bounds
+from optimizers import OptimizeResult, get_optimizer, normalize_bounds, registry
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark.store import ResultsStore
 
 ROOT = Path(__file__).resolve().parent.parent
 PAGE = ROOT / "docs" / "plugins.md"
 NEVERGRAD = importlib.util.find_spec("nevergrad") is not None
+MODULES = ("examples.random_search", "examples.nevergrad_de")
 EXAMPLES_EXTRA = "the nevergrad example needs the examples extra: pip install -e '.[examples]'"
 
 EXAMPLES = [
@@ -28,6 +30,21 @@ EXAMPLES = [
         marks=pytest.mark.skipif(not NEVERGRAD, reason=EXAMPLES_EXTRA),
     ),
 ]  # fmt: skip
+
+
+@pytest.fixture(autouse=True)
+def own_registry(monkeypatch):
+    """Each test imports the examples afresh into a copy of the registry, so their names do not leak.
+
+    Importing an example registers its name for good; another test (or a second import) registering
+    the same name would then be refused as a duplicate.
+    """
+    monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
+    for module in MODULES:
+        monkeypatch.delitem(sys.modules, module, raising=False)
+    yield
+    for module in MODULES:
+        sys.modules.pop(module, None)
 
 
 def sphere(X: np.ndarray) -> np.ndarray:
@@ -93,6 +110,7 @@ def test_the_pages_cli_line_runs_as_printed(tmp_path, monkeypatch):
     scenario = tiny_scenario(time={"max_steps": 8}).to_yaml(tmp_path / "tiny.yaml")
     store = tmp_path / "plugins.sqlite"
     extra = ["--scenarios", str(scenario), "--seeds", "1", "--store", str(store), "--no-report", "--no-progress"]
+    assert "random-search" not in registry._REGISTRY  # the page's --import is what registers it
     assert cli.main([*argv, *extra]) == 0
     with ResultsStore(store) as results:
         rows = results.episodes()
