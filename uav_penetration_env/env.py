@@ -269,11 +269,19 @@ def _refuse_action(action: Any, high: FloatArray) -> NoReturn:
 class UAVPenetrationEnv(gym.Env):
     """UAV low-altitude penetration over terrain past a radar network (Luo, Liang & Li 2022).
 
-    Observation: ``Box(-10, 10, (67,), float32)`` (model.md §7a). Action: ``Box(3,)`` float32 in
-    physical units ``[dv (m/s), dphi (rad), dtheta (rad)]``, bounded by the scenario's per-step
-    limits; the env converts it to float64 once, **clips it to the box**, and raises
-    ``ValueError`` for NaN/inf or a wrong shape. Reward: ``-(J(k) + penalty)`` on every step.
-    The episode terminates at the goal, on a collision, or out of the map/above the ceiling, and
+    The labelled paragraphs below are the env pages' specification (docs/envs/UAVPenetration-v0.md,
+    written by ``benchmarks/env_pages.py``); keep one label per paragraph.
+
+    Observation: 67 float32 slots, each clipped to [-10, 10] (model.md §7a lists them).
+
+    Action: three float32 values in physical units ``[dv (m/s), dphi (rad), dtheta (rad)]``,
+    bounded by the scenario's per-step limits; the env converts it to float64 once, **clips it to
+    the box**, and raises ``ValueError`` for NaN/inf or a wrong shape.
+
+    Reward: ``-(J(k) + penalty)`` on every step, terminal ones included; ``penalty`` is 0 unless
+    the step ended the episode by a failure (model.md §7a).
+
+    Episode end: terminates at the goal, on a collision, or out of the map/above the ceiling;
     truncates itself at ``time.max_steps``.
 
     Args:
