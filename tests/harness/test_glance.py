@@ -99,3 +99,9 @@ def test_the_glance_columns_come_first_and_keep_the_registry_labels():
     assert glance.column_label("total_cost_mean", short=True) == "total J (incl. penalty)"
     with pytest.raises(KeyError, match="total_cost_means"):
         glance.column_label("total_cost_means")
+
+
+def test_a_frozen_suite_table_names_its_members(tmp_path):
+    frame = leaderboard(tmp_path).assign(members=[2, 3, 3])
+    text = glance.headline(frame, "uavpen-v1", list(SEEDS), scenarios=("a", "b", "c"))
+    assert text.endswith("Over 8 seeds (0–7) on 3 suite members: 3 policies, 24 finished episodes.")

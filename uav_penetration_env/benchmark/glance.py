@@ -133,7 +133,8 @@ def headline(
         table: a leaderboard CSV as read by pandas (columns of :mod:`~.columns`).
         name: the scenario group's (or suite's) name.
         seeds: the episode seeds of the group (default: not named, the episode count is).
-        scenarios: the scenarios of a suite group (default: one scenario, ``name``).
+        scenarios: the scenarios of a suite group (default: one scenario, ``name``); a frozen
+            suite's table (a ``members`` column) names its members instead.
 
     Returns:
         Plain text (no markup), a few sentences: ``pso is cheapest on paper: mean total J ...``.
@@ -174,6 +175,9 @@ def headline(
     else:
         text = f"{lead}, the only policy in this table."
     episodes = int(pd.to_numeric(rows["episodes"], errors="coerce").fillna(0).sum()) if "episodes" in rows else 0
-    where = f"{len(scenarios)} scenarios" if scenarios else "one scenario"
+    where = f"{len(scenarios)} scenarios" if len(scenarios) > 1 else "one scenario"
+    members = pd.to_numeric(rows["members"], errors="coerce").dropna() if "members" in rows else ()
+    if len(members):  # a frozen suite's table (leaderboard.suite): its means cover members
+        where = f"{int(members.max())} suite members"
     over = f"{len(seeds)} seeds ({compact_ranges(seeds)})" if len(seeds) else "the stored seeds"
     return f"{text} Over {over} on {where}: {len(rows)} policies, {episodes} finished episodes."

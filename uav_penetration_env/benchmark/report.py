@@ -378,16 +378,21 @@ def _display_table(frame: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def _group_seeds(context: ReportContext) -> dict[str, tuple[list[int], tuple[str, ...]]]:
-    """Per leaderboard stem: the group's episode seeds and, for a suite group, its scenarios."""
+def _group_seeds(context: ReportContext) -> tuple[dict[str, tuple[list[int], tuple[str, ...]]], tuple]:
+    """Per scenario group's stem: its episode seeds and scenario; and the same over the whole store.
+
+    A table of no single scenario group (``leaderboard --suite``, a frozen suite's) covers the
+    store's episodes: the second item, every seed and scenario of the store.
+    """
     from uav_penetration_env.benchmark.leaderboard import scenario_groups
 
+    episodes = context.store.episodes()
     found = {}
-    for group in scenario_groups(context.store.episodes()):
-        column = "episode_seed" if group.scenarios and "episode_seed" in group.episodes else "seed"
-        seeds = sorted(int(s) for s in group.episodes[column].dropna().unique())
-        found[group.stem] = (seeds, group.scenarios)
-    return found
+    for group in scenario_groups(episodes):
+        seeds = sorted(int(s) for s in group.episodes["seed"].dropna().unique())
+        found[group.stem] = (seeds, (group.name,))
+    every = (sorted(int(s) for s in episodes["seed"].dropna().unique()), tuple(sorted(set(episodes["scenario"]))))
+    return found, every
 
 
 # Headline sentences at most on the page's top; the other tables are one click away.
@@ -413,10 +418,10 @@ def _glance(context: ReportContext) -> str:
             "<p>No leaderboard on this page: <code>uav-bench report</code> writes them from the store "
             "(<code>uav-bench leaderboard</code> alone writes the Markdown and CSV files).</p>"
         )
-    seeds = _group_seeds(context)
+    seeds, every = _group_seeds(context)
     parts = []
     for path, frame in boards[:MAX_HEADLINES]:
-        group_seeds, scenarios = seeds.get(path.stem, ([], ()))
+        group_seeds, scenarios = seeds.get(path.stem, every)
         text = headline(frame, path.stem, group_seeds, scenarios)
         parts.append(f'<p class="headline">{html.escape(text)}</p>')
     if len(boards) > MAX_HEADLINES:
