@@ -131,7 +131,7 @@ header{background:#1d2430;color:#fff;padding:12px 24px}
 nav{padding:8px 24px;background:#eef1f5;position:sticky;top:0;z-index:2}
 nav a{margin-right:16px;color:#1d4ed8;text-decoration:none}
 main{padding:0 24px 48px}
-section{margin-top:28px}
+section{margin-top:28px;scroll-margin-top:64px}
 table{border-collapse:collapse;font-size:13px;margin:8px 0 16px}
 th,td{border:1px solid #ccd3dd;padding:3px 7px;text-align:right;white-space:nowrap}
 th{background:#eef1f5;cursor:pointer;position:relative}
