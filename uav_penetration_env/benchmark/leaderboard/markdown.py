@@ -90,19 +90,24 @@ def cell(column: Column, r: Any, reference: str | None) -> str:
     return format_number(value, board.digits)
 
 
-def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str], list[list[str]], list[str]]:
-    """The Markdown header, cells and alignment of a :func:`leaderboard_table`.
+def shown_columns(table: pd.DataFrame) -> list[Column]:
+    """The leaderboard columns a :func:`leaderboard_table` (or its CSV) shows, in table order.
 
     The columns are the column table's leaderboard columns (:func:`columns.leaderboard_columns`);
     an ``optional`` one is shown only when some policy has a value, a ``recorded_only`` one only when
     the table has it.
     """
-    shown = [
+    return [
         column
         for column in leaderboard_columns()
         if (column.out in table or not column.board.recorded_only)
         and (not column.board.optional or table[column.out].notna().any())
     ]
+
+
+def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str], list[list[str]], list[str]]:
+    """The Markdown header, cells and alignment of a :func:`leaderboard_table` (:func:`shown_columns`)."""
+    shown = shown_columns(table)
     header = [column.board.header.format(reference=reference or "reference") for column in shown]
     rows = [[cell(column, r, reference) for column in shown] for _, r in table.iterrows()]
     align = ["l", *(["r"] * (len(header) - 1))]
