@@ -64,7 +64,7 @@ def test_the_cheapest_against_the_reference_with_its_paired_test(tmp_path):
     delta = format_interval(pso.delta_mean, pso.delta_mean_ci_low, pso.delta_mean_ci_high, 3)
     assert f"{format_number(abs(pso.delta_mean), 3)} ({share:.1f}%) below the reference ihpso (paired Δ {delta})." in text
     assert pso.pvalue_holm < 0.05
-    assert f"Significant at α = 0.05: Wilcoxon signed-rank test over the shared seeds, Holm-adjusted {p_text(pso.pvalue_holm)}." in text
+    assert f"Significant at α = 0.05: Wilcoxon signed-rank test over the table's seeds, Holm-adjusted {p_text(pso.pvalue_holm)}." in text
     assert f"Next: greedy at {mean_text(frame, 'greedy')}." not in text  # the next is the reference itself
     assert text.endswith("Over 8 seeds (0–7) on one scenario: 3 policies, 24 finished episodes.")
     assert "**" not in text and "_" not in text

@@ -113,7 +113,7 @@ def _verdict(row: Any) -> str:
     significant = float(row.pvalue_holm) < ALPHA
     text = (
         f"{'Significant' if significant else 'Not significant'} at α = {ALPHA}: Wilcoxon signed-rank test "
-        f"over the shared seeds, Holm-adjusted {p_text(row.pvalue_holm)}"
+        f"over the table's seeds, Holm-adjusted {p_text(row.pvalue_holm)}"
     )
     pairs = int(row.n_pairs) if _finite(getattr(row, "n_pairs", None)) else 0
     if not significant and stats.minimum_wilcoxon_pvalue(pairs) > ALPHA:
