@@ -290,6 +290,9 @@ class UAVPenetrationEnv(gym.Env):
         render_mode: ``"rgb_array"`` or ``"human"``.
         default_scenario: the id's scenario when ``scenario`` is None (``"paper"`` or ``"dem"``).
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the env's model when a planner batches on it
+            (``env.unwrapped.model.rollout_cost``); the env's own step is one row on the calling
+            thread. None keeps numba's count (:class:`PenetrationModel`).
 
     Version history:
         v0: first release.
@@ -305,15 +308,21 @@ class UAVPenetrationEnv(gym.Env):
         *,
         default_scenario: str = "paper",
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         self._init_source(
             FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile)),
             render_mode,
+            threads,
         )
 
     def _init_source(
-        self, source: FixedScenarioSource | RandomScenarioSource, render_mode: str | None
+        self,
+        source: FixedScenarioSource | RandomScenarioSource,
+        render_mode: str | None,
+        threads: int | None = None,
     ) -> None:
+        self._threads = kernels.check_threads(threads)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode: got {render_mode!r}, expected one of {self.metadata['render_modes']} or None"
@@ -353,7 +362,7 @@ class UAVPenetrationEnv(gym.Env):
             if len(self._models) >= 64:
                 self._models.pop(next(iter(self._models)))
             self._models[key] = PenetrationModel(
-                self._built.get(scenario), radar_slots=self.source.radar_slots
+                self._built.get(scenario), radar_slots=self.source.radar_slots, threads=self._threads
             )
         self.model = self._models[key]
         self.scenario = scenario
@@ -540,6 +549,7 @@ class UAVPenetrationRandomEnv(UAVPenetrationEnv):
         profile: ``"benchmark"`` or ``"paper"`` (the paper profile needs payoff constants).
         render_mode: ``"rgb_array"`` or ``"human"``.
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the env's model (as for :class:`UAVPenetrationEnv`).
     """
 
     def __init__(
@@ -551,7 +561,8 @@ class UAVPenetrationRandomEnv(UAVPenetrationEnv):
         render_mode: str | None = None,
         *,
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         self._init_source(
-            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile), render_mode
+            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile), render_mode, threads
         )

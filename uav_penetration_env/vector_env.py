@@ -27,6 +27,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from uav_penetration_env import kernels
 from uav_penetration_env.env import (
     BuiltCache,
     FixedScenarioSource,
@@ -105,6 +106,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
             passes the id's registered value.
         default_scenario: the id's scenario (set at registration).
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the batched step (:class:`PenetrationModel`'s ``threads``):
+            1 beside a training process's own threads, None for numba's count in force.
     """
 
     def __init__(
@@ -118,9 +121,10 @@ class UAVPenetrationVectorEnv(VectorEnv):
         *,
         default_scenario: str = "paper",
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         source = FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile))
-        self._setup(num_envs, [source], render_mode, autoreset_mode, max_episode_steps)
+        self._setup(num_envs, [source], render_mode, autoreset_mode, max_episode_steps, threads)
 
     def _setup(
         self,
@@ -129,7 +133,9 @@ class UAVPenetrationVectorEnv(VectorEnv):
         render_mode: str | None,
         autoreset_mode: AutoresetMode | str,
         max_episode_steps: int | None,
+        threads: int | None = None,
     ) -> None:
+        self._threads = kernels.check_threads(threads)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: got {num_envs!r}, expected an integer >= 1")
         if render_mode not in (None, "rgb_array"):
@@ -244,7 +250,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         candidates = [*loaded, *needed] if len(loaded) + len(needed) <= cap else [*in_use, *needed]
         pool = list({s.hash: s for s in candidates}.values())
         self._model = PenetrationModel(
-            [self._built.get(s) for s in pool], radar_slots=self.source.radar_slots
+            [self._built.get(s) for s in pool], radar_slots=self.source.radar_slots, threads=self._threads
         )
         self._model_keys = [s.hash for s in pool]
         position = {k: i for i, k in enumerate(self._model_keys)}
@@ -428,6 +434,7 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
             has its own pool seeded by its first reset's seed, exactly as sync mode); see the
             module docstring.
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the batched step (as for the fixed-scenario vector env).
     """
 
     def __init__(
@@ -443,6 +450,7 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
         pool: str = "shared",
         *,
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         if pool not in POOL_MODES:
             raise ValueError(f"pool: got {pool!r}, expected one of {', '.join(POOL_MODES)}")
@@ -452,4 +460,4 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
             for _ in range(copies)
         ]
         self.pool = pool
-        self._setup(num_envs, sources, render_mode, autoreset_mode, max_episode_steps)
+        self._setup(num_envs, sources, render_mode, autoreset_mode, max_episode_steps, threads)
