@@ -13,7 +13,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar, Union
@@ -58,6 +58,9 @@ MAX_PATH_BYTES = 4096  # Linux PATH_MAX; each name in it at most 255 bytes (NAME
 _MAP_COORDS = Rule(
     lambda v: all(abs(c) <= MAX_MAP_COORD_KM for c in v), f"bounds within +-{MAX_MAP_COORD_KM:,.0f} km"
 )
+# A peak or a radar may stand outside the map, but not farther than a map may reach (its squared
+# distances would overflow float64 and the physics divide inf by inf).
+_COORD = Rule(lambda v: abs(v) <= MAX_MAP_COORD_KM, f"a coordinate within +-{MAX_MAP_COORD_KM:,.0f} km")
 
 
 def _is_path(value: str) -> bool:
@@ -281,8 +284,8 @@ NaturalTerrain = Union[GaussianField, RandomWalk, GaussianHill, DiamondSquare, F
 class Mountain(Checked):
     """A peak of eq. 2-3: centre [km] and height [m]."""
 
-    x_km: float
-    y_km: float
+    x_km: float = checked(MISSING, _COORD)
+    y_km: float = checked(MISSING, _COORD)
     height_m: float = positive()
 
 
@@ -332,8 +335,8 @@ class Radar(Checked):
     """A ground radar: position [km], antenna altitude above datum ``z_m`` or ``mast_m`` above terrain."""
 
     name: str
-    x_km: float
-    y_km: float
+    x_km: float = checked(MISSING, _COORD)
+    y_km: float = checked(MISSING, _COORD)
     z_m: float | None = None
     mast_m: float | None = non_negative(None)
     ref_range_km: float = positive(100.0)  # R_ref: range at which sigma_ref gives D = 1 (model.md §4.2)
