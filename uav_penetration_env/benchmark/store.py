@@ -54,6 +54,13 @@ class StoreError(RuntimeError):
         self.reason = reason
 
 
+class StoreWriteError(StoreError):
+    """Writing to a store that opened failed (its disk is full, it became read-only): finished work is kept.
+
+    Failed work rather than a bad input: ``uav-bench`` prints its one line with exit status 1.
+    """
+
+
 SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -229,6 +236,23 @@ def _reading(method: _Reader) -> _Reader:
     return read  # type: ignore[return-value]
 
 
+def _writing(method: _Reader) -> _Reader:
+    """A writer of the store whose SQLite errors (a full disk) become :class:`StoreWriteError`.
+
+    Each write is one transaction, so what was written before the failure stays whole.
+    """
+
+    @functools.wraps(method)
+    def write(self: ResultsStore, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except sqlite3.OperationalError as error:
+            hint = "; free space on its disk and rerun: what was stored before is kept" if "full" in str(error) else ""
+            raise StoreWriteError(self.path, f"cannot write to it ({error}){hint}") from error
+
+    return write  # type: ignore[return-value]
+
+
 class ResultsStore:
     """An SQLite results file. Opening creates it (and its folder) if needed.
 
@@ -319,6 +343,7 @@ class ResultsStore:
 
     # --- writing ---------------------------------------------------------------------------------------
 
+    @_writing
     def start_run(self, provenance: Mapping[str, Any], settings: Mapping[str, Any]) -> int:
         """Record a sweep's provenance; returns its ``run_id``."""
         with self._connection:
@@ -328,6 +353,7 @@ class ResultsStore:
             )
         return int(cursor.lastrowid)
 
+    @_writing
     def register(
         self, policies: Mapping[str, tuple[str, Mapping[str, Any]]], scenarios: Mapping[str, tuple[str, str]]
     ) -> None:
@@ -342,6 +368,7 @@ class ResultsStore:
                 [(h, n, y) for h, (n, y) in scenarios.items()],
             )
 
+    @_writing
     def write_episode(self, episode: Mapping[str, Any], steps: Sequence[Mapping[str, Any]]) -> int:
         """Write one finished episode and its steps in one transaction (replacing an ``error`` row).
 
@@ -369,6 +396,7 @@ class ResultsStore:
                 )
         return episode_id
 
+    @_writing
     def write_window_runs(self, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write optimiser runs on stored window states (``uav-bench windows``) in one transaction.
 
@@ -381,6 +409,7 @@ class ResultsStore:
                 [tuple(_sql_value(row.get(name)) for name in names) for row in rows],
             )
 
+    @_writing
     def load_exported(self, tables: Mapping[str, pd.DataFrame]) -> None:
         """Fill an empty store with exported rows, keeping every id (``uav-bench import``, api.md §4.9).
 
