@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import sqlite3
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -111,8 +112,26 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
 
 
 def _read_only(path: Path) -> sqlite3.Connection:
-    """A connection that cannot write to ``path`` (the checks run before any write)."""
-    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+    """A connection that cannot write to ``path`` (the checks run before any write; read-only media).
+
+    DECISION (api.md §4.7, read-only media): in a folder nobody can write (a read-only mount, a
+    published store), SQLite cannot create the ``-shm`` file a WAL-mode store's readers share,
+    so the store is opened ``immutable=1``: read as the file is, with no locks, which is safe as
+    nothing can write it there. A ``-wal`` file left beside it would be ignored; a store closed
+    by its writer has none.
+    """
+    flags = "mode=ro" if _writable_folder(path) else "mode=ro&immutable=1"
+    return sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True, timeout=60.0)
+
+
+def _writable_folder(path: Path) -> bool:
+    """Whether files can be created beside ``path`` (False on a read-only file system)."""
+    return os.access(path.resolve().parent, os.W_OK)
+
+
+def _read_only_media(path: Path) -> bool:
+    """Whether ``path`` exists but neither it nor its folder can be written (read-only media)."""
+    return path.is_file() and not (os.access(path, os.W_OK) and _writable_folder(path))
 
 
 def check_integrity(path: str | Path) -> None:
@@ -270,6 +289,10 @@ class ResultsStore:
         self.path = Path(path)
         # Reads only: a file that is not ours is refused unchanged.
         inspect_store_file(self.path, must_exist=not create)
+        if not create and _read_only_media(self.path):
+            self._connection = _read_only(self.path)
+            self._check_readable_as_is()
+            return
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._connection = sqlite3.connect(self.path, timeout=60.0)
@@ -285,6 +308,28 @@ class ResultsStore:
         except sqlite3.DatabaseError as error:
             self._connection.close()
             raise StoreError(self.path, f"damaged or not writable ({error})") from error
+
+    def _check_readable_as_is(self) -> None:
+        """A store on read-only media is read unchanged: refuse one that needs the upgrade opening does."""
+        try:
+            (version,) = self._connection.execute("SELECT version FROM schema_version").fetchone()
+            missing = [
+                f"{table}.{name}"
+                for table, declared in (("episodes", EPISODE_COLUMNS), ("steps", STEP_COLUMNS), ("window_runs", WINDOW_RUN_COLUMNS))
+                for name in declared
+                if name not in {r[1] for r in self._connection.execute(f"PRAGMA table_info({table})")}
+            ]  # fmt: skip
+        except (sqlite3.DatabaseError, TypeError) as error:
+            self._connection.close()
+            raise StoreError(self.path, f"damaged or not a results store ({error})") from None
+        if version != SCHEMA_VERSION or missing:
+            self._connection.close()
+            what = f"schema version {version}" if version != SCHEMA_VERSION else f"no column {missing[0]}"
+            raise StoreError(
+                self.path,
+                f"written by an older version ({what}) and read-only here, so it cannot be upgraded; "
+                "copy it to a writable folder and rerun",
+            )
 
     def _create(self) -> None:
         connection = self._connection
