@@ -18,11 +18,12 @@ and a rerun skips what is done and retries ``error`` rows.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
 import sqlite3
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -111,16 +112,37 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     )
 
 
-def _read_only(path: Path) -> sqlite3.Connection:
-    """A connection that cannot write to ``path`` (the checks run before any write; read-only media).
+@contextlib.contextmanager
+def _side_files_removed_on_failure(path: Path) -> Iterator[None]:
+    """Remove the ``-wal``/``-shm`` files an open of ``path`` created, if it is refused as damaged.
 
-    DECISION (api.md §4.7, read-only media): in a folder nobody can write (a read-only mount, a
-    published store), SQLite cannot create the ``-shm`` file a WAL-mode store's readers share,
-    so the store is opened ``immutable=1``: read as the file is, with no locks, which is safe as
-    nothing can write it there. A ``-wal`` file left beside it would be ignored; a store closed
-    by its writer has none.
+    A store refused as damaged is left as it was found, not with two new files beside it.
     """
-    flags = "mode=ro" if _writable_folder(path) else "mode=ro&immutable=1"
+    side = [path.with_name(path.name + suffix) for suffix in ("-wal", "-shm")]
+    before = {file for file in side if file.exists()}
+    try:
+        yield
+    except StoreError:
+        for file in side:
+            if file not in before:
+                file.unlink(missing_ok=True)
+        raise
+
+
+def _read_only(path: Path) -> sqlite3.Connection:
+    """A connection that cannot write to ``path`` and leaves no file beside it (checks, read-only media).
+
+    DECISION (api.md §4.7, read-only media): a WAL-mode store's readers share a ``-shm`` file,
+    which SQLite creates, with an empty ``-wal``, even for a read-only connection and leaves
+    behind: a damaged store refused by the checks would gain two files, and in a folder nobody
+    can write (a read-only mount, a published store) the open fails. So unless a ``-wal`` file
+    holds a writer's pages, the store is opened ``immutable=1``: read as the file is, with no
+    locks and no side files. On read-only media a ``-wal`` left beside the store is ignored; a
+    store closed by its writer has none.
+    """
+    wal = path.with_name(path.name + "-wal")
+    live = wal.is_file() and wal.stat().st_size > 0 and _writable_folder(path)
+    flags = "mode=ro" if live else "mode=ro&immutable=1"
     return sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True, timeout=60.0)
 
 
@@ -230,7 +252,10 @@ def _schema_version(path: Path, must_exist: bool) -> tuple[set[str], Any]:
         raise StoreError(path, f"damaged or not a results store ({error})") from None
     finally:
         connection.close()
-    return tables, None if row is None else row[0]
+    if row is None or not isinstance(row[0], int):  # every store writes its version on creation
+        found = "no version" if row is None else f"the version {row[0]!r}"
+        raise StoreError(path, f"damaged or not a results store (its schema_version table holds {found})")
+    return tables, row[0]
 
 
 def _json(value: Any) -> str:
@@ -300,14 +325,17 @@ class ResultsStore:
             raise StoreError(
                 self.path, f"cannot open or create it ({error}); expected a writable file path"
             ) from error
-        try:
-            self._connection.execute("PRAGMA journal_mode=WAL")
-            self._connection.execute("PRAGMA synchronous=NORMAL")
-            self._connection.execute("PRAGMA foreign_keys=ON")
-            self._create()
-        except sqlite3.DatabaseError as error:
-            self._connection.close()
-            raise StoreError(self.path, f"damaged or not writable ({error})") from error
+        with _side_files_removed_on_failure(self.path):
+            try:
+                self._connection.execute("PRAGMA journal_mode=WAL")
+                self._connection.execute("PRAGMA synchronous=NORMAL")
+                self._connection.execute("PRAGMA foreign_keys=ON")
+                self._create()
+            except (sqlite3.DatabaseError, StoreError) as error:
+                self._connection.close()
+                if isinstance(error, StoreError):
+                    raise
+                raise StoreError(self.path, f"damaged or not writable ({error})") from error
 
     def _check_readable_as_is(self) -> None:
         """A store on read-only media is read unchanged: refuse one that needs the upgrade opening does."""
