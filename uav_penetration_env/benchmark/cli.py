@@ -52,6 +52,16 @@ class OneLineParser(argparse.ArgumentParser):
         raise UsageError(f"{where}{message} (see {self.prog} --help)")
 
 
+def say_error(message: object) -> None:
+    """Print ``uav-bench: error: MESSAGE`` on stderr as one line.
+
+    A value the user typed may hold a line break or another control character (a carriage return
+    pasted into ``--seeds``); it is shown escaped, as ``repr`` would, so the message stays one line.
+    """
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(message))
+    print(f"uav-bench: error: {text}", file=sys.stderr)
+
+
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The ``uav-bench`` argument parser: one sub-parser per built-in and installed plug-in command.
 
@@ -88,14 +98,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser(argv)
     except CLIError as error:  # a clashing plug-in: say so even for --help
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     try:
         args, unknown = parser.parse_known_args(argv)
         if unknown and not getattr(args, "accepts_any_arguments", False):
             parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     except UsageError as error:
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     args.argv = argv
     try:
@@ -106,14 +116,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.handler.needs.check(f"uav-bench {args.command}")
         return int(args.handler.run(args) or 0)
     except (CLIError, PluginUnavailable) as error:
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     except Exception as error:
         failure = _failure(error, args)
         if failure is None:
             raise
         message, status = failure
-        print(f"uav-bench: error: {message}", file=sys.stderr)
+        say_error(message)
         return status
 
 
