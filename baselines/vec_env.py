@@ -64,8 +64,8 @@ class UAVPenetrationSB3VecEnv(VecEnv):
         env_id: a registered id (``UAVPenetration-v0``, ``UAVPenetrationPaper-v0``,
             ``UAVPenetrationRandom-v0``, ``UAVPenetrationDEM-v0``).
         num_envs: sub-envs stepped together.
-        **env_kwargs: keywords of the id (``scenario``, ``profile``, ``render_mode``; for the Random
-            id ``difficulty``, ``pool_size``, ``pool_seed``).
+        **env_kwargs: keywords of the id (``scenario``, ``profile``, ``render_mode``, ``threads``
+            (default 1 here); for the Random id ``difficulty``, ``pool_size``, ``pool_seed``).
 
     Attributes:
         vector_env: the native Gymnasium vector env (``SAME_STEP`` autoreset, physical actions).
@@ -80,12 +80,15 @@ class UAVPenetrationSB3VecEnv(VecEnv):
             )
         self.env_id = env_id
         self.env_kwargs = dict(env_kwargs)
+        # DECISION (model.md §8, threads): inside a training process torch already keeps the cores
+        # busy, so the batched step runs on the calling thread unless ``threads=`` says otherwise
+        # (results never depend on it).
         self.vector_env = gym.make_vec(
             env_id,
             num_envs=num_envs,
             vectorization_mode="vector_entry_point",
             autoreset_mode="SAME_STEP",
-            **env_kwargs,
+            **{"threads": 1, **env_kwargs},
         )
         physical = self.vector_env.single_action_space
         if not isinstance(physical, spaces.Box):

@@ -14,7 +14,7 @@ import math
 import numbers
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypeAlias, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,11 +22,11 @@ from scipy.optimize import Bounds
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-BatchObjective = Callable[[FloatArray], ArrayLike]
+BatchObjective: TypeAlias = Callable[[FloatArray], ArrayLike]
 """A batch objective: ``(n, d)`` float64 points -> ``(n,)`` costs."""
-BoundsLike = tuple[ArrayLike, ArrayLike] | Sequence[tuple[float, float]] | Bounds
+BoundsLike: TypeAlias = tuple[ArrayLike, ArrayLike] | Sequence[tuple[float, float]] | Bounds
 """``scipy.optimize.Bounds``, ``(d, 2)`` pairs, or a ``(lower, upper)`` pair of arrays (D29)."""
-RNGLike = np.random.Generator | np.random.SeedSequence | int
+RNGLike: TypeAlias = np.random.Generator | np.random.SeedSequence | int
 """Anything :func:`numpy.random.default_rng` accepts (besides ``None``)."""
 
 MESSAGE_MAX_EVALS = "max_evals reached"

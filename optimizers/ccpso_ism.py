@@ -85,7 +85,7 @@ def refresh_exemplar(
         (N, d) new exemplars.
     """
     refresh = np.asarray(refresh, dtype=bool)
-    learn = np.asarray(learn, dtype=bool) & refresh[:, None]
+    learn = np.asarray(np.asarray(learn, dtype=bool) & refresh[:, None])
     out = exemplar.copy()
     out[refresh] = pbest[refresh]
     rows, cols = np.nonzero(learn)

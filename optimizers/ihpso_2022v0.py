@@ -19,13 +19,15 @@ Shapes: ``N`` points, ``G`` groups; condensed distances in ``scipy.spatial.dista
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.cluster.hierarchy import leaves_list
 
 from optimizers.base import FloatArray, IntArray
 from optimizers.swarm import labels_from_order
 
-IHPSO_2022V0 = {"linkage": "average", "grouping_cut": "equal", "spread": "sum", "level": "mean", "slope_rtol": 1e-9}
+IHPSO_2022V0: dict[str, Any] = {"linkage": "average", "grouping_cut": "equal", "spread": "sum", "level": "mean", "slope_rtol": 1e-9}
 """The field overrides that make :class:`optimizers.ihpso.IHPSO` the ``ihpso-2022v0`` configuration."""
 
 

@@ -338,7 +338,7 @@ def attractor_velocity(
     x: FloatArray,
     attractors: Sequence[FloatArray],
     coefficients: Sequence[float],
-    r: Sequence[FloatArray],
+    r: Sequence[FloatArray] | FloatArray,
     inertia: float | FloatArray = 1.0,
     constriction: float = 1.0,
 ) -> FloatArray:
@@ -352,7 +352,7 @@ def attractor_velocity(
         x: (N, d) current positions.
         attractors: L arrays broadcastable to (N, d) (personal, group, global bests, ...).
         coefficients: L acceleration coefficients (signs and level weights included).
-        r: L arrays of (N, d) draws from ``U[0, 1)``, one per attractor.
+        r: L arrays of (N, d) draws from ``U[0, 1)``, one per attractor (or one (L, N, d) array).
         inertia: Scalar or (N, 1) inertia ``w``.
         constriction: Constriction factor ``chi`` (1 for the inertia-weight form).
 

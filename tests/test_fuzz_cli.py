@@ -22,7 +22,7 @@ from uav_penetration_env.benchmark import cli
 
 # compile --clear would remove the compile cache; the plug-in commands (RL) train.
 FUZZED = ("run", "leaderboard", "plot", "report", "export", "import", "replay", "calibrate", "scenario",
-          "windows", "best-known", "suite")  # fmt: skip
+          "windows", "best-known", "suite", "store")  # fmt: skip
 # Where each command's work starts once its inputs are checked.
 WORK = (
     ("uav_penetration_env.benchmark.evaluate", "evaluate"),

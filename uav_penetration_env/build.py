@@ -79,13 +79,17 @@ def _terrain_inputs(scenario: Scenario) -> dict:
         terrain.pop("seed")  # deterministic surfaces: share one cache entry across seeds
     inputs = {"terrain": terrain, "map": dataclasses.asdict(scenario.map)}
     if isinstance(scenario.terrain.natural, DEMTerrain):
-        # Keyed by the raster's content, not its name: a file rewritten in place is rebuilt.
-        inputs["raster_sha256"] = file_digest(scenario.terrain.natural.file)
+        # Keyed by the raster's content as the scenario's hash saw it, not by its name: a file
+        # rewritten in place is a new key, and the build reads only bytes with this digest.
+        inputs["raster_sha256"] = scenario.input_digests["terrain.natural.file"]
     return inputs
 
 
-def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:
-    """The natural terrain h_nat on the grid (model.md §2.3), drawn from ``config.seed``."""
+def natural_terrain(config: TerrainConfig, grid: GridSpec, raster_digest: str | None = None) -> FloatArray:
+    """The natural terrain h_nat on the grid (model.md §2.3), drawn from ``config.seed``.
+
+    ``raster_digest``: the SHA-256 a DEM raster's bytes must have (``None``: the file as it is).
+    """
     natural = config.natural
     shape = (grid.nx, grid.ny)
     rng = np.random.default_rng(config.seed)
@@ -103,7 +107,7 @@ def natural_terrain(config: TerrainConfig, grid: GridSpec) -> FloatArray:
     if isinstance(natural, FlatTerrain):
         return np.full(shape, natural.height_m)
     if isinstance(natural, DEMTerrain):
-        return dem.dem_heights(natural, grid)
+        return dem.dem_heights(natural, grid, raster_digest)
     raise TypeError(f"unknown natural terrain {natural!r}")  # the schema admits no other type
 
 
@@ -114,7 +118,8 @@ def compose_terrain(scenario: Scenario) -> FloatArray:
     threat (§3); the raster already contains them, so they do not reshape it.
     """
     grid = grid_for(scenario)
-    heights = natural_terrain(scenario.terrain, grid)
+    digest = scenario.input_digests.get("terrain.natural.file")
+    heights = natural_terrain(scenario.terrain, grid, digest)
     if not isinstance(scenario.terrain.natural, DEMTerrain) and scenario.terrain.mountains:
         gx, gy = grid.mesh()
         centres, peak_heights = _mountain_arrays(scenario)
@@ -146,9 +151,18 @@ def rcs_table(scenario: Scenario) -> FloatArray:
         return rcs.constant_rcs_table(config.rcs_m2)
     if isinstance(config, TableRCS):
         try:
-            return rcs.load_rcs_table(config.path)
+            table = rcs.load_rcs_table(config.path)
         except (OSError, ValueError) as error:
             raise ScenarioError("uav.rcs.path", config.path, f"a readable RCS table ({error})") from None
+        # Digested after the read: a table rewritten since the scenario's hash is refused (model.md §2.5,
+        # "identity by content"), never built under the old identity.
+        if file_digest(config.path) != scenario.input_digests["uav.rcs.path"]:
+            raise ScenarioError(
+                "uav.rcs.path",
+                config.path,
+                "the file as it was when the scenario was hashed (it changed since; load the scenario again)",
+            )
+        return table
     if isinstance(config, PrimitivesRCS):
         airframe = rcs.AirframeRCS(frequency_ghz=config.frequency_ghz)
         inputs = {"airframe": repr(airframe), "subsamples": RCS_TABLE_SUBSAMPLES}

@@ -297,6 +297,11 @@ class UnknownScenarioError(ScenarioError):
 
     def __init__(self, name: str) -> None:
         super().__init__("scenario", name, SCENARIO_HELP)
+        if Path(name).suffix.lower() in (".yaml", ".yml") or "/" in name or "\\" in name:
+            # Meant as a file: say the file is missing rather than that a name is unknown.
+            where = "" if Path(name).parent.is_dir() else f" (no folder {str(Path(name).parent)!r} either)"
+            self.args = (f"no such scenario file {name!r}{where} — expected an existing YAML file, or {SCENARIO_HELP}",)
+            return
         hint = did_you_mean(name, [*NAMED_SCENARIOS, *RANDOM_FORMS])
         self.args = (f"unknown scenario {name!r} — {hint}expected {SCENARIO_HELP}",)
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import gymnasium as gym
 import numpy as np
@@ -31,6 +31,9 @@ from uav_penetration_env.model import PenetrationModel, StepResult
 from uav_penetration_env.observation import OBSERVATION_LIMIT, OBSERVATION_SIZE
 from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.types import FloatArray
+
+if TYPE_CHECKING:  # matplotlib is imported only when a frame is drawn
+    from uav_penetration_env.render import SceneRenderer
 
 ScenarioLike = Scenario | Mapping[str, Any] | str | Path | None
 RANDOM_RADAR_SLOTS = 8  # model.md §7a: radars padded to M_max = 8 in the Random id
@@ -257,14 +260,28 @@ def unbatch(info: dict[str, np.ndarray], row: int) -> dict[str, Any]:
     return out
 
 
+def _refuse_action(action: Any, high: FloatArray) -> NoReturn:
+    """Raise :func:`validate_action`'s error for an action the compiled step cannot take."""
+    validate_action(action, high)
+    raise AssertionError(f"validate_action accepted {action!r}, which the compiled step refused")
+
+
 class UAVPenetrationEnv(gym.Env):
     """UAV low-altitude penetration over terrain past a radar network (Luo, Liang & Li 2022).
 
-    Observation: ``Box(-10, 10, (67,), float32)`` (model.md §7a). Action: ``Box(3,)`` float32 in
-    physical units ``[dv (m/s), dphi (rad), dtheta (rad)]``, bounded by the scenario's per-step
-    limits; the env converts it to float64 once, **clips it to the box**, and raises
-    ``ValueError`` for NaN/inf or a wrong shape. Reward: ``-(J(k) + penalty)`` on every step.
-    The episode terminates at the goal, on a collision, or out of the map/above the ceiling, and
+    The labelled paragraphs below are the env pages' specification (docs/envs/UAVPenetration-v0.md,
+    written by ``benchmarks/env_pages.py``); keep one label per paragraph.
+
+    Observation: 67 float32 slots, each clipped to [-10, 10] (model.md §7a lists them).
+
+    Action: three float32 values in physical units ``[dv (m/s), dphi (rad), dtheta (rad)]``,
+    bounded by the scenario's per-step limits; the env converts it to float64 once, **clips it to
+    the box**, and raises ``ValueError`` for NaN/inf or a wrong shape.
+
+    Reward: ``-(J(k) + penalty)`` on every step, terminal ones included; ``penalty`` is 0 unless
+    the step ended the episode by a failure (model.md §7a).
+
+    Episode end: terminates at the goal, on a collision, or out of the map/above the ceiling;
     truncates itself at ``time.max_steps``.
 
     Args:
@@ -273,6 +290,9 @@ class UAVPenetrationEnv(gym.Env):
         render_mode: ``"rgb_array"`` or ``"human"``.
         default_scenario: the id's scenario when ``scenario`` is None (``"paper"`` or ``"dem"``).
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the env's model when a planner batches on it
+            (``env.unwrapped.model.rollout_cost``); the env's own step is one row on the calling
+            thread. None keeps numba's count (:class:`PenetrationModel`).
 
     Version history:
         v0: first release.
@@ -288,15 +308,21 @@ class UAVPenetrationEnv(gym.Env):
         *,
         default_scenario: str = "paper",
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         self._init_source(
             FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile)),
             render_mode,
+            threads,
         )
 
     def _init_source(
-        self, source: FixedScenarioSource | RandomScenarioSource, render_mode: str | None
+        self,
+        source: FixedScenarioSource | RandomScenarioSource,
+        render_mode: str | None,
+        threads: int | None = None,
     ) -> None:
+        self._threads = kernels.check_threads(threads)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode: got {render_mode!r}, expected one of {self.metadata['render_modes']} or None"
@@ -309,8 +335,8 @@ class UAVPenetrationEnv(gym.Env):
         self.scenario: Scenario | None = None
         if isinstance(source, FixedScenarioSource):
             self._use(source.scenario)
-            limits = self.model.limits
-            self.state = self.model.initial_state()
+            limits = self._loaded.limits
+            self.state = self._loaded.initial_state()
         else:
             # Procedural scenarios keep the default airframe, so the action box is known before
             # the first (expensive) scenario build at reset.
@@ -321,7 +347,14 @@ class UAVPenetrationEnv(gym.Env):
         self.step_index = 0
         self._done = True
         self._track: list[FloatArray] = []
-        self._renderer = None
+        self._renderer: SceneRenderer | None = None
+
+    @property
+    def _loaded(self) -> PenetrationModel:
+        """The model of the current scenario (a Random id has none before its first reset)."""
+        if self.model is None:
+            raise RuntimeError("no scenario loaded yet: call reset() first")
+        return self.model
 
     def _use(self, scenario: Scenario) -> None:
         key = scenario.hash
@@ -329,7 +362,7 @@ class UAVPenetrationEnv(gym.Env):
             if len(self._models) >= 64:
                 self._models.pop(next(iter(self._models)))
             self._models[key] = PenetrationModel(
-                self._built.get(scenario), radar_slots=self.source.radar_slots
+                self._built.get(scenario), radar_slots=self.source.radar_slots, threads=self._threads
             )
         self.model = self._models[key]
         self.scenario = scenario
@@ -354,7 +387,7 @@ class UAVPenetrationEnv(gym.Env):
             )
         super().reset(seed=seed)
         self._use(self.source.choose(seed, self.np_random))
-        self.state = self.model.initial_state(self.np_random)
+        self.state = self._loaded.initial_state(self.np_random)
         self.step_index = 0
         self._done = False
         self._track = [self.state.copy()]
@@ -391,11 +424,12 @@ class UAVPenetrationEnv(gym.Env):
                 array = np.ascontiguousarray(action, dtype=np.float64)
             except (TypeError, ValueError):
                 array = None
+        model = self._loaded
         if array is None or array.shape != (3,):
-            validate_action(action, self.model.limits.action_high)  # raises the error of the generic path
-        out = self.model._env_step_one(self.state, array, self.step_index)
+            _refuse_action(action, model.limits.action_high)  # the error of the generic path
+        out = model._env_step_one(self.state, array, self.step_index)
         if out is None:
-            validate_action(action, self.model.limits.action_high)  # raises: a NaN or infinite entry
+            _refuse_action(action, model.limits.action_high)  # a NaN or infinite entry
         scalars, flags = out.scalars, out.flags
         self.state = out.state
         J, penalty = scalars[kernels.S_J], scalars[kernels.S_PENALTY]
@@ -430,7 +464,7 @@ class UAVPenetrationEnv(gym.Env):
         As :meth:`PenetrationModel.reset_result` describes it (zero transition quantities, no
         event flag), in one compiled call (:meth:`PenetrationModel._env_reset_one`).
         """
-        out = self.model._env_reset_one(self.state, self.step_index)
+        out = self._loaded._env_reset_one(self.state, self.step_index)
         info = step_info(
             0.0,
             0.0,
@@ -470,9 +504,9 @@ class UAVPenetrationEnv(gym.Env):
             raise ValueError(
                 f"state: got {np.asarray(state).tolist()}, expected 6 finite numbers [x, y, z, v, phi, theta]"
             )
-        if not (isinstance(step_index, (int, np.integer)) and 0 <= step_index < self.model.max_steps):
+        if not (isinstance(step_index, (int, np.integer)) and 0 <= step_index < self._loaded.max_steps):
             raise ValueError(
-                f"step_index: got {step_index!r}, expected an integer in [0, {self.model.max_steps})"
+                f"step_index: got {step_index!r}, expected an integer in [0, {self._loaded.max_steps})"
             )
         self.state = array.copy()
         self.step_index = int(step_index)
@@ -490,7 +524,7 @@ class UAVPenetrationEnv(gym.Env):
         if self._renderer is None or self._renderer.model is not self.model:
             if self._renderer is not None:
                 self._renderer.close()
-            self._renderer = SceneRenderer(self.model, human=self.render_mode == "human")
+            self._renderer = SceneRenderer(self._loaded, human=self.render_mode == "human")
         frame = self._renderer.draw(np.array(self._track), self.state)
         return frame if self.render_mode == "rgb_array" else None
 
@@ -515,6 +549,7 @@ class UAVPenetrationRandomEnv(UAVPenetrationEnv):
         profile: ``"benchmark"`` or ``"paper"`` (the paper profile needs payoff constants).
         render_mode: ``"rgb_array"`` or ``"human"``.
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the env's model (as for :class:`UAVPenetrationEnv`).
     """
 
     def __init__(
@@ -526,7 +561,8 @@ class UAVPenetrationRandomEnv(UAVPenetrationEnv):
         render_mode: str | None = None,
         *,
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         self._init_source(
-            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile), render_mode
+            RandomScenarioSource(difficulty, pool_size, pool_seed, profile or id_profile), render_mode, threads
         )

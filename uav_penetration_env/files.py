@@ -20,9 +20,12 @@ _SETTLED_NS = 2_000_000_000
 
 def resolve_data_file(name: str) -> Path | None:
     """The path of ``name``: a file on disk, else a matplotlib sample file of that name, else None."""
-    path = Path(name).expanduser()
-    if path.exists():
-        return path
+    try:
+        path = Path(name).expanduser()
+        if path.exists():
+            return path
+    except (OSError, ValueError):  # a name the OS cannot take (too long, a NUL byte): no such file
+        return None
     try:
         from matplotlib import cbook
 

@@ -83,12 +83,46 @@ COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
 SERIAL_BELOW_ROWS = 512
 
 
-def run_kernel(parallel_kernel, serial_kernel, rows: int, *args) -> None:
-    """Call the parallel batch kernel, or its serial twin when ``rows < SERIAL_BELOW_ROWS``."""
-    if rows < SERIAL_BELOW_ROWS:
+def run_kernel(parallel_kernel, serial_kernel, rows: int, *args, threads: int | None = None) -> None:
+    """Call the parallel batch kernel, or its serial twin when ``rows < SERIAL_BELOW_ROWS`` or ``threads == 1``.
+
+    ``threads`` (a model's ``threads=``): the compiled threads of this call; None keeps numba's
+    current count (all cores in a main process, one in the harness's workers).
+    """
+    if rows < SERIAL_BELOW_ROWS or threads == 1:
         serial_kernel(*args)
     else:
-        parallel_kernel(*args)
+        with_threads(threads, parallel_kernel, *args)
+
+
+def with_threads(threads: int | None, kernel, *args) -> None:
+    """Call ``kernel(*args)`` on ``threads`` compiled threads (capped at numba's pool), then restore the count.
+
+    numba's thread count belongs to the calling thread, so a setting here never leaks into other
+    code of the process, nor into another Python thread's kernels.
+    """
+    if threads is None:
+        kernel(*args)
+        return
+    previous = numba.get_num_threads()
+    numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    try:
+        kernel(*args)
+    finally:
+        numba.set_num_threads(previous)
+
+
+def check_threads(threads: object) -> int | None:
+    """``threads`` as given to a model or env: None or an integer >= 1.
+
+    Raises:
+        ValueError: anything else (a bool, a float, zero, a negative count).
+    """
+    if threads is None:
+        return None
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: got {threads!r}, expected None or an integer >= 1")
+    return int(threads)
 
 
 def limit_worker_threads(threads: int | None = None) -> int:

@@ -109,6 +109,13 @@ class PenetrationModel:
     Args:
         scenarios: a :class:`Scenario`, a :class:`BuiltScenario`, or a sequence of them (a pool).
         radar_slots: pad the radar axis to this many slots (default: the pool's largest count).
+        threads: compiled threads of this model's batch kernels (``step``, ``costs``,
+            ``observe``, ``rollout_cost``): 1 runs them on the calling thread, N on N threads;
+            None keeps numba's count in force (all cores in a main process, one in the harness's
+            workers). Results never depend on it (model.md §8, threads).
+
+    Raises:
+        ValueError: ``threads`` not None or an integer >= 1; an empty pool.
     """
 
     def __init__(
@@ -116,7 +123,9 @@ class PenetrationModel:
         scenarios: Scenario | BuiltScenario | Sequence[Scenario | BuiltScenario],
         *,
         radar_slots: int | None = None,
+        threads: int | None = None,
     ) -> None:
+        self.threads = kernels.check_threads(threads)
         items = [scenarios] if isinstance(scenarios, (Scenario, BuiltScenario)) else list(scenarios)
         if not items:
             raise ValueError("scenarios: got an empty pool, expected at least one scenario")
@@ -179,7 +188,7 @@ class PenetrationModel:
         self.mountain_present = np.zeros((pool, peaks))
         self.goal = np.zeros((pool, 3))  # x, y, radius [m]
         self.start = np.zeros((pool, 2))
-        floors = []
+        floors: list[np.ndarray] = []
         for p, b in enumerate(built):
             s = b.scenario
             m = len(b.radar_xyz)
@@ -537,6 +546,7 @@ class PenetrationModel:
             visible,
             scalars,
             flags,
+            threads=self.threads,
         )
         before, after = scalars[:, kernels.S_GOAL_BEFORE], scalars[:, kernels.S_GOAL_AFTER]
         return StepResult(
@@ -726,9 +736,11 @@ class PenetrationModel:
     ) -> FloatArray:
         """:meth:`rollout_cost` on checked arguments (contiguous float64 arrays, Python scalars)."""
         total = np.empty(controls.shape[0])
-        kernels.rollout_batch(
-            self.arrays, state, controls, step, discount, terminal_cost, scenario_index, total
-        )
+        kernels.with_threads(
+            self.threads,
+            kernels.rollout_batch,
+            self.arrays, state, controls, step, discount, terminal_cost, scenario_index, total,
+        )  # fmt: skip
         return total
 
     # --- observation ------------------------------------------------------------------------------------
@@ -789,6 +801,7 @@ class PenetrationModel:
             TERRAIN_AHEAD_M,
             TERRAIN_ACROSS_M,
             out,
+            threads=self.threads,
         )
         return out
 

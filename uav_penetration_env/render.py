@@ -29,8 +29,10 @@ def _new_figure(human: bool):
             return plt.figure(figsize=(size, size), dpi=FRAME_DPI)
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
-    except ImportError as error:  # pragma: no cover - matplotlib is a core dependency
-        raise ImportError("rendering needs matplotlib: pip install matplotlib") from error
+    except ImportError as error:  # a core-only install (matplotlib is in the harness extra)
+        raise ImportError(
+            "rendering needs matplotlib: pip install matplotlib, or the harness extra (pip install -e '.[harness]')"
+        ) from error
     figure = Figure(figsize=(size, size), dpi=FRAME_DPI)
     FigureCanvasAgg(figure)
     return figure

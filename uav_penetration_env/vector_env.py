@@ -27,6 +27,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from uav_penetration_env import kernels
 from uav_penetration_env.env import (
     BuiltCache,
     FixedScenarioSource,
@@ -75,9 +76,11 @@ def _vector_info(
 
     With ``rows``, ``info`` holds only those rows and is scattered into ``num_envs``-sized arrays.
     """
+    if rows is not None and num_envs is None:
+        raise TypeError("_vector_info: rows given without num_envs")
     out: dict[str, Any] = {}
     for key, value in info.items():
-        if rows is None:
+        if rows is None or num_envs is None:
             out[key] = value
             out[f"_{key}"] = np.ones(len(value), dtype=bool)
         else:
@@ -103,6 +106,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
             passes the id's registered value.
         default_scenario: the id's scenario (set at registration).
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the batched step (:class:`PenetrationModel`'s ``threads``):
+            1 beside a training process's own threads, None for numba's count in force.
     """
 
     def __init__(
@@ -116,9 +121,10 @@ class UAVPenetrationVectorEnv(VectorEnv):
         *,
         default_scenario: str = "paper",
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         source = FixedScenarioSource(resolve_scenario(scenario, default_scenario, profile, id_profile))
-        self._setup(num_envs, [source], render_mode, autoreset_mode, max_episode_steps)
+        self._setup(num_envs, [source], render_mode, autoreset_mode, max_episode_steps, threads)
 
     def _setup(
         self,
@@ -127,7 +133,9 @@ class UAVPenetrationVectorEnv(VectorEnv):
         render_mode: str | None,
         autoreset_mode: AutoresetMode | str,
         max_episode_steps: int | None,
+        threads: int | None = None,
     ) -> None:
+        self._threads = kernels.check_threads(threads)
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: got {num_envs!r}, expected an integer >= 1")
         if render_mode not in (None, "rgb_array"):
@@ -161,7 +169,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         self._tracks: list[list[np.ndarray]] = [[] for _ in range(n)]
         if isinstance(self.source, FixedScenarioSource):
             self._load([self.source.scenario])
-            limits = self._model.limits
+            limits = self.model.limits
         else:
             limits = UAVLimits.from_scenario(Scenario())
         self.single_observation_space = observation_space()
@@ -242,7 +250,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         candidates = [*loaded, *needed] if len(loaded) + len(needed) <= cap else [*in_use, *needed]
         pool = list({s.hash: s for s in candidates}.values())
         self._model = PenetrationModel(
-            [self._built.get(s) for s in pool], radar_slots=self.source.radar_slots
+            [self._built.get(s) for s in pool], radar_slots=self.source.radar_slots, threads=self._threads
         )
         self._model_keys = [s.hash for s in pool]
         position = {k: i for i, k in enumerate(self._model_keys)}
@@ -251,7 +259,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 self._index[i] = position[scenario.hash]
 
     def _rows_index(self, rows: np.ndarray) -> np.ndarray | None:
-        return None if self._model.pool_size == 1 else self._index[rows]
+        return None if self.model.pool_size == 1 else self._index[rows]
 
     # --- Gymnasium API ---------------------------------------------------------------------------------
 
@@ -274,12 +282,13 @@ class UAVPenetrationVectorEnv(VectorEnv):
         rows = np.flatnonzero(mask)
         self._reset_rows(rows, [seeds[i] for i in rows])
         self._started = True
-        self._np_random_seed = tuple(self._sub_seeds)
-        result = self._model.reset_result(self._states[rows], self._rows_index(rows))
+        # Gymnasium's VectorEnv annotates an int; its own vector envs keep one seed per sub-env too.
+        self._np_random_seed = tuple(self._sub_seeds)  # type: ignore[assignment]
+        result = self.model.reset_result(self._states[rows], self._rows_index(rows))
         # observe() without a result re-evaluates the radars at each state: the same numbers a step
         # into that state reported, so rows that were not reset keep their observation.
-        obs = self._model.observe(
-            self._states, self._steps, None, None if self._model.pool_size == 1 else self._index
+        obs = self.model.observe(
+            self._states, self._steps, None, None if self.model.pool_size == 1 else self._index
         )
         info = batched_info(result)
         if len(rows) == n:
@@ -297,7 +306,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
         for i, scenario in zip(rows, chosen, strict=True):
             self._scenarios[i] = scenario
             self._index[i] = position[scenario.hash]
-        self._states[rows] = self._model.initial_states([self._rngs[i] for i in rows], self._index[rows])
+        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows], self._index[rows])
         self._steps[rows] = 0
         self._autoreset[rows] = False
         if self.render_mode is not None:
@@ -329,8 +338,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         if len(resetting):
             self._reset_rows(resetting, [None] * len(resetting))
-        index = None if self._model.pool_size == 1 else self._index
-        result = self._model.step(
+        index = None if self.model.pool_size == 1 else self._index
+        result = self.model.step(
             self._states[stepping],
             controls[stepping],
             self._steps[stepping],
@@ -349,7 +358,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 self._tracks[i].append(self._states[i].copy())
 
         full = self._full_result(stepping, result, resetting)
-        obs = self._model.observe(self._states, self._steps, full, index)
+        obs = self.model.observe(self._states, self._steps, full, index)
         info = _vector_info(batched_info(full))
 
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
@@ -361,11 +370,11 @@ class UAVPenetrationVectorEnv(VectorEnv):
                 {k: v[finished] for k, v in batched_info(full).items()}, finished, n
             )
             self._reset_rows(finished, [None] * len(finished))
-            index = None if self._model.pool_size == 1 else self._index
-            fresh = self._model.reset_result(
+            index = None if self.model.pool_size == 1 else self._index
+            fresh = self.model.reset_result(
                 self._states[finished], None if index is None else index[finished]
             )
-            obs = self._model.observe(self._states, self._steps, None, index)
+            obs = self.model.observe(self._states, self._steps, None, index)
             reset_info = batched_info(fresh)
             for key, value in reset_info.items():
                 info[key] = info[key].copy()
@@ -381,8 +390,8 @@ class UAVPenetrationVectorEnv(VectorEnv):
         if not len(resetting):
             return result
         n = self.num_envs
-        index = None if self._model.pool_size == 1 else self._index
-        fresh = self._model.reset_result(self._states[resetting], None if index is None else index[resetting])
+        index = None if self.model.pool_size == 1 else self._index
+        fresh = self.model.reset_result(self._states[resetting], None if index is None else index[resetting])
         merged = {}
         for name in StepResult.__dataclass_fields__:
             a, b = getattr(result, name), getattr(fresh, name)
@@ -399,7 +408,7 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         frames = []
         for i in range(self.num_envs):
-            model = PenetrationModel(self._model.built[self._index[i]])
+            model = PenetrationModel(self.model.built[self._index[i]])
             renderer = SceneRenderer(model, human=False)
             frames.append(renderer.draw(np.array(self._tracks[i]), self._states[i]))
             renderer.close()
@@ -425,6 +434,7 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
             has its own pool seeded by its first reset's seed, exactly as sync mode); see the
             module docstring.
         id_profile: the id's profile (set at registration).
+        threads: compiled threads of the batched step (as for the fixed-scenario vector env).
     """
 
     def __init__(
@@ -440,6 +450,7 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
         pool: str = "shared",
         *,
         id_profile: str | None = None,
+        threads: int | None = None,
     ) -> None:
         if pool not in POOL_MODES:
             raise ValueError(f"pool: got {pool!r}, expected one of {', '.join(POOL_MODES)}")
@@ -449,4 +460,4 @@ class UAVPenetrationRandomVectorEnv(UAVPenetrationVectorEnv):
             for _ in range(copies)
         ]
         self.pool = pool
-        self._setup(num_envs, sources, render_mode, autoreset_mode, max_episode_steps)
+        self._setup(num_envs, sources, render_mode, autoreset_mode, max_episode_steps, threads)

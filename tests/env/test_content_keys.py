@@ -17,7 +17,7 @@ from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.benchmark.store import ResultsStore
 from uav_penetration_env.build import build_scenario, terrain_heights
 from uav_penetration_env.catalogue import dem_scenario
-from uav_penetration_env.scenario import load_scenario
+from uav_penetration_env.scenario import ScenarioError, load_scenario
 
 LON = np.arange(-123.6, -121.8, 0.02)
 LAT = np.arange(48.9, 50.2, 0.02)
@@ -66,6 +66,17 @@ def test_an_rcs_table_rewritten_at_once_gets_a_new_hash_and_table(tmp_path):
     second = tiny_scenario().updated({"uav": {"rcs": {"model": "table", "path": str(path)}}})
     assert second.hash != first_hash
     np.testing.assert_array_equal(build_scenario(second).rcs_table, -3.0)
+
+
+def test_an_rcs_table_rewritten_after_the_hash_is_refused(tmp_path):
+    path = tmp_path / "airframe.npy"
+    np.save(path, np.full((181, 361), -10.0))
+    scenario = tiny_scenario().updated({"uav": {"rcs": {"model": "table", "path": str(path)}}})
+    assert len(scenario.hash) == 16  # the identity (and the digest) is taken now
+    np.save(path, np.full((181, 361), -3.0))
+    with pytest.raises(ScenarioError, match="changed since") as info:
+        build_scenario(scenario)
+    assert info.value.field == "uav.rcs.path"
 
 
 def test_a_store_key_follows_the_rasters_content(tmp_path):

@@ -7,6 +7,7 @@ bilinear resampling reproduces them exactly and every expected height is compute
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 
@@ -103,6 +104,44 @@ def test_unordered_longitudes_are_refused(tmp_path):
         load_raster(DEMTerrain(file=file))
 
 
+def test_a_descending_raster_across_the_antimeridian_is_flipped(tmp_path):
+    stored = np.arange(179.0, 181.0001, 0.05)[::-1]  # east to west: -179 .. -180, 179.95 .. 179
+    stored = np.where(stored >= 180.0, stored - 360.0, stored)
+    heights = plane(np.where(stored < 0.0, stored + 360.0, stored)[None, :] - 179.0, LAT[:, None])
+    file = write_npz(tmp_path / "desc.npz", stored, LAT, heights)
+    raster = load_raster(DEMTerrain(file=file))
+    assert raster.longitude[0] == pytest.approx(179.0) and raster.longitude[-1] == pytest.approx(181.0)
+    config = DEMTerrain(file=file, lat_deg=(49.5, 50.0), lon_deg=(179.5, 180.3))
+    np.testing.assert_allclose(dem_heights(config, GRID), expected_heights(config, GRID, 179.0), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("start", "window"), [(0.0, (-0.8, 0.8)), (-180.0, (179.2, 180.8))], ids=["0-360", "signed"]
+)
+def test_a_global_raster_serves_a_window_across_its_seam(tmp_path, start, window):
+    # The same periodic surface stored from `start` (the window crosses its first/last column) and
+    # from a longitude that puts the window inside: the same cells, so the same terrain.
+    def surface(lon):
+        return 1000.0 + 500.0 * np.cos(np.radians(lon))[None, :] + 10.0 * LAT[:, None]
+
+    seam = np.arange(3600) * 0.1 + start
+    inside = np.arange(3600) * 0.1 + start + 90.0
+    config = {"lat_deg": (49.5, 50.0), "lon_deg": window}
+    across = dem_heights(
+        DEMTerrain(file=write_npz(tmp_path / "seam.npz", seam, LAT, surface(seam)), **config), GRID
+    )
+    within = dem_heights(
+        DEMTerrain(file=write_npz(tmp_path / "inside.npz", inside, LAT, surface(inside)), **config), GRID
+    )
+    np.testing.assert_allclose(across, within, atol=1e-9)
+    # A raster that is not global still refuses a window beyond its edge.
+    part = seam[:3000]
+    with pytest.raises(ScenarioError, match="a map inside the raster"):
+        dem_heights(
+            DEMTerrain(file=write_npz(tmp_path / "part.npz", part, LAT, surface(part)), **config), GRID
+        )
+
+
 # --- missing data ------------------------------------------------------------------------------------
 
 
@@ -127,12 +166,46 @@ def test_missing_data_under_the_map_is_refused_naming_the_cells(tmp_path, value)
 
 
 def test_a_declared_nodata_value_counts_as_missing(tmp_path):
-    # -9999 is a possible ocean depth (the deepest trench is about -10 935 m): missing only when declared.
-    file, _ = _raster_with_hole(tmp_path, -9999.0)
-    config = DEMTerrain(file=file, lat_deg=(49.5, 50.5), lon_deg=(10.5, 11.5), sea_floor_m=-20_000.0)
-    assert dem_heights(config, GRID).min() < -5000.0
+    # -400 m is a possible height (the Dead Sea shore is at -430 m), above any void: missing only when declared.
+    file, _ = _raster_with_hole(tmp_path, -400.0, cells=((14, 16),))
+    window = {"lat_deg": (49.5, 50.5), "lon_deg": (10.5, 11.5), "sea_floor_m": -20_000.0}
+    assert dem_heights(DEMTerrain(file=file, **window), GRID).min() < 1000.0  # the pit, read as a height
     with pytest.raises(ScenarioError, match="1 missing cells"):
-        dem_heights(DEMTerrain(file=file, lat_deg=(49.5, 50.5), lon_deg=(10.5, 11.5), nodata=-9999.0), GRID)
+        dem_heights(DEMTerrain(file=file, nodata=-400.0, **window), GRID)
+
+
+@pytest.mark.parametrize("cells", [((14, 16),), tuple((i, j) for i in (13, 14, 15) for j in (15, 16, 17))])
+def test_an_undeclared_void_among_land_is_missing(tmp_path, cells):
+    # SRTM-style -9999 voids (one cell, or a 3 x 3 patch) on a plateau at about 2 800 m, not declared.
+    file, _ = _raster_with_hole(tmp_path, -9999.0, cells=cells)
+    config = DEMTerrain(file=file, lat_deg=(49.5, 50.5), lon_deg=(10.5, 11.5), sea_floor_m=-20_000.0)
+    with pytest.raises(ScenarioError, match=f"{len(cells)} missing cells"):
+        dem_heights(config, GRID)
+    filled = dem_heights(DEMTerrain(**{**config.__dict__, "fill_max_cells": len(cells)}), GRID)
+    np.testing.assert_allclose(filled, expected_heights(config, GRID, 10.0), atol=200.0)
+
+
+def test_the_void_rule_keeps_real_ocean_depths():
+    from uav_penetration_env.dem import VOID_STEP_M, undeclared_voids
+
+    land = np.full((7, 7), 200.0)
+    # A -9999 cell in a smooth trench floor, a flat floor stored in whole metres, a cell just
+    # VOID_STEP_M below its neighbours, a pit above -500 m: all real terrain.
+    trench = -10_000.0 + np.add.outer(np.arange(7.0), np.arange(7.0))
+    trench[3, 3] = -9999.0
+    flat = np.full((7, 7), -5000.0)
+    step = np.full((7, 7), -1000.0)
+    step[3, 3] = -1000.0 - VOID_STEP_M
+    shallow = land.copy()
+    shallow[3, 3] = -499.0
+    for heights in (trench, flat, step, shallow):
+        assert not undeclared_voids(heights).any()
+    step[3, 3] -= 1.0  # now more than VOID_STEP_M below every neighbour
+    assert undeclared_voids(step).sum() == 1
+    # A void patch beside missing cells (NaN) and the raster's edge is still a void.
+    land[0:2, 0:2] = -9999.0
+    land[0, 2] = np.nan
+    np.testing.assert_array_equal(np.argwhere(undeclared_voids(land)), [[0, 0], [0, 1], [1, 0], [1, 1]])
 
 
 def test_small_holes_are_filled_with_the_nearest_valid_height(tmp_path):
@@ -175,7 +248,7 @@ def test_bad_missing_data_settings_are_refused(changes, field):
 rasterio = pytest.importorskip("rasterio", reason="GeoTIFF needs the geo extra (rasterio)")
 
 
-def write_geotiff(path, heights_north_up, west, north, step, nodata=None, crs="EPSG:4326"):
+def write_geotiff(path, heights_north_up, west, north, step, nodata=None, crs="EPSG:4326", mask=None):
     from affine import Affine
 
     with rasterio.open(
@@ -191,6 +264,8 @@ def write_geotiff(path, heights_north_up, west, north, step, nodata=None, crs="E
         nodata=nodata,
     ) as target:
         target.write(heights_north_up.astype(np.float32), 1)
+        if mask is not None:
+            target.write_mask(mask)
     return str(path)
 
 
@@ -226,6 +301,56 @@ def test_a_projected_geotiff_is_refused(tmp_path):
     heights = np.full((10, 10), 100.0)
     file = write_geotiff(tmp_path / "utm.tif", heights, 500_000.0, 5_500_000.0, 30.0, crs="EPSG:32610")
     with pytest.raises(ScenarioError, match="geographic coordinates"):
+        load_raster(DEMTerrain(file=file))
+
+
+def test_a_geotiff_mask_band_marks_missing_data(tmp_path):
+    # No nodata value: the void is marked only by the per-dataset mask (0 = no data); its stored 0 is no height.
+    heights = np.full((41, 41), 2000.0)
+    heights[26, 16] = 0.0  # under the map
+    mask = np.full(heights.shape, 255, np.uint8)
+    mask[26, 16] = 0
+    file = write_geotiff(tmp_path / "masked.tif", heights, 10.0, 51.0, 0.05, mask=mask)
+    window = {"file": file, "lat_deg": (49.5, 50.5), "lon_deg": (10.5, 11.5)}
+    with pytest.raises(ScenarioError, match="1 missing cells"):
+        dem_heights(DEMTerrain(**window), GRID)
+    np.testing.assert_allclose(dem_heights(DEMTerrain(**window, fill_max_cells=1), GRID), 2000.0)
+
+
+@pytest.mark.parametrize(
+    ("crs", "unit"),
+    [
+        ("EPSG:4807", "grads, meridian paris"),
+        ("+proj=longlat +ellps=WGS84 +pm=paris +no_defs", "degrees, meridian paris"),
+    ],
+)
+def test_a_geographic_crs_not_in_greenwich_degrees_is_refused(tmp_path, crs, unit):
+    heights = np.full((41, 41), 100.0)
+    file = write_geotiff(tmp_path / "ntf.tif", heights, 0.0, 51.0, 0.05, crs=crs)
+    with pytest.raises(ScenarioError, match="degrees on the Greenwich meridian") as info:
+        load_raster(DEMTerrain(file=file))
+    assert unit in str(info.value) and "ntf.tif" in str(info.value)
+
+
+def test_a_geographic_crs_on_another_datum_in_degrees_is_read(tmp_path):
+    heights = np.full((41, 41), 100.0)
+    file = write_geotiff(tmp_path / "nad83.tif", heights, 10.0, 51.0, 0.05, crs="EPSG:4269")
+    np.testing.assert_allclose(load_raster(DEMTerrain(file=file)).heights, 100.0)
+
+
+def test_a_geotiff_with_a_sidecar_the_hash_misses_is_refused(tmp_path):
+    file, _ = _geotiff_plane(tmp_path)
+    statistics = b"<PAMDataset><PAMRasterBand band='1'><Metadata><MDI key='STATISTICS_MEAN'>5</MDI>"
+    (tmp_path / "dem.tif.aux.xml").write_bytes(statistics + b"</Metadata></PAMRasterBand></PAMDataset>")
+    load_raster(DEMTerrain(file=file))  # statistics change no height
+    (tmp_path / "dem.tif.aux.xml").write_bytes(
+        statistics.replace(b"<Metadata>", b"<NoDataValue>0</NoDataValue>")
+    )
+    with pytest.raises(ScenarioError, match=r"\.aux\.xml sidecar"):
+        load_raster(DEMTerrain(file=file))
+    (tmp_path / "dem.tif.aux.xml").unlink()
+    (tmp_path / "dem.tif.msk").write_bytes(b"")
+    with pytest.raises(ScenarioError, match=r"\.msk sidecar"):
         load_raster(DEMTerrain(file=file))
 
 
@@ -267,3 +392,23 @@ def test_scenarios_that_read_no_file_keep_their_field_hash():
 
     assert paper_scenario().input_files() == {}
     assert dem_scenario().input_files() == {"terrain.natural.file": "topobathy.npz"}
+
+
+def test_a_raster_rewritten_after_the_hash_is_refused_not_built_under_the_old_hash(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.ENV_VAR, str(tmp_path / "cache"))
+    cache.clear_memory()
+    lon = np.arange(-123.6, -121.8, 0.02)
+    lat = np.arange(48.9, 50.2, 0.02)
+    path = tmp_path / "terrain.npz"
+    write_npz(path, lon, lat, np.full((lat.size, lon.size), 200.0))
+    scenario = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+    old_hash = scenario.hash
+    write_npz(path, lon, lat, np.full((lat.size, lon.size), 900.0))  # rewritten before the build
+    with pytest.raises(ScenarioError, match="changed since") as info:
+        terrain_heights(scenario)
+    assert info.value.field == "terrain.natural.file"
+    reloaded = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+    assert reloaded.hash != old_hash
+    np.testing.assert_allclose(terrain_heights(reloaded), 900.0, rtol=1e-12)
+    # The hash is made of the digests the build checks against.
+    assert reloaded.input_digests["terrain.natural.file"] == hashlib.sha256(path.read_bytes()).hexdigest()

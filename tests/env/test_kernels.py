@@ -291,6 +291,51 @@ def test_the_parallel_kernels_equal_their_serial_twins_row_for_row():
     assert np.array_equal(stepped.J, np.concatenate([h.J for h in halves]))
 
 
+def test_a_models_threads_setting_runs_its_kernels_on_that_many_threads_and_restores_the_count(monkeypatch):
+    from uav_penetration_env import kernels
+
+    seen = []
+    for name in ("rollout_batch", "transition_batch", "transition_rows"):
+        original = getattr(kernels, name)
+
+        def spy(*args, _original=original, _name=name):
+            seen.append((_name, numba.get_num_threads()))
+            return _original(*args)
+
+        monkeypatch.setattr(kernels, name, spy)
+    before = numba.get_num_threads()
+    default, one = PenetrationModel(paper_scenario()), PenetrationModel(paper_scenario(), threads=1)
+    state = default.initial_state()
+    high = default.limits.action_high
+    rows = kernels.SERIAL_BELOW_ROWS
+    controls = np.random.default_rng(5).uniform(-high, high, size=(rows, 3, 3)) * [1.0, 1.0, 0.3]
+    states = np.repeat(state[None], rows, axis=0)
+    assert np.array_equal(default.rollout_cost(state, controls, step=1), one.rollout_cost(state, controls, step=1))
+    assert np.array_equal(default.step(states, controls[:, 0], 0).J, one.step(states, controls[:, 0], 0).J)
+    assert seen == [
+        ("rollout_batch", before), ("rollout_batch", 1), ("transition_batch", before), ("transition_rows", before)
+    ]  # fmt: skip  # threads=1 runs the 512-row step on the calling thread, the serial twin
+    assert numba.get_num_threads() == before
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2"])
+def test_threads_must_be_none_or_a_positive_integer(bad):
+    with pytest.raises(ValueError, match=r"threads: got .*, expected None or an integer >= 1"):
+        PenetrationModel(paper_scenario(), threads=bad)
+
+
+def test_the_envs_pass_threads_to_their_model():
+    import gymnasium as gym
+
+    env = gym.make("UAVPenetration-v0", threads=1)
+    assert env.unwrapped.model.threads == 1
+    vector = gym.make_vec("UAVPenetration-v0", num_envs=2, vectorization_mode="vector_entry_point", threads=2)
+    vector.reset(seed=0)
+    assert vector.unwrapped.model.threads == 2
+    with pytest.raises(ValueError, match="threads: got 0"):
+        gym.make("UAVPenetrationRandom-v0", threads=0)
+
+
 def cache_files(folder, *, cut: bool) -> None:
     """A numba-like cache: an index (version pickle, then the index pickle) and a data file, maybe cut."""
     import pickle

@@ -25,9 +25,11 @@ from uav_penetration_env.scenario import (
     Scenario,
     ScenarioError,
     TerrainConfig,
+    UAVConfig,
     load_scenario,
     paper_scenario,
 )
+from uav_penetration_env.scenario.schema import MAX_GRID_NODES, MAX_RADARS, MIN_TURN_DEG
 from uav_penetration_env.suggest import did_you_mean
 
 DELETE = object()  # marker: remove the key instead of setting it
@@ -550,6 +552,95 @@ BROKEN = [
         "1.0",
         "[0, 1)",
     ),
+    # Values that raised raw TypeError, OSError, OverflowError, MemoryError or ZeroDivisionError.
+    *(
+        (
+            f"method-as-{kind}",
+            _with(PAPER, (("terrain", "natural"), {"method": tag})),
+            "terrain.natural.method",
+            repr(tag),
+            "a known method",
+        )
+        for kind, tag in (("list", [1, 2]), ("mapping", {"a": 1}))
+    ),
+    *(
+        (
+            f"dem-file-{kind}",
+            _with(PAPER, (("terrain", "natural"), {"method": "dem", "file": file})),
+            "terrain.natural.file",
+            repr(file)[:20],
+            expected,
+        )
+        for kind, file, expected in (
+            ("too-long", "x" * 5000, "at most 4096 bytes"),
+            ("name-too-long", "dem/" + "x" * 300 + ".npz", "255 bytes a name"),
+            ("nul-byte", "a\x00b.npz", "no NUL byte"),
+            ("empty", "", "not empty"),
+        )
+    ),
+    (
+        "rcs-path-nul",
+        _with(PAPER, (("uav", "rcs"), {"model": "table", "path": "t\x00.csv"})),
+        "uav.rcs.path",
+        "'t\\x00.csv'",
+        "no NUL byte",
+    ),
+    (
+        "map-beyond-the-earth",
+        _with(PAPER, (("map", "x_km"), [-1e308, 125])),
+        "map.x_km",
+        "-1e+308",
+        "+-20,000 km",
+    ),
+    ("map-of-1e6-km", _with(PAPER, (("map", "x_km"), [-1e6, 125])), "map.x_km", "-1000000.0", "+-20,000 km"),
+    (
+        "map-too-many-nodes",
+        _with(PAPER, (("map", "x_km"), [-10_000, 10_000])),
+        "map.grid_m",
+        "500",
+        "at most 4,000,000 grid nodes",
+    ),
+    (
+        "grid-spacing-denormal",
+        _with(PAPER, (("map", "grid_m"), 5e-324)),
+        "map.grid_m",
+        "5e-324",
+        "grid nodes",
+    ),
+    (
+        "turn-rate-denormal",
+        _with(PAPER, (("uav", "dheading_max_deg"), 5e-324)),
+        "uav.dheading_max_deg",
+        "5e-324",
+        "[0.01, 90] degrees",
+    ),
+    (
+        "too-many-radars",
+        _with(
+            PAPER,
+            (
+                ("radars",),
+                [{"name": f"R{i}", "x_km": float(i), "y_km": 50.0, "mast_m": 20.0} for i in range(65)],
+            ),
+        ),
+        "radars",
+        "65 radars",
+        "at most 64 radars",
+    ),
+    (
+        "radars-times-nodes",
+        _with(
+            PAPER,
+            (("map", "grid_m"), 100.0),
+            (
+                ("radars",),
+                [{"name": f"R{i}", "x_km": float(i), "y_km": 50.0, "mast_m": 20.0} for i in range(8)],
+            ),
+        ),
+        "radars",
+        "8 radars on 2,253,001 grid nodes",
+        "radars x grid nodes <= 16,000,000",
+    ),
 ]
 
 
@@ -565,6 +656,19 @@ def test_broken_input_names_field_value_and_expectation(data, field, value_text,
     assert message.startswith(f"{field}: got ")
     assert value_text in message
     assert expected_text in message
+
+
+def test_the_size_limits_admit_what_they_promise():
+    # The largest grid, the most radars, and many radars with masking off (no floors) are valid.
+    side = math.isqrt(MAX_GRID_NODES) - 1  # cells per axis at 1 km
+    Scenario.from_dict(
+        _with(PAPER, (("map",), {"x_km": [-25, side - 25], "y_km": [-25, side - 25], "grid_m": 1000}))
+    )
+    many = [{"name": f"R{i}", "x_km": float(i), "y_km": 50.0, "mast_m": 20.0} for i in range(MAX_RADARS)]
+    Scenario.from_dict(_with(PAPER, (("radars",), many)))
+    fine = _with(PAPER, (("map", "grid_m"), 100.0), (("radars",), many[:8]))
+    Scenario.from_dict(_with(fine, (("radar_model", "masking"), "off")))
+    assert UAVConfig(dheading_max_deg=MIN_TURN_DEG).dheading_max_deg == MIN_TURN_DEG
 
 
 @pytest.mark.parametrize("path", [("time", "max_steps"), ("terrain", "seed")])

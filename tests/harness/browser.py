@@ -34,6 +34,9 @@ class BrowserCheck:
     plots: int  # plotly graph divs found
     drawn_pixels: int  # non-background pixels of the first 3-D view, rendered through WebGL
     sorted_ok: bool  # a click on a numeric header sorted that column
+    headline: str  # the text of the first headline sentence ("" when the page has none)
+    table_fits: bool  # the first leaderboard table needs no horizontal scroll in its container
+    page_fits: bool  # the page itself needs no horizontal scroll at the window's width
 
 
 def check_report(path: Path, timeout_s: float = 60.0) -> BrowserCheck:
@@ -82,9 +85,17 @@ def check_report(path: Path, timeout_s: float = 60.0) -> BrowserCheck:
                 # numpy, not Image.getdata/get_flattened_data: the count works on every Pillow.
                 pixels = np.asarray(image)
                 drawn = int((pixels != pixels[0, 0]).any(axis=-1).sum())
+        headline, table_fits, page_fits = driver.execute_script(
+            "var p = document.querySelector('p.headline');"
+            "var t = document.querySelector('#leaderboards table');"
+            "var box = t ? t.parentElement : null;"
+            "var root = document.documentElement;"
+            "return [p ? p.textContent : '', !!box && box.scrollWidth <= box.clientWidth,"
+            " root.scrollWidth <= root.clientWidth];"
+        )
         sorted_ok = _sorting_works(driver, By) if tables else False
         errors = [entry["message"] for entry in driver.get_log("browser") if entry["level"] == "SEVERE"]
-        return BrowserCheck(errors, len(tables), len(plots), drawn, sorted_ok)
+        return BrowserCheck(errors, len(tables), len(plots), drawn, sorted_ok, headline, table_fits, page_fits)
     finally:
         driver.quit()
 

@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
@@ -20,7 +21,8 @@ from uav_penetration_env import load_scenario
 from uav_penetration_env.benchmark import cli, plugins
 from uav_penetration_env.benchmark.commands import common
 from uav_penetration_env.benchmark.commands import run as run_command
-from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
+from uav_penetration_env.benchmark.commands.common import CLIError, Command, CommandExtension
+from uav_penetration_env.benchmark.commands.run import run_reference
 from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
 from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.benchmark.store import ResultsStore
@@ -159,7 +161,7 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     ("argv", "message"),
     [
         (["--policies", "ihspo"], "did you mean 'ihpso'"),
-        (["--scenarios", "nowhere.yaml"], "unknown scenario 'nowhere.yaml'"),
+        (["--scenarios", "nowhere.yaml"], "no such scenario file 'nowhere.yaml'"),
         (["--seeds", "many"], "--seeds"),
         (["--backend", "spark"], "--backend"),
         (["--weights", "1,2"], "--weights"),
@@ -595,3 +597,53 @@ def test_sigterm_mid_run_keeps_finished_episodes_exits_143_and_leaves_no_worker(
             if state != "Z":  # a zombie has exited, only its entry waits to be reaped
                 alive[pid] = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")[:200]
     assert not alive, f"processes outlived the run: {alive}"
+
+
+def test_run_reference_defaults_to_ihpso_else_the_first_policy_and_refuses_others():
+    assert run_reference(None, ["greedy", "ihpso", "pso"]) == "ihpso"
+    assert run_reference(None, ["my-search", "greedy"]) == "my-search"
+    assert run_reference("greedy", ["my-search", "greedy"]) == "greedy"
+    with pytest.raises(CLIError, match=r"--reference gredy: did you mean 'greedy'\? expected one of --policies"):
+        run_reference("gredy", ["my-search", "greedy"])
+
+
+def test_a_run_without_ihpso_compares_against_its_reference(tmp_path, tiny_yaml):
+    store = tmp_path / "s.sqlite"
+    code = run_cli("run", "--policies", "random,greedy", "--scenarios", tiny_yaml, "--seeds", 2, "--jobs", 1,
+                   "--store", store, "--no-progress")  # fmt: skip
+    assert code == 0
+    (table,) = [path for path in tmp_path.glob("*.csv") if not path.stem.endswith(("-rl", "-members"))]
+    rows = pd.read_csv(table).set_index("policy")
+    # random is the first policy, so the reference: greedy's row has the paired difference to it
+    assert np.isfinite(rows.loc["greedy", "delta_mean"]) and rows.loc["greedy", "n_pairs"] == 2
+    assert rows.loc["random", "n_pairs"] == 0 or not np.isfinite(rows.loc["random", "pvalue"])
+
+
+def test_store_list_and_drop_remove_one_configuration_after_confirmation(tmp_path, tiny_yaml, capsys, monkeypatch):
+    store = tmp_path / "s.sqlite"
+    assert run_cli("run", "--policies", "greedy,random", "--scenarios", tiny_yaml, "--seeds", 2, "--jobs", 1,
+                   "--store", store, "--no-report", "--no-progress") == 0  # fmt: skip
+    with ResultsStore(store, create=False) as results:
+        before = results.episodes()
+        steps_before = results.count("steps")
+    random_ids = before.loc[before["policy"] == "random", "episode_id"].tolist()
+    capsys.readouterr()
+    assert run_cli("store", "list", "--store", store) == 0
+    listed = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in listed] == ["greedy", "random"]
+    assert all(" 2 episodes " in line for line in listed)
+    # without a terminal and without --yes nothing is dropped
+    monkeypatch.setattr(sys, "stdin", open(os.devnull))
+    assert run_cli("store", "drop", "--policy", "random", "--store", store) == 2
+    assert "--yes: needed to drop 2 episodes (0 with errors) of random" in capsys.readouterr().err
+    assert run_cli("store", "drop", "--policy", "randm", "--store", store) == 2
+    assert "did you mean 'random'?" in capsys.readouterr().err
+    assert run_cli("store", "drop", "--policy", "random", "--store", store, "--yes") == 0
+    with ResultsStore(store, create=False) as results:
+        after = results.episodes()
+        steps_removed = steps_before - results.count("steps")
+        assert set(results.policies()) == set(before.loc[before["policy"] == "greedy", "policy_hash"])
+        assert results.steps(random_ids).empty
+    assert after["policy"].tolist() == ["greedy", "greedy"]
+    assert f"dropped 2 episodes and {steps_removed} steps of random" in capsys.readouterr().out
+    assert steps_removed > 2

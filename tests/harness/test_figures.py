@@ -344,6 +344,44 @@ def test_every_policy_has_a_unique_colour_and_line_style_and_legends_lie_outside
     assert seen_names == list(figures.FIGURES)
 
 
+def title_texts(figure):
+    """Every non-empty title of a figure: its own, its sub-figures' and its axes'."""
+    from matplotlib.axes import Axes
+    from matplotlib.figure import SubFigure
+
+    containers = [figure, *figure.findobj(SubFigure)]
+    texts = [c._suptitle for c in containers if c._suptitle is not None]
+    texts += [t for ax in figure.findobj(Axes) for t in (ax.title, ax._left_title, ax._right_title)]
+    return [t for t in texts if t.get_text().strip()]
+
+
+def test_no_legend_covers_a_title_with_few_policies_and_a_long_scenario_name(tmp_path):
+    # One panel (few policies) and titles longer than the axes: the complaint of issue 27 was the
+    # legend beside the axes lying over the end of the title (j-per-point, performance-profile,
+    # convergence).
+    from matplotlib.legend import Legend
+
+    path = tmp_path / "long.sqlite"
+    tiny = tiny_scenario()
+    name = "paper-2022-sec5-with-a-long-name"
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: (name, yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        for index, policy in enumerate(("ihpso", "pso", "greedy", "random")):
+            for seed in range(3):
+                episode = synthetic_episode(policy, seed, name, tiny.hash, 5.0 + index + seed)
+                store.write_episode(episode | {"planning_seconds": 0.01},
+                                    synthetic_steps(seed, 8, history=index < 2))  # fmt: skip
+    for figure_name, figure in drawn_figures(path):
+        renderer = figure.canvas.get_renderer()
+        titles = title_texts(figure)
+        assert titles, figure_name
+        for legend in figure.findobj(Legend):
+            box = legend.get_window_extent(renderer)
+            for title in titles:
+                extent = title.get_window_extent(renderer)
+                assert not box.overlaps(extent), f"{figure_name}: the legend covers {title.get_text()!r}"
+
+
 def test_the_coverage_is_drawn_at_the_mpc_planners_median_altitude_and_says_so(many_store):
     # Every synthetic MPC track point is at 150 + 20 k m, k = 1..8: median 240 m; the RL agents
     # fly at 2000 m and must not count.

@@ -347,7 +347,11 @@ def test_leaderboard_is_the_one_the_code_before_the_column_table_made(store_path
     old = Path(__file__).parent / "data" / "leaderboard-synthetic"
     # The store is rebuilt here, so its run record names this machine, commit and versions.
     machine = re.compile(r"^- (Commits|Versions|Machine|Date): .*$", flags=re.MULTILINE)
-    assert machine.sub("", paths[0].read_text()) == machine.sub("", (old / "tiny.md").read_text())
+    # Since then the statistics name the table's seed set first (api.md §4.5); nothing else moved.
+    seed_set = "Every statistic of a ranked policy is over the same 8 seeds (the reference's: 0–7). "
+    text = paths[0].read_text()
+    assert text.count(seed_set) == 1
+    assert machine.sub("", text.replace(seed_set, "")) == machine.sub("", (old / "tiny.md").read_text())
     assert paths[1].read_bytes() == (old / "tiny.csv").read_bytes()
 
 
@@ -399,3 +403,41 @@ def test_table_columns_are_the_column_tables(table):
     header, rows, _ = lb.markdown_rows(table, "ihpso")
     assert header == [c.board.header.format(reference="ihpso") for c in declared]
     assert all(len(row) == len(header) for row in rows)
+
+
+def test_a_policy_on_fewer_seeds_is_listed_unranked_and_moves_no_other_number(store_path, tmp_path):
+    with ResultsStore(store_path) as store:
+        episodes = store.episodes()
+    before = lb.leaderboard_table(episodes, reference="ihpso", n_resamples=500)
+    # a new agent, cheapest of all, flown on two of the eight seeds
+    short = pd.DataFrame([episode("new-agent", seed, total_cost=0.5, total_J=0.5) for seed in (0, 1)])
+    after = lb.leaderboard_table(pd.concat([episodes, short], ignore_index=True), reference="ihpso", n_resamples=500)
+    assert after["policy"].tolist() == [*before["policy"], "new-agent"]
+    shared = [c for c in before.columns if c in after.columns]
+    pd.testing.assert_frame_equal(after.iloc[:-1][shared].reset_index(drop=True), before[shared])
+    agent = after.set_index("policy").loc["new-agent"]
+    assert np.isnan(agent["friedman_rank"]) and np.isnan(agent["delta_mean"])
+    assert agent["episodes"] == 2 and agent["total_cost_mean"] == 0.5
+    assert after.attrs["seeds"] == list(range(8)) and after.attrs["unranked"] == {"new-agent": [0, 1]}
+    sentence = lb.statistics_paragraph(after)
+    assert "Not ranked, because not flown on each of them" in sentence and "`new-agent` (0–1)" in sentence
+
+
+def test_a_ranked_policy_is_summarised_on_the_table_seeds_only(store_path):
+    with ResultsStore(store_path) as store:
+        episodes = store.episodes()
+    # ihpso (the reference) is flown on seeds 0-7; pso also on 8-9, which the table leaves out
+    extra = pd.DataFrame([episode("pso", seed) for seed in (8, 9)])
+    table = lb.leaderboard_table(pd.concat([episodes, extra], ignore_index=True), reference="ihpso", n_resamples=500)
+    pso = table.set_index("policy").loc["pso"]
+    assert pso["episodes"] == 8
+    assert pso["total_cost_mean"] == pytest.approx(np.mean([OFFSETS["pso"] + s for s in range(8)]), rel=1e-15)
+
+
+def test_without_a_reference_the_seed_set_most_policies_share_is_the_table_s(store_path):
+    with ResultsStore(store_path) as store:
+        episodes = store.episodes()
+    table = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="ihpso", n_resamples=200)
+    # pso and ppo cover 0-7; greedy 0-8 (its error row on 8): the most common set is 0-7
+    assert table.attrs["reference"] is None and table.attrs["seeds"] == list(range(8))
+    assert table.attrs["unranked"] == {}

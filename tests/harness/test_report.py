@@ -25,9 +25,10 @@ def written(tmp_path_factory):
     policies = {"pso": make_policy("pso", max_evals=200), "greedy": make_policy("greedy")}
     policies["random"] = make_policy("random")
     evaluate(policies, [tiny_scenario(time={"max_steps": 15})], range(2), store=store, progress=False)
-    tables = write_leaderboards(store, folder, command="test")
+    # pso is the reference: the page marks it and compares the others with it.
+    tables = write_leaderboards(store, folder, command="test", reference="pso")
     figures = write_figures(store, folder, formats=("png",))
-    path = report.write_report(store, folder, tables=tables, figures=figures)
+    path = report.write_report(store, folder, tables=tables, figures=figures, reference="pso")
     return path, store, tables, figures
 
 
@@ -71,6 +72,36 @@ def test_a_new_section_is_one_registration(written, tmp_path):
         report._SECTIONS[:] = [s for s in report._SECTIONS if s.key != "test-extra"]
 
 
+def test_the_page_opens_with_its_headline_and_a_compact_leaderboard(written):
+    import html
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark import glance
+    from uav_penetration_env.benchmark.columns import leaderboard_columns
+
+    path, _, tables, _ = written
+    page = path.read_text()
+    main = page.split("<main>", 1)[1]
+    assert main.startswith('<section id="glance"><h2>At a glance</h2><p class="headline">')
+    (csv,) = [t for t in tables if t.suffix == ".csv"]
+    sentence = glance.headline(pd.read_csv(csv), csv.stem, [0, 1])
+    assert f'<p class="headline">{html.escape(sentence)}</p>' in main
+    assert sentence.startswith(f"{pd.read_csv(csv).sort_values('total_cost_mean')['policy'].iloc[0]} is cheapest on tiny")
+    board = main[main.index('id="leaderboards"') :].split("</section>", 1)[0]
+    first = re.search(r'<table class="sortable glance"><thead><tr>(.*?)</tr>', board).group(1)
+    headers = [html.unescape(h) for h in re.findall(r"<th[^>]*>(.*?)</th>", first)]
+    assert headers[:3] == ["rank", "policy", glance.column_label("total_cost_mean")]
+    assert glance.column_label("delta_mean", "pso") in headers and "p (Holm)" in headers
+    assert len(headers) < len(leaderboard_columns()) // 2  # the rest behind the toggle
+    assert re.search(r"<details><summary>\d+ more columns: episodes, errors, ", board)
+    assert '<td class="policy"><strong>pso</strong><span class="badge">reference</span></td>' in board
+    assert "**" not in main  # never Markdown's bold in the page
+    # Every header of every table reads as words: the registry's labels, never a snake_case name.
+    for header in re.findall(r"<th[^>]*>(.*?)</th>", main):
+        assert not re.search(r"[a-z]_[a-z]", html.unescape(header)), header
+
+
 def test_a_missing_store_is_an_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="--store"):
         report.write_report(tmp_path / "none.sqlite", tmp_path)
@@ -92,6 +123,23 @@ def test_the_report_opens_in_a_browser_and_draws(written):
     assert check.plots == 1
     assert check.drawn_pixels > 5_000, "the 3-D view drew nothing (WebGL failed?)"
     assert check.sorted_ok
+    # At a 1 400 px wide window: the headline is there and the main table needs no sideways scroll.
+    import pandas as pd
+
+    from uav_penetration_env.benchmark import glance
+
+    (csv,) = [t for t in written[2] if t.suffix == ".csv"]
+    assert check.headline == glance.headline(pd.read_csv(csv), csv.stem, [0, 1])
+    assert check.table_fits and check.page_fits
+
+
+@needs_browser
+def test_the_browser_check_sees_a_leaderboard_wider_than_the_window(written, tmp_path):
+    page = written[0].read_text()
+    wide = tmp_path / "index.html"
+    wide.write_text(page.replace('<table class="sortable glance">', '<table class="sortable glance" style="min-width:3000px">', 1))
+    check = check_report(wide)
+    assert not check.table_fits and check.page_fits  # the table scrolls inside its box, not the page
 
 
 @needs_browser

@@ -140,7 +140,7 @@ def test_leaderboards_show_the_markdown_cells_and_fold_the_one_seed_tables(store
     page = html.unescape(report.write_report(store, out, tables=tables, min_seeds=2).read_text())
     section = page[page.index('id="leaderboards"') :]
     section = section[: section.index("</section>")]
-    shown, folded = section.split("<details>", 1)
+    shown, folded = section.split('<details class="folded">', 1)  # each table has its own toggle too
     assert "<h3>tiny (" in shown and "tiny-b" not in shown  # three seeds: shown
     assert "<h3>tiny-b (" in folded and "1 more scenario tables, each flown with fewer than 2" in folded
     # The cells read as in the Markdown table: the mean with its interval, not raw CSV floats.
@@ -150,4 +150,4 @@ def test_leaderboards_show_the_markdown_cells_and_fold_the_one_seed_tables(store
     raw = pd.read_csv(out / "tiny.csv")["total_cost_mean_ci_low"].iloc[0]
     assert repr(float(raw)) not in shown  # e.g. 3.9174035152227307: never a full-precision float
     page = html.unescape(report.write_report(store, tmp_path / "all", tables=tables).read_text())
-    assert "<details>" not in page[page.index('id="leaderboards"') :].split("</section>", 1)[0]
+    assert '<details class="folded">' not in page[page.index('id="leaderboards"') :].split("</section>", 1)[0]

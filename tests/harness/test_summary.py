@@ -97,6 +97,28 @@ def test_the_progress_bar_counts_and_shows_an_eta():
     assert silent.n == 2
 
 
+def test_without_a_terminal_progress_is_plain_lines_one_per_tenth():
+    from rich.console import Console
+
+    stream = io.StringIO()
+    console = Console(file=stream, force_terminal=False)
+    with ProgressBar(45, "episodes", unit="ep", console=console) as bar:
+        for _ in range(45):
+            bar.update(1)
+    lines = stream.getvalue().splitlines()
+    # 45 // 10: the count crosses a tenth at 5, 9, 14, 18, 23, 27, 32, 36, 41 and 45 episodes
+    assert [line.split(":", 1)[1].split()[0] for line in lines] == [
+        "5/45", "9/45", "14/45", "18/45", "23/45", "27/45", "32/45", "36/45", "41/45", "45/45"
+    ]  # fmt: skip
+    assert all(line.startswith("episodes: ") and " elapsed, ETA " in line for line in lines)
+    interrupted = io.StringIO()
+    with ProgressBar(45, "episodes", unit="ep", console=Console(file=interrupted, force_terminal=False)) as bar:
+        bar.update(7)
+        bar.set_postfix(failures=1)
+    assert interrupted.getvalue().splitlines()[-1].startswith("episodes: 7/45 ep")
+    assert interrupted.getvalue().splitlines()[-1].endswith("failures=1")
+
+
 class Clock:
     def __init__(self) -> None:
         self.now = 0.0

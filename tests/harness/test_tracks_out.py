@@ -177,3 +177,38 @@ def test_replay_mp4_without_ffmpeg_says_so(store, tmp_path, capsys, monkeypatch)
         == 2
     )
     assert "needs ffmpeg on the PATH" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_track_across_the_antimeridian_is_cut_into_a_multilinestring():
+    from uav_penetration_env.benchmark.track_export import split_at_antimeridian
+
+    # East across +180 between points 1 and 2, back west between 3 and 4.
+    track = np.array(
+        [
+            [179.0, 10.0, 100.0],
+            [179.5, 11.0, 200.0],
+            [-179.5, 13.0, 400.0],
+            [-179.0, 14.0, 500.0],
+            [179.8, 15.0, 0.0],
+        ]
+    )
+    parts = split_at_antimeridian(track)
+    assert [len(p) for p in parts] == [3, 4, 2]  # each part gains the crossing point(s) at its ends
+    # Halfway in longitude from 179.5 to 180.5: latitude 12, z 300, on both sides of the cut.
+    np.testing.assert_allclose(parts[0][-1], [180.0, 12.0, 300.0])
+    np.testing.assert_allclose(parts[1][0], [-180.0, 12.0, 300.0])
+    # From -179 west to 179.8 (1.2 deg): the cut is 1/1.2 of the way, at latitude 14 + 1 / 1.2.
+    np.testing.assert_allclose(parts[1][-1], [-180.0, 14.0 + 1.0 / 1.2, 500.0 - 500.0 / 1.2])
+    np.testing.assert_allclose(parts[2][0], [180.0, 14.0 + 1.0 / 1.2, 500.0 - 500.0 / 1.2])
+    for part in parts:
+        assert np.all(np.abs(np.diff(part[:, 0])) < 180.0)
+    assert len(split_at_antimeridian(track[:2])) == 1
+
+    rows = pd.DataFrame(
+        {"episode_id": 1, "longitude": track[:, 0], "latitude": track[:, 1], "z_m": track[:, 2],
+         "x_km": 0.0, "y_km": 0.0, "J": 0.0, "detection_prob": 0.0, "episode_steps": 4,
+         **{key: "k" for key in ("policy", "scenario", "scenario_hash", "outcome")}, "seed": 0, "total_cost": 1.0}
+    )  # fmt: skip
+    geometry = tracks_geojson(rows)["features"][0]["geometry"]
+    assert geometry["type"] == "MultiLineString" and len(geometry["coordinates"]) == 3
+    assert geometry["coordinates"][0][-1] == [180.0, 12.0, 300.0]

@@ -317,7 +317,9 @@ def evaluate(
         )
     tasks = episode_tasks(policies, hashes, scenario_list, seed_list, tuple(imports), include, threads)
     own_store = store is not None and not isinstance(store, ResultsStore)
-    results = ResultsStore(store) if own_store else store
+    results: ResultsStore | None = (
+        store if store is None or isinstance(store, ResultsStore) else ResultsStore(store)
+    )
     try:
         pending, run_id = tasks, None
         if results is not None:

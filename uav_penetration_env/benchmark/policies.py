@@ -612,6 +612,7 @@ def _make_hybrid(spec: str, planner: str, plugin: str, settings: MPCSettings) ->
     kind = kinds.get(prefix)
     if kind is None:
         make_policy(plugin)  # raises the unknown-kind error with its suggestions
+        raise KeyError(f"unknown policy {spec!r}")  # make_policy knows every name policy_kinds() lacks
     if isinstance(kind, Plugin):
         raise PluginUnavailable(f"policy {spec!r}: the plug-in {kind.error}")
     if kind.hybrid is None:

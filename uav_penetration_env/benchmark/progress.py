@@ -51,7 +51,9 @@ class EpisodeETA:
         if not every or elapsed <= 0:
             return None
         fallback = statistics.median(every)
-        work = sum(n * statistics.median(self._seconds.get(key) or [fallback]) for key, n in self._left.items())
+        work = sum(
+            n * statistics.median(self._seconds.get(key) or [fallback]) for key, n in self._left.items()
+        )
         parallelism = max(sum(every) / elapsed, 1e-9)
         return work / parallelism
 
@@ -91,9 +93,16 @@ class ProgressBar:
         self.total = int(total)
         self.eta = eta
         self._progress = None
+        self._plain: Any = None
         if not enabled:
             return
         from rich.console import Console
+
+        console = console if console is not None else Console(stderr=True)
+        if not console.is_terminal:
+            # A log file or a pipe (CI, nohup, Slurm): a live bar would draw nothing until the end.
+            self._plain = PlainProgress(description, self.total, unit, console.file)
+            return
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
@@ -112,7 +121,7 @@ class ProgressBar:
             TextColumn("ETA"),
             TimeRemainingColumn() if eta is None else TextColumn("{task.fields[eta]}"),
             TextColumn("{task.fields[note]}"),
-            console=console if console is not None else Console(stderr=True),
+            console=console,
             refresh_per_second=4,
         )
         self._task = self._progress.add_task(description, total=self.total, note="", eta=format_eta(None))
@@ -123,6 +132,8 @@ class ProgressBar:
         self.n += int(advance)
         if self._progress is not None:
             self._progress.update(self._task, advance=int(advance))
+        if self._plain is not None:
+            self._plain.show(self.n, self.eta.seconds_left() if self.eta is not None else None)
 
     def finished(self, key: Hashable, seconds: float) -> None:
         """One unit of ``key`` is done after ``seconds`` of its own: count it and refresh the ETA."""
@@ -134,18 +145,63 @@ class ProgressBar:
 
     def set_postfix(self, **fields: Any) -> None:
         """Show ``key=value`` notes after the ETA (e.g. ``failures=2``)."""
+        note = ", ".join(f"{key}={value}" for key, value in fields.items())
         if self._progress is not None:
-            note = ", ".join(f"{key}={value}" for key, value in fields.items())
             self._progress.update(self._task, note=note)
+        if self._plain is not None:
+            self._plain.note = note
 
     def close(self) -> None:
         """Stop drawing; the last state stays on screen. Safe to call twice."""
         if self._progress is not None:
             self._progress.stop()
             self._progress = None
+        if self._plain is not None:
+            self._plain.close()
+            self._plain = None
 
     def __enter__(self) -> ProgressBar:
         return self
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+class PlainProgress:
+    """Progress as plain lines, for output that is not a terminal: one line per tenth of the work.
+
+    ``episodes: 9/45 ep, 0:01:02 elapsed, ETA 0:04:10`` each time the count crosses a tenth of the
+    total (so at most 10 lines, and the last one at the end), and once more on :meth:`close` if
+    anything changed since (an interrupted run says where it stopped).
+    """
+
+    def __init__(
+        self, description: str, total: int, unit: str, file: Any, clock: Any = time.perf_counter
+    ) -> None:
+        self.description, self.total, self.unit, self.file = description, total, unit, file
+        self.note = ""
+        self._clock = clock
+        self._started = clock()
+        self._next = 1
+        self._shown: tuple[int, str] | None = None
+        self._latest: tuple[int, float | None] = (0, None)
+
+    def show(self, n: int, seconds_left: float | None, *, force: bool = False) -> None:
+        """Print a line if ``n`` crossed the next tenth of the total (or ``force``)."""
+        self._latest = (n, seconds_left)
+        tenth = n * 10 // max(self.total, 1)
+        if not force and tenth < self._next:
+            return
+        self._next = tenth + 1
+        self._shown = (n, self.note)
+        elapsed = format_eta(self._clock() - self._started)
+        note = f", {self.note}" if self.note else ""
+        unit = f" {self.unit}" if self.unit else ""
+        print(f"{self.description}: {n}/{self.total}{unit}, {elapsed} elapsed, ETA {format_eta(seconds_left)}{note}",
+              file=self.file, flush=True)  # fmt: skip
+
+    def close(self) -> None:
+        """The last state, if no line has shown it yet."""
+        n, seconds_left = self._latest
+        if self._shown != (n, self.note):
+            self.show(n, seconds_left, force=True)

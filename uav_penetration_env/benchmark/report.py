@@ -109,6 +109,15 @@ class ReportContext:
         """Window-run rows of ``uav-bench windows`` (empty when the store holds none)."""
         return self.store.window_runs()
 
+    @cached_property
+    def table_frames(self) -> dict[Path, pd.DataFrame]:
+        """Each table CSV of the page, read once (the headline and the leaderboards share them)."""
+        return {path: pd.read_csv(path) for path in self.tables}
+
+    def folded(self, frame: pd.DataFrame) -> bool:
+        """Whether a table's scenario was flown with fewer than ``min_seeds`` episodes per policy."""
+        return bool("episodes" in frame and len(frame) and int(frame["episodes"].max()) < self.min_seeds)
+
     def steps(self, episode_ids: Sequence[int]) -> pd.DataFrame:
         """Step rows of some episodes, the start state (step 0) included."""
         return self.store.steps(episode_ids, include_start=True)
@@ -122,7 +131,7 @@ header{background:#1d2430;color:#fff;padding:12px 24px}
 nav{padding:8px 24px;background:#eef1f5;position:sticky;top:0;z-index:2}
 nav a{margin-right:16px;color:#1d4ed8;text-decoration:none}
 main{padding:0 24px 48px}
-section{margin-top:28px}
+section{margin-top:28px;scroll-margin-top:64px}
 table{border-collapse:collapse;font-size:13px;margin:8px 0 16px}
 th,td{border:1px solid #ccd3dd;padding:3px 7px;text-align:right;white-space:nowrap}
 th{background:#eef1f5;cursor:pointer;position:relative}
@@ -133,6 +142,12 @@ figure{margin:12px 0;display:inline-block;max-width:100%}
 figure img{max-width:100%;border:1px solid #ccd3dd}
 figcaption{font-size:12px;color:#555}
 code{background:#eef1f5;padding:1px 4px}
+p.headline{font-size:16px;line-height:1.45;max-width:1100px;margin:10px 0}
+table.glance th{white-space:normal;vertical-align:bottom}
+table.glance td.policy{white-space:normal;overflow-wrap:anywhere;max-width:240px}
+th.policy,td.policy,td.text{text-align:left} td.text{white-space:normal;overflow-wrap:anywhere;min-width:160px}
+.badge{display:inline-block;font-size:11px;font-weight:600;padding:0 5px;margin-left:4px;border-radius:8px;background:#1d4ed8;color:#fff}
+details{margin:4px 0 16px} summary{cursor:pointer;color:#1d4ed8}
 """
 
 # Sorting: a click on a header sorts the rows by that column (numbers as numbers, "12.3 [1, 2]"
@@ -244,19 +259,179 @@ def write_report(
 
 
 def _html_table(frame: pd.DataFrame) -> str:
-    header = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
-    rows = []
-    for values in frame.itertuples(index=False):
-        cells = "".join(f"<td>{html.escape('' if _missing(v) else str(v))}</td>" for v in values)
-        rows.append(f"<tr>{cells}</tr>")
+    cells = [[html.escape("" if _missing(v) else str(v)) for v in values] for values in frame.itertuples(index=False)]
+    return _table_markup([str(c) for c in frame.columns], cells)
+
+
+def _table_markup(
+    header: Sequence[str], rows: Sequence[Sequence[str]], kind: str = "", classes: Sequence[str] = ()
+) -> str:
+    """A sortable table: ``header`` texts (escaped here) and cells already HTML.
+
+    Args:
+        header: the column headers, plain text.
+        rows: the cells of each row, HTML.
+        kind: an extra class of the table (``glance``: headers may wrap).
+        classes: a class per column for its cells (``policy``: a name that may wrap); "" for none.
+    """
+    styled = list(classes) + [""] * (len(header) - len(classes))
+    head = "".join(
+        f'<th class="{c}">{html.escape(text)}</th>' if c else f"<th>{html.escape(text)}</th>"
+        for c, text in zip(styled, header, strict=True)
+    )
+    body = "".join(
+        "<tr>"
+        + "".join(f'<td class="{c}">{v}</td>' if c else f"<td>{v}</td>" for c, v in zip(styled, row, strict=True))
+        + "</tr>"
+        for row in rows
+    )
+    table_class = f"sortable {kind}".strip()
     return (
-        f'<div class="scroll"><table class="sortable"><thead><tr>{header}</tr></thead>'
-        f"<tbody>{''.join(rows)}</tbody></table></div>"
+        f'<div class="scroll"><table class="{table_class}"><thead><tr>{head}</tr></thead>'
+        f"<tbody>{body}</tbody></table></div>"
     )
 
 
 def _missing(value: object) -> bool:
     return value is None or (isinstance(value, float) and np.isnan(value))
+
+
+def _is_leaderboard(frame: pd.DataFrame) -> bool:
+    """A scenario group's leaderboard CSV (not a suite's stacked per-member table, not an RL table)."""
+    return {"policy", "total_cost_mean"} <= set(frame.columns) and "member" not in frame.columns
+
+
+def _is_rl_table(frame: pd.DataFrame) -> bool:
+    return {"group", "kind", "iqm"} <= set(frame.columns)
+
+
+def _table_reference(frame: pd.DataFrame, reference: str) -> str | None:
+    """The table's reference: the row without a paired difference, else ``reference`` when it is a row."""
+    from uav_penetration_env.benchmark.summary import infer_reference
+
+    found = infer_reference(frame)
+    if found is not None:
+        return found
+    return reference if reference in set(frame["policy"].astype(str)) else None
+
+
+def _policy_cell(policy: str, reference: str | None) -> str:
+    """A policy's name; the reference in bold with a badge (HTML, never Markdown's ``**name**``)."""
+    name = html.escape(policy)
+    return f'<strong>{name}</strong><span class="badge">reference</span>' if policy == reference else name
+
+
+def _leaderboard_tables(frame: pd.DataFrame, reference: str | None) -> str:
+    """A leaderboard as the page shows it: the most-read columns, the others behind a toggle.
+
+    The cells are those of the Markdown twin (:func:`~.leaderboard.markdown.cell`: means with their
+    intervals, p-values, shares), the headers the column registry's; the first table holds
+    :data:`~.glance.GLANCE_COLUMNS`, a closed ``<details>`` block the policy and every other column.
+    """
+    from uav_penetration_env.benchmark.glance import split_columns
+    from uav_penetration_env.benchmark.leaderboard.markdown import cell, shown_columns
+
+    first, rest = split_columns(shown_columns(frame))
+    records = [r for _, r in frame.iterrows()]
+
+    def table(columns, kind: str) -> str:
+        header = [c.board.header.format(reference=reference or "reference") for c in columns]
+        rows = [
+            [
+                _policy_cell(str(r["policy"]), reference) if c.name == "policy" else html.escape(cell(c, r, reference))
+                for c in columns
+            ]
+            for r in records
+        ]
+        return _table_markup(header, rows, kind, ["policy" if c.name == "policy" else "" for c in columns])
+
+    policy = [c for c in first if c.name == "policy"]
+    parts = [table(first, "glance")]
+    if rest:
+        names = ", ".join(c.board.name or c.board.header.format(reference=reference or "reference") for c in rest)
+        parts.append(
+            f"<details><summary>{len(rest)} more columns: {html.escape(names)}</summary>"
+            f"{table(policy + rest, '')}</details>"
+        )
+    return "".join(parts)
+
+
+def _rl_table(frame: pd.DataFrame) -> str:
+    """An RL table (``*-rl.csv``) with the column registry's headers and the Markdown's cells."""
+    from uav_penetration_env.benchmark.leaderboard.rl import rl_rows
+
+    header, rows = rl_rows(frame)
+    return _table_markup(header, [[html.escape(c) for c in row] for row in rows], "glance", ["policy"])
+
+
+def _display_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """Any other table CSV: its columns kept, numbers to four significant digits."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_number
+
+    return pd.DataFrame(
+        {
+            column: [
+                format_number(v) if isinstance(v, float) else ("" if _missing(v) else str(v)) for v in frame[column]
+            ]
+            for column in frame.columns
+        }
+    )
+
+
+def _group_seeds(context: ReportContext) -> tuple[dict[str, tuple[list[int], tuple[str, ...]]], tuple]:
+    """Per scenario group's stem: its episode seeds and scenario; and the same over the whole store.
+
+    A table of no single scenario group (``leaderboard --suite``, a frozen suite's) covers the
+    store's episodes: the second item, every seed and scenario of the store.
+    """
+    from uav_penetration_env.benchmark.leaderboard import scenario_groups
+
+    episodes = context.store.episodes()
+    found = {}
+    for group in scenario_groups(episodes):
+        seeds = sorted(int(s) for s in group.episodes["seed"].dropna().unique())
+        found[group.stem] = (seeds, (group.name,))
+    every = (sorted(int(s) for s in episodes["seed"].dropna().unique()), tuple(sorted(set(episodes["scenario"]))))
+    return found, every
+
+
+# Headline sentences at most on the page's top; the other tables are one click away.
+MAX_HEADLINES = 6
+
+
+@register_section("glance", "At a glance")
+def _glance(context: ReportContext) -> str:
+    """One headline sentence per leaderboard shown (:func:`~.glance.headline`), computed from its CSV.
+
+    DECISION (api.md §4.6, "the page at a glance"): the first section of the page, one sentence for
+    each leaderboard that is not folded away (``--min-seeds``), at most ``MAX_HEADLINES``.
+    """
+    from uav_penetration_env.benchmark.glance import headline
+
+    boards = [
+        (path, frame)
+        for path, frame in context.table_frames.items()
+        if _is_leaderboard(frame) and not context.folded(frame)
+    ]
+    if not boards:
+        return (
+            "<p>No leaderboard on this page: <code>uav-bench report</code> writes them from the store "
+            "(<code>uav-bench leaderboard</code> alone writes the Markdown and CSV files).</p>"
+        )
+    seeds, every = _group_seeds(context)
+    parts = []
+    for path, frame in boards[:MAX_HEADLINES]:
+        group_seeds, scenarios = seeds.get(path.stem, every)
+        text = headline(frame, path.stem, group_seeds, scenarios)
+        parts.append(f'<p class="headline">{html.escape(text)}</p>')
+    if len(boards) > MAX_HEADLINES:
+        parts.append(f"<p>{len(boards) - MAX_HEADLINES} more leaderboards below (Leaderboards).</p>")
+    parts.append(
+        "<p>Lower total J is better. Intervals: bootstrap 95 %; the paired test is the leaderboard's "
+        "(Wilcoxon signed-rank over shared seeds, Holm-adjusted); every column is explained in the "
+        "Markdown files beside this page and in docs/columns.md.</p>"
+    )
+    return "".join(parts)
 
 
 @register_section("provenance", "Provenance")
@@ -283,36 +458,17 @@ def _provenance(context: ReportContext) -> str:
             }
         )
     if rows:
-        lines.append(_html_table(pd.DataFrame(rows)))
+        # Long commands and version lists wrap inside their cells rather than widen the page.
+        header = list(rows[0])
+        cells = [[html.escape(str(row[key])) for key in header] for row in rows]
+        wrapped = ["text" if key in ("command", "versions", "machine") else "" for key in header]
+        lines.append(_table_markup(header, cells, "", wrapped))
     return "".join(lines)
-
-
-def _display_table(frame: pd.DataFrame, reference: str) -> pd.DataFrame:
-    """A leaderboard CSV as its Markdown twin shows it: the same headers and formatted cells.
-
-    Tables with the leaderboard's columns get :func:`~.leaderboard.markdown.markdown_rows` (means
-    with their intervals, p-values, shares); any other table keeps its columns, numbers to four
-    significant digits.
-    """
-    from uav_penetration_env.benchmark.leaderboard.formatting import format_number
-    from uav_penetration_env.benchmark.leaderboard.markdown import markdown_rows
-
-    if {"policy", "total_cost_mean"} <= set(frame.columns) and "member" not in frame.columns:
-        header, rows, _ = markdown_rows(frame, reference)
-        return pd.DataFrame(rows, columns=header)
-    return pd.DataFrame(
-        {
-            column: [
-                format_number(v) if isinstance(v, float) else ("" if _missing(v) else str(v)) for v in frame[column]
-            ]
-            for column in frame.columns
-        }
-    )
 
 
 @register_section("leaderboards", "Leaderboards")
 def _leaderboards(context: ReportContext) -> str | None:
-    """Every leaderboard, formatted as its Markdown; one-seed scenario tables folded away (``min_seeds``).
+    """Every leaderboard, its most-read columns first; one-seed scenario tables folded away (``min_seeds``).
 
     DECISION (api.md §4.6): a store holding a whole suite has a table per member; those flown with
     fewer than ``min_seeds`` episodes per policy (the procedural members at one seed each) are folded
@@ -322,20 +478,24 @@ def _leaderboards(context: ReportContext) -> str | None:
     if not context.tables:
         return None
     shown, folded = [], []
-    for path in context.tables:
-        frame = pd.read_csv(path)
+    for path, frame in context.table_frames.items():
         markdown = path.with_suffix(".md")
         href = html.escape(os.path.relpath(markdown, context.out_dir))
         link = f' (<a href="{href}">Markdown with provenance</a>)' if markdown.exists() else ""
         if "member" in frame.columns:
             shown.append(f"<p>Per-member tables of a suite: <a href=\"{href}\">{html.escape(markdown.name)}</a>.</p>")
             continue
-        block = f"<h3>{html.escape(path.stem)}{link}</h3>{_html_table(_display_table(frame, context.reference))}"
-        one_seed = "episodes" in frame and len(frame) and int(frame["episodes"].max()) < context.min_seeds
-        (folded if one_seed else shown).append(block)
+        if _is_leaderboard(frame):
+            body = _leaderboard_tables(frame, _table_reference(frame, context.reference))
+        elif _is_rl_table(frame):
+            body = _rl_table(frame)
+        else:
+            body = _html_table(_display_table(frame))
+        block = f"<h3>{html.escape(path.stem)}{link}</h3>{body}"
+        (folded if context.folded(frame) else shown).append(block)
     if folded:
         shown.append(
-            f"<details><summary>{len(folded)} more scenario tables, each flown with fewer than "
+            f'<details class="folded"><summary>{len(folded)} more scenario tables, each flown with fewer than '
             f"{context.min_seeds} episodes per policy (--min-seeds)</summary>{''.join(folded)}</details>"
         )
     return "".join(shown)
@@ -581,6 +741,22 @@ def _figures(context: ReportContext) -> str | None:
     return "".join(parts)
 
 
+def _policy_headers() -> dict[str, str]:
+    """The per-policy tables' headers: the column registry's labels (never a snake_case name)."""
+    from uav_penetration_env.benchmark.glance import column_label
+
+    total = column_label("total_cost_mean", short=True)
+    return {
+        "episodes": column_label("episodes"),
+        "success": column_label("success_rate", short=True),
+        "mean_total_cost": f"{total} mean",
+        "median_total_cost": f"{total} median",
+        "mean_steps": f"{column_label('steps')} (mean)",
+        "evals_per_step": column_label("nfev_per_step"),
+        "planning_s_per_step": column_label("planning_seconds"),
+    }
+
+
 @register_section("policies", "Policies")
 def _policies(context: ReportContext) -> str | None:
     episodes = context.episodes
@@ -602,6 +778,7 @@ def _policies(context: ReportContext) -> str | None:
             )
             .reset_index()
         )
+        summary = summary.rename(columns=_policy_headers())
         errors = int(rows["is_error"].sum())
         note = f"<p>{errors} error episodes (retried on the next run).</p>" if errors else ""
         parts.append(f'<h3 id="policy-{html.escape(str(policy))}">{html.escape(str(policy))}</h3>{note}')

@@ -470,6 +470,26 @@ class ResultsStore:
         return episode_id
 
     @_writing
+    def drop_policy(self, policy_hash: str) -> tuple[int, int]:
+        """Delete every episode of one policy configuration, its steps and its ``policies`` row.
+
+        One transaction: the store holds all of the policy's rows or none of them, whatever
+        interrupts it. Other policies' rows and the runs table are untouched.
+
+        Args:
+            policy_hash: the full configuration hash (``policies.policy_hash``).
+
+        Returns:
+            (episodes deleted, steps deleted).
+        """
+        with self._connection:
+            ids = "SELECT episode_id FROM episodes WHERE policy_hash = ?"
+            steps = self._connection.execute(f"DELETE FROM steps WHERE episode_id IN ({ids})", (policy_hash,))
+            episodes = self._connection.execute("DELETE FROM episodes WHERE policy_hash = ?", (policy_hash,))
+            self._connection.execute("DELETE FROM policies WHERE policy_hash = ?", (policy_hash,))
+        return int(episodes.rowcount), int(steps.rowcount)
+
+    @_writing
     def write_window_runs(self, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write optimiser runs on stored window states (``uav-bench windows``) in one transaction.
 

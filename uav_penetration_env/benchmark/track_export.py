@@ -9,6 +9,10 @@ scenario's map is a projection of a geographic window (model.md §2.5), so its p
 projected back (:func:`uav_penetration_env.dem.local_to_lonlat`) and the file is standard. Other
 scenarios have no place on Earth: their positions are the local ``[x km, y km, z m]``, and the
 collection says so in its ``coordinates`` member, so a GIS never mistakes them for degrees.
+
+DECISION (api.md §4.6): a geographic track that crosses the antimeridian is cut there into a
+``MultiLineString`` (RFC 7946 §3.1.9), the crossing point's latitude and altitude interpolated
+linearly in longitude and repeated at +180 and -180, so no segment spans the globe.
 """
 
 from __future__ import annotations
@@ -83,7 +87,8 @@ def tracks_geojson(rows: pd.DataFrame) -> dict[str, Any]:
     features = []
     for episode_id, points in rows.groupby("episode_id", sort=True):
         first = points.iloc[0]
-        positions = points[list(columns)].to_numpy(dtype=np.float64).round(7).tolist()
+        positions = points[list(columns)].to_numpy(dtype=np.float64)
+        parts = split_at_antimeridian(positions) if geographic else [positions]
         properties = {
             "episode_id": int(episode_id),
             **{key: _plain(first[key]) for key in EPISODE_KEYS if key != "steps"},
@@ -95,11 +100,51 @@ def tracks_geojson(rows: pd.DataFrame) -> dict[str, Any]:
         features.append(
             {
                 "type": "Feature",
-                "geometry": {"type": "LineString", "coordinates": positions},
+                "geometry": (
+                    {"type": "LineString", "coordinates": parts[0].round(7).tolist()}
+                    if len(parts) == 1
+                    else {
+                        "type": "MultiLineString",
+                        "coordinates": [part.round(7).tolist() for part in parts],
+                    }
+                ),
                 "properties": properties,
             }
         )
     return {"type": "FeatureCollection", "coordinates": WGS84 if geographic else LOCAL, "features": features}
+
+
+def split_at_antimeridian(positions: np.ndarray) -> list[np.ndarray]:
+    """A track of ``[longitude, latitude, z]`` rows cut where it crosses the antimeridian (the module's decision).
+
+    A step between consecutive points whose longitudes differ by more than 180 deg is the shorter
+    way round, across +-180: the crossing's latitude and z are interpolated linearly in unwrapped
+    longitude, ending one part at the side the step leaves and starting the next at the other.
+
+    Args:
+        positions: (n, 3) rows, longitudes in [-180, 180].
+
+    Returns:
+        The parts, in order, each (k, 3); one part (``positions`` itself) when nothing crosses.
+    """
+    longitude = positions[:, 0]
+    crossings = np.flatnonzero(np.abs(np.diff(longitude)) > 180.0)
+    if not crossings.size:
+        return [positions]
+    parts, start = [], positions[:1]
+    for i in range(len(positions) - 1):
+        a, b = positions[i], positions[i + 1]
+        if i not in crossings:
+            start = np.vstack([start, b[None]])
+            continue
+        edge = 180.0 if a[0] > 0 else -180.0  # the side the step leaves
+        b_lon = b[0] + (360.0 if edge > 0 else -360.0)  # b seen from a's side
+        t = (edge - a[0]) / (b_lon - a[0])
+        cross = a + t * (np.array([b_lon, b[1], b[2]]) - a)
+        parts.append(np.vstack([start, [[edge, cross[1], cross[2]]]]))
+        start = np.vstack([[[-edge, cross[1], cross[2]]], b[None]])
+    parts.append(start)
+    return parts
 
 
 def _plain(value: Any) -> Any:

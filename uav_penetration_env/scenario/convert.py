@@ -128,7 +128,7 @@ def _convert(tp: Any, value: Any, path: str, owner: type, name: str) -> Any:
         if len(options) == 1:
             return _convert(options[0], value, path, owner, name)
         return _convert_tagged(options, value, path)
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return from_mapping(tp, value, path)
     if tp in _SCALARS:
         accepts, expected = _SCALARS[tp]
@@ -192,11 +192,10 @@ def _convert_tagged(options: list[type], value: Any, path: str) -> Any:
     if not isinstance(value, Mapping):
         raise ScenarioError(path, value, f"a mapping with '{tag_field}' in {sorted(tags)}")
     tag = value.get(tag_field, _tag(options[0]))
-    if tag not in tags:
+    if not isinstance(tag, str) or tag not in tags:  # a list or mapping is no tag (and unhashable)
+        hint = did_you_mean(tag, tags) if isinstance(tag, str) else ""
         raise ScenarioError(
-            f"{path}.{tag_field}",
-            tag,
-            f"a known {tag_field} ({did_you_mean(tag, tags)}one of {', '.join(tags)})",
+            f"{path}.{tag_field}", tag, f"a known {tag_field} ({hint}one of {', '.join(tags)})"
         )
     return from_mapping(tags[tag], value, path)
 

@@ -7,6 +7,14 @@ from typing import Any
 __all__ = ["ScenarioError"]
 
 
+MAX_SHOWN = 240  # characters of a bad value's repr in a message
+
+
+def one_line(text: str) -> str:
+    """``text`` with every non-printable character (a newline in a YAML key) written as its escape."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 class ScenarioError(ValueError):
     """A scenario field holds an invalid value.
 
@@ -20,7 +28,10 @@ class ScenarioError(ValueError):
         self.field = field
         self.value = value
         self.expected = expected
-        super().__init__(f"{field}: got {value!r}, expected {expected}")
+        shown = repr(value)
+        if len(shown) > MAX_SHOWN:  # a 5 000-character path: the line still says what it is
+            shown = f"{shown[: MAX_SHOWN - 40]}... ({len(shown)} characters)"
+        super().__init__(f"{one_line(field)}: got {one_line(shown)}, expected {one_line(expected)}")
 
     def within(self, prefix: str) -> ScenarioError:
         """The same error with ``prefix`` prepended to the field path."""

@@ -43,18 +43,56 @@ TAG_FIELDS = ("method", "model")
 
 _ANGLE = Rule(lambda v: 0 < v <= 90, "an angle in (0, 90] degrees")
 
+# DECISION (model.md §7b, "limits"): sizes far above any real scenario and far below what exhausts a machine.
+# Map coordinates stay within half the Earth's circumference; the terrain grid has at most
+# MAX_GRID_NODES nodes (32 MB a float64 layer: 2001 x 2001, e.g. 200 km at 100 m); a scenario has at
+# most MAX_RADARS radars and, when it masks, radars x grid nodes <= MAX_FLOOR_NODES (128 MB of
+# visibility floors, each built in about 1 s per million nodes before the first step); a UAV turns
+# at least MIN_TURN_DEG per step (its turn radius then stays below 20 000 km at the paper's speed).
+MAX_MAP_COORD_KM = 20_000.0
+MAX_GRID_NODES = 4_000_000
+MAX_RADARS = 64
+MAX_FLOOR_NODES = 16_000_000
+MIN_TURN_DEG = 0.01
+MAX_PATH_BYTES = 4096  # Linux PATH_MAX; each name in it at most 255 bytes (NAME_MAX)
+_MAP_COORDS = Rule(
+    lambda v: all(abs(c) <= MAX_MAP_COORD_KM for c in v), f"bounds within +-{MAX_MAP_COORD_KM:,.0f} km"
+)
+
+
+def _is_path(value: str) -> bool:
+    encoded = value.encode("utf-8", "surrogatepass")
+    return (
+        bool(value)
+        and "\x00" not in value
+        and len(encoded) <= MAX_PATH_BYTES
+        and all(len(part) <= 255 for part in encoded.split(b"/"))
+    )
+
+
+_PATH_EXPECTED = f"a file path: not empty, no NUL byte, at most {MAX_PATH_BYTES} bytes and 255 bytes a name"
+
 
 @dataclass(frozen=True)
 class MapConfig(Checked):
     """Map bounds, terrain grid spacing and altitude ceiling."""
 
-    x_km: tuple[float, float] = interval((-25.0, 125.0))
-    y_km: tuple[float, float] = interval((-25.0, 125.0))
+    x_km: tuple[float, float] = interval((-25.0, 125.0), _MAP_COORDS)
+    y_km: tuple[float, float] = interval((-25.0, 125.0), _MAP_COORDS)
     grid_m: float = positive(500.0)
     ceiling_m: float = positive(3000.0)  # DECISION (model.md §1)
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        width_m, height_m = (self.x_km[1] - self.x_km[0]) * 1000.0, (self.y_km[1] - self.y_km[0]) * 1000.0
+        nodes = (width_m / self.grid_m + 1.0) * (height_m / self.grid_m + 1.0)  # inf for a tiny spacing
+        require(
+            nodes <= MAX_GRID_NODES,
+            "grid_m",
+            self.grid_m,
+            f"a spacing giving at most {MAX_GRID_NODES:,} grid nodes over the {width_m / 1000:g} x "
+            f"{height_m / 1000:g} km map (this one gives {nodes:.3g})",
+        )
         for name, (low, high) in (("x_km", self.x_km), ("y_km", self.y_km)):
             cells = (high - low) * 1000.0 / self.grid_m
             require(
@@ -129,7 +167,7 @@ class TableRCS(Checked):
     """A user table: CSV ``el_deg, az_deg, rcs_dbsm`` on the 1° grid, or a (181, 361) ``.npy``."""
 
     model: str = "table"
-    path: str = rule("", bool, "the path of an RCS table file")
+    path: str = rule("", _is_path, _PATH_EXPECTED)
 
 
 RCSConfig = Union[PrimitivesRCS, ConstantRCS, TableRCS]  # noqa: UP007 (resolved at runtime by convert.py)
@@ -143,7 +181,9 @@ class UAVConfig(Checked):
         (5.0, 10.0), lambda v: 0 < v[0] < v[1], "[v_min, v_max] with 0 < v_min < v_max"
     )
     dv_max_m_s: float = positive(2.0)  # DECISION (model.md §1)
-    dheading_max_deg: float = checked(15.0, _ANGLE)  # paper §5
+    dheading_max_deg: float = rule(  # paper §5
+        15.0, lambda v: MIN_TURN_DEG <= v <= 90, f"an angle in [{MIN_TURN_DEG:g}, 90] degrees"
+    )
     dpitch_max_deg: float = checked(15.0, _ANGLE)  # paper §5
     pitch_max_deg: float = checked(15.0, _ANGLE)  # DECISION (model.md §1)
     min_clearance_m: float = non_negative(30.0)  # DECISION (model.md §1)
@@ -218,7 +258,7 @@ class DEMTerrain(Checked):
     """
 
     method: str = "dem"
-    file: str = "topobathy.npz"
+    file: str = rule("topobathy.npz", _is_path, _PATH_EXPECTED)
     array: str = "topo"
     lat_deg: tuple[float, float] = interval(
         (49.10, 49.98), Rule(lambda v: -90 <= v[0] and v[1] <= 90, "latitudes in [-90, 90]")
@@ -433,6 +473,22 @@ class Scenario(Checked):
             require_inside(f"radars[{i}]", radar.x_km, radar.y_km)
         names = [r.name for r in self.radars]
         require(len(set(names)) == len(names), "radars", names, "unique radar names")
+        require(
+            len(self.radars) <= MAX_RADARS,
+            "radars",
+            f"{len(self.radars)} radars",
+            f"at most {MAX_RADARS} radars (model.md §7b, limits)",
+        )
+        nodes = (round((x_hi - x_lo) * 1000.0 / self.map.grid_m) + 1) * (
+            round((y_hi - y_lo) * 1000.0 / self.map.grid_m) + 1
+        )
+        require(
+            self.masking == "off" or len(self.radars) * nodes <= MAX_FLOOR_NODES,
+            "radars",
+            f"{len(self.radars)} radars on {nodes:,} grid nodes",
+            f"radars x grid nodes <= {MAX_FLOOR_NODES:,} when terrain masks (one visibility floor per radar): "
+            "fewer radars, a coarser map.grid_m, or radar_model.masking: off",
+        )
         if self.normalisation_mode == "payoff":
             require(
                 self.normalisation.payoff is not None,
@@ -516,18 +572,27 @@ class Scenario(Checked):
     def hash(self) -> str:
         """A 16-hex-digit content hash of every field (weights and normalisation included).
 
-        It also covers the bytes of every file the scenario reads (:meth:`input_files`), as they
-        are when the hash is first asked for. Computed once per (immutable) instance: envs look
-        scenarios up by hash at every reset.
+        It also covers the bytes of every file the scenario reads (:attr:`input_digests`), as they
+        are when first digested. Computed once per (immutable) instance: envs look scenarios up by
+        hash at every reset.
         """
         payload: Any = self.to_dict()
-        files = self.input_files()
-        if files:
+        if self.input_digests:
             # DECISION: the content of every file the scenario reads is part of its identity
             # (model.md §7a); scenarios that read no file keep the hash of their fields alone.
-            payload = [payload, {field: file_digest(name) for field, name in files.items()}]
+            payload = [payload, dict(self.input_digests)]
         text = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @cached_property
+    def input_digests(self) -> dict[str, str]:
+        """SHA-256 (hex) of each file the scenario reads, by field path, taken once per instance.
+
+        The hash is made of these digests, and the build reads only files whose bytes still have
+        them (model.md §2.5, "identity by content"), so a scenario object never labels terrain
+        built from other bytes than those it was hashed with.
+        """
+        return {field: file_digest(name) for field, name in self.input_files().items()}
 
     def input_files(self) -> dict[str, str]:
         """The files this scenario reads, by field path (a DEM raster, an RCS table)."""

@@ -29,6 +29,7 @@ BUILTIN_COMMANDS = (
     "best_known",
     "suite",
     "compile",
+    "store",
 )
 
 

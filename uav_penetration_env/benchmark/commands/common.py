@@ -27,6 +27,13 @@ from uav_penetration_env.scenario import ScenarioError
 if TYPE_CHECKING:  # the store module imports pandas: loaded by the commands that need it
     from uav_penetration_env.benchmark.store import StoreError
 
+# What the harness imports beyond the core (the `harness` extra of pyproject.toml): a core-only
+# install (the env alone) gets one line naming the extra instead of a traceback from pandas.
+HARNESS = Needs(
+    modules=("pandas", "pyarrow", "matplotlib", "joblib", "plotly", "rich"),
+    install="the harness extra: pip install -e '.[harness]' in a checkout, or pip install 'uav-penetration[harness]'",
+)
+
 DEFAULT_STORE = Path("results/uav-bench.sqlite")
 DEFAULT_OUT = Path("results")
 
@@ -44,14 +51,15 @@ class Command:
         help: one line for ``uav-bench --help``.
         add_arguments: adds the command's flags to its sub-parser.
         run: does the work; returns the exit status; raises :class:`CLIError` for bad input.
-        needs: modules the command needs at run time (checked after parsing, before ``run``).
+        needs: modules the command needs at run time (checked after parsing, before ``run``);
+            by default the harness extra's (:data:`HARNESS`).
     """
 
     name: str
     help: str
     add_arguments: Callable[[argparse.ArgumentParser], None]
     run: Callable[[argparse.Namespace], int]
-    needs: Needs = field(default_factory=Needs)
+    needs: Needs = HARNESS
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import Command
+from uav_penetration_env.benchmark.plugins import Needs
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -35,4 +36,5 @@ COMMAND = Command(
     help="compile the physics now (a first run's 25-60 s), or --clear the compiled code",
     add_arguments=add_arguments,
     run=run,
+    needs=Needs(),  # the physics alone: works in a core-only install (images, CI warm-up)
 )

@@ -50,6 +50,7 @@ RUN_DEFAULTS: dict[str, Any] = {
     "seeds": "5",
     "jobs": None,
     "threads": None,
+    "reference": None,
     "backend": "loky",
     "scheduler": None,
     "store": str(DEFAULT_STORE),
@@ -86,6 +87,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
     parser.add_argument(
         "--threads", type=int, help="compiled threads per worker (default: 1 per worker; results do not change)"
+    )
+    parser.add_argument(
+        "--reference",
+        help="policy of --policies the report's paired tests and Δ compare against "
+        "(default: ihpso when it is run, else the first of --policies)",
     )
     parser.add_argument("--backend", help="loky (default), dask or sequential")
     parser.add_argument(
@@ -303,6 +309,7 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
     seeds = parse_seeds(settings["seeds"])
     policies = make_policies(settings)
+    reference = run_reference(settings["reference"], list(policies))
     scenarios, seeds, include, suite_settings = episode_plan(settings, policies, seeds)
     store_path = Path(settings["store"])
     # The report goes next to the store it reads unless --out says where: a run on another store
@@ -345,9 +352,9 @@ def run(args: argparse.Namespace) -> int:
     store.close()
     errors = print_outcome(frame, store_path)
     if settings["report"] and settings["suite"] is not None:
-        suite_report(store_path, out, command, settings["suite"])
+        suite_report(store_path, out, command, settings["suite"], reference)
     elif settings["report"]:
-        report(store_path, out, command)
+        report(store_path, out, command, reference)
     return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
 
 
@@ -462,16 +469,34 @@ def print_outcome(frame: Any, store_path: Path) -> int:
     return errors
 
 
-def report(store: Path, out: Path, command: str) -> None:
+def run_reference(reference: str | None, policies: list[str]) -> str:
+    """The policy the run's report compares against: ``--reference``, else ihpso if run, else the first.
+
+    A plug-in optimiser run beside greedy alone still gets its paired tests and Δ column.
+
+    Raises:
+        CLIError: ``--reference`` names no policy of ``--policies``.
+    """
+    if reference is None:
+        return "ihpso" if "ihpso" in policies else policies[0]
+    if reference not in policies:
+        raise CLIError(
+            f"--reference {reference}: {did_you_mean(reference, policies)}"
+            f"expected one of --policies ({', '.join(policies)})"
+        )
+    return str(reference)
+
+
+def report(store: Path, out: Path, command: str, reference: str = "ihpso") -> None:
     """Write the leaderboards, figures (PNG + PDF) and HTML report of ``store`` into ``out``; summarise."""
     from uav_penetration_env.benchmark.commands.report import print_written, write_results
 
-    written = write_results(store, out, command=command, formats=("png", "pdf"))
+    written = write_results(store, out, command=command, reference=reference, formats=("png", "pdf"))
     print()
-    print_written(written, out)
+    print_written(written, out, reference)
 
 
-def suite_report(store: Path, out: Path, command: str, suite: str) -> None:
+def suite_report(store: Path, out: Path, command: str, suite: str, reference: str = "ihpso") -> None:
     """After ``run --suite``: write the leaderboards and summarise the suite's own tables.
 
     DECISION (docs/suite.md §5): a suite run writes the tables only. The figures and the HTML page
@@ -483,7 +508,7 @@ def suite_report(store: Path, out: Path, command: str, suite: str) -> None:
     from uav_penetration_env.suites import load_suite
 
     name = load_suite(suite).name
-    tables = write_leaderboards(store, out, command=command)
+    tables = write_leaderboards(store, out, reference=reference, command=command)
     own = [path for path in tables if path.stem == name or path.stem.startswith(f"{name}-")]
     print()
     print_summary(own)

@@ -162,13 +162,16 @@ def family_figure(labels: Sequence[str], width: float, height: float):
         height: the height of one panel [in].
 
     Returns:
-        The figure and a list of ``(family or None, container, labels)``: the container is the
-        figure itself (one panel) or a sub-figure per family present, in :data:`FAMILIES` order.
+        The figure and a list of ``(family or None, container, labels)``: the container is a
+        sub-figure, the only one (one panel) or one per family present, in :data:`FAMILIES` order.
+        The figure's title goes on the figure (:func:`figure_title`), a family's on its panel.
     """
     ordered = policy_order(labels)
     if len(ordered) <= PANEL_THRESHOLD:
         figure = new_figure(width, height)
-        return figure, [(None, figure, ordered)]
+        # A sub-figure even for one panel: its legend sits beside the panel, under the figure's
+        # title (figure_title), so a title wider than the axes never runs under the legend.
+        return figure, [(None, figure.subfigures(1, 1), ordered)]
     families = [f for f in FAMILIES if any(policy_family(label) == f for label in ordered)]
     columns = 1 if len(families) == 1 else 2
     rows = -(-len(families) // columns)
@@ -178,6 +181,24 @@ def family_figure(labels: Sequence[str], width: float, height: float):
         (family, containers[i], [label for label in ordered if policy_family(label) == family])
         for i, family in enumerate(families)
     ]
+
+
+TITLE_CHARACTER_WIDTH = 0.55  # [em] a character's mean width in the titles' font, to wrap them
+
+
+def figure_title(figure, title: str, fontsize: float = 10.0) -> None:
+    """The figure's title above all its panels and their legends, wrapped to the figure's width.
+
+    DECISION (api.md §4.6): a figure's title is the figure's (``suptitle``), never its axes', and
+    the panels with their legends lie in sub-figures below it (:func:`family_figure`): an axes
+    title longer than the axes ran under the legend beside them, which the constrained layout
+    does not prevent. A line wider than the figure is wrapped at word boundaries.
+    """
+    import textwrap
+
+    characters = max(20, int(figure.get_figwidth() * 72.0 / (fontsize * TITLE_CHARACTER_WIDTH)))
+    lines = [wrapped for line in title.split("\n") for wrapped in textwrap.wrap(line, characters) or [""]]
+    figure.suptitle("\n".join(lines), fontsize=fontsize)
 
 
 COST_LOG_SPAN = 4.0  # costs spanning more than this factor get a log axis (cost_axis)

@@ -12,6 +12,7 @@ import pandas as pd
 from uav_penetration_env.benchmark.figures.common import (
     FigureInput,
     family_figure,
+    figure_title,
     finished_steps,
     mean_band,
     note_empty,
@@ -102,7 +103,7 @@ def plot_convergence(inp: FigureInput):
         ax.set_ylabel(
             "normalised best-so-far (h − h_end)/(h_0 − h_end)\nmean over improving MPC steps, 95% t-band"
         )
-        ax.set_title(family if family is not None else title, fontsize=9)
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+        if family is not None:
+            ax.set_title(family, fontsize=9)
+    figure_title(figure, title)
     return figure

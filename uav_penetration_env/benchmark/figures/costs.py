@@ -9,6 +9,7 @@ from uav_penetration_env.benchmark.figures.common import (
     FigureInput,
     cost_axis,
     family_figure,
+    figure_title,
     finished_steps,
     mean_band,
     new_figure,
@@ -42,12 +43,12 @@ def plot_j_per_point(inp: FigureInput):
         if not episodes:
             note_empty(top, "no finished episode with stored steps")
         top.set_ylabel("J(k) per track point\n(mean over seeds; 95% t-band where ≥ 3 runs)")
-        top.set_title(family if family is not None else title, fontsize=9)
+        if family is not None:
+            top.set_title(family, fontsize=9)
         bottom.set_ylabel("runs at k")
         bottom.set_xlabel("track point k")
         outside_legend(container)
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+    figure_title(figure, title)
     return figure
 
 
@@ -168,10 +169,10 @@ def plot_performance_profile(inp: FigureInput):
             outside_legend(container)
         else:
             note_empty(ax, "no seed finished by every planner")
-        ax.set_title(family if family is not None else title, fontsize=9)
+        if family is not None:
+            ax.set_title(family, fontsize=9)
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel("τ (total cost / best total cost on the same seed, log scale)")
         ax.set_ylabel("fraction of seeds within τ of the best")
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+    figure_title(figure, title)
     return figure

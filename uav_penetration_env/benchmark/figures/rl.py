@@ -14,6 +14,7 @@ from uav_penetration_env.benchmark import rl_stats
 from uav_penetration_env.benchmark.figures.common import (
     FigureInput,
     cost_axis,
+    figure_title,
     new_figure,
     note_empty,
     outside_legend,
@@ -55,9 +56,9 @@ def plot_compute_axis(inp: FigureInput):
     """
     points = compute_points(inp.group.episodes, n_resamples=COMPUTE_RESAMPLES)
     figure = new_figure(7.8, 5.0)
-    ax = figure.add_subplot()
-    title = f"{inp.group.name}: total J vs decision time per step"
-    ax.set_title(title, fontsize=9)
+    panel = figure.subfigures(1, 1)  # the legend beside the panel, the title above both
+    ax = panel.add_subplot()
+    figure_title(figure, f"{inp.group.name}: total J vs decision time per step")
     ax.set_xlabel("decision time per step [s] (wall clock, log scale; this machine)")
     finite = (
         points[np.isfinite(points["decision_seconds"]) & (points["decision_seconds"] > 0)]
@@ -93,7 +94,7 @@ def plot_compute_axis(inp: FigureInput):
     ax.set_xscale("log")
     cost_axis(ax, finite["total_cost"], "total J incl. failure penalty", "mean, 95% CI")
     ax.grid(True, which="major", alpha=0.3)
-    outside_legend(figure)
+    outside_legend(panel)
     return figure
 
 
@@ -118,8 +119,9 @@ def plot_rl_profile(inp: FigureInput):
     scores = {m.label: run_scores(frame, m) for m in found}
     scores = {label: table for label, table in scores.items() if not table.empty}
     figure = new_figure(7.8, 5.0)
-    ax = figure.add_subplot()
-    ax.set_title(f"{inp.group.name}: performance profiles over runs", fontsize=9)
+    panel = figure.subfigures(1, 1)  # the legend beside the panel, the title above both
+    ax = panel.add_subplot()
+    figure_title(figure, f"{inp.group.name}: performance profiles over runs")
     ax.set_xlabel("τ: total J incl. failure penalty")
     ax.set_ylabel("fraction of runs with total J < τ (95% band)")
     if not scores:
@@ -140,5 +142,5 @@ def plot_rl_profile(inp: FigureInput):
     if high / max(low, 1e-12) > 20 and low > 0:
         ax.set_xscale("log")
     ax.set_ylim(-0.02, 1.02)
-    outside_legend(figure)
+    outside_legend(panel)
     return figure

@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.figures.common import (
     MPC_FAMILIES,
     FigureInput,
     family_figure,
+    figure_title,
     note_empty,
     outside_legend,
 )
@@ -338,10 +339,10 @@ def plot_tracks_top(inp: FigureInput):
         ax.set_aspect("equal")
         ax.set_xlabel("x [km]")
         ax.set_ylabel("y [km]")
-        ax.set_title(family if family is not None else title, fontsize=9)
+        if family is not None:
+            ax.set_title(family, fontsize=9)
         outside_legend(container)
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+    figure_title(figure, title)
     return figure
 
 
@@ -417,10 +418,10 @@ def plot_tracks_3d(inp: FigureInput):
         ax.set_xlabel("x [km]")
         ax.set_ylabel("y [km]")
         ax.set_zlabel("z [m]")
-        ax.set_title(family if family is not None else title, fontsize=9)
+        if family is not None:
+            ax.set_title(family, fontsize=9)
         outside_legend(container)
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+    figure_title(figure, title)
     return figure
 
 
@@ -449,11 +450,11 @@ def plot_timeline(inp: FigureInput):
         if not tracks:
             note_empty(altitude_ax, "no finished episode with stored steps")
         altitude_ax.set_ylabel("altitude AGL [m] (x: below ground)")
-        altitude_ax.set_title(family if family is not None else title, fontsize=9)
+        if family is not None:
+            altitude_ax.set_title(family, fontsize=9)
         detection_ax.set_ylabel("detection probability")
         detection_ax.set_ylim(-0.02, 1.02)
         detection_ax.set_xlabel("track point k")
         outside_legend(container)
-    if len(panels) > 1:
-        figure.suptitle(title, fontsize=10)
+    figure_title(figure, title)
     return figure

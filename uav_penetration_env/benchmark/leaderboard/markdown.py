@@ -90,32 +90,56 @@ def cell(column: Column, r: Any, reference: str | None) -> str:
     return format_number(value, board.digits)
 
 
-def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str], list[list[str]], list[str]]:
-    """The Markdown header, cells and alignment of a :func:`leaderboard_table`.
+def shown_columns(table: pd.DataFrame) -> list[Column]:
+    """The leaderboard columns a :func:`leaderboard_table` (or its CSV) shows, in table order.
 
     The columns are the column table's leaderboard columns (:func:`columns.leaderboard_columns`);
     an ``optional`` one is shown only when some policy has a value, a ``recorded_only`` one only when
     the table has it.
     """
-    shown = [
+    return [
         column
         for column in leaderboard_columns()
         if (column.out in table or not column.board.recorded_only)
         and (not column.board.optional or table[column.out].notna().any())
     ]
+
+
+def markdown_rows(table: pd.DataFrame, reference: str | None) -> tuple[list[str], list[list[str]], list[str]]:
+    """The Markdown header, cells and alignment of a :func:`leaderboard_table` (:func:`shown_columns`)."""
+    shown = shown_columns(table)
     header = [column.board.header.format(reference=reference or "reference") for column in shown]
     rows = [[cell(column, r, reference) for column in shown] for _, r in table.iterrows()]
     align = ["l", *(["r"] * (len(header) - 1))]
     return header, rows, align
 
 
+def seed_set_sentence(table: pd.DataFrame) -> str:
+    """Which seeds the ranked rows' statistics are over, and which policies are listed unranked (api.md §4.5)."""
+    blocks = table.attrs.get("blocks", "seeds")
+    seeds = table.attrs.get("seeds", [])
+    whose = "the reference's" if table.attrs.get("reference") is not None else "those most policies were flown on"
+    sentence = (
+        f"Every statistic of a ranked policy is over the same {len(seeds)} {blocks} ({whose}: "
+        f"{compact_ranges(seeds)})."
+    )
+    unranked = table.attrs.get("unranked", {})
+    if unranked:
+        listed = "; ".join(f"`{label}` ({compact_ranges(own)})" for label, own in sorted(unranked.items()))
+        sentence += (
+            f" Not ranked, because not flown on each of them (statistics over their own {blocks}, "
+            f"no comparison): {listed}."
+        )
+    return sentence
+
+
 def statistics_paragraph(table: pd.DataFrame) -> str:
-    """The "Statistics" section: Friedman's test and which differences to the reference are significant."""
+    """The "Statistics" section: the seed set, Friedman's test and which differences to the reference are significant."""
     friedman: stats.FriedmanResult = table.attrs["friedman"]
     reference = table.attrs["reference"]
     blocks = table.attrs.get("blocks", "seeds")
     k = int(friedman.ranks.notna().sum())
-    lines = []
+    lines = [seed_set_sentence(table)]
     if friedman.statistic is not None:
         lines.append(
             f"Friedman test over the {friedman.blocks} {blocks} every policy finished ({k} policies): "

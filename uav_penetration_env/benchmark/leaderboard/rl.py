@@ -286,13 +286,27 @@ def _cell(name: str, r: Any) -> str:
     return format_number(r[name], 3 if name == "decision_seconds" else 4)
 
 
+def _best_planner(table: pd.DataFrame) -> str:
+    """The best swarm planner an RL table compares with (its attrs, else its CSV column)."""
+    if table.attrs.get("best_planner"):
+        return str(table.attrs["best_planner"])
+    named = table["best_planner"].dropna() if "best_planner" in table else pd.Series(dtype=object)
+    return str(named.iloc[0]) if len(named) else "best planner"
+
+
+def rl_rows(table: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
+    """The header and cell texts of an :func:`rl_table` (or of its CSV read back by pandas)."""
+    planner = _best_planner(table)
+    header = [column.board.header.format(planner=planner) for column in RL_GROUP]
+    return header, [[_cell(column.name, r) for column in RL_GROUP] for _, r in table.iterrows()]
+
+
 def rl_markdown(table: pd.DataFrame) -> str:
     """The "RL agents over training seeds" section of a leaderboard's Markdown file (empty without agents)."""
     if table.empty:
         return ""
-    planner = table.attrs.get("best_planner") or "best planner"
-    header = [column.board.header.format(planner=planner) for column in RL_GROUP]
-    rows = [[_cell(column.name, r) for column in RL_GROUP] for _, r in table.iterrows()]
+    planner = _best_planner(table)
+    header, rows = rl_rows(table)
     resamples = f"{int(table.attrs.get('n_resamples', 10_000)):,}"
     legend = [
         f"- **{column.board.header.format(planner=planner)}**: {column.board.legend.format(resamples=resamples)}."

@@ -37,6 +37,7 @@ GAP_COLUMNS = (
 
 BestKnownLookup = Callable[[str], "float | None"]
 
+
 def _label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
     """A bootstrap seed for one policy and statistic that does not depend on which other policies exist."""
     digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
@@ -86,15 +87,24 @@ def leaderboard_table(
         )
     labels = sorted(frame["label"].unique())
     frame["gap"] = relative_gaps(frame, best_known)
-    costs = cost_table(frame)
-    friedman = stats.friedman_ranks(costs)
     ref = resolve_reference(labels, frame, reference)
+    seeds, ranked = table_seeds(frame, ref)
+    on_seeds = frame[frame["label"].isin(ranked) & frame["seed"].isin(seeds)]
+    costs = cost_table(on_seeds)
+    friedman = stats.friedman_ranks(costs)
     tests = (
         stats.wilcoxon_vs_reference(costs, ref)
-        if ref is not None and costs[ref].notna().any()
+        if ref is not None and ref in costs and costs[ref].notna().any()
         else pd.DataFrame(columns=["n_pairs", "median_difference", "statistic", "pvalue", "pvalue_holm"])
     )
-    rows = [_policy_row(frame, label, costs, friedman, ref, tests, seed, n_resamples) for label in labels]
+    rows = [
+        _policy_row(
+            on_seeds if label in ranked else frame, label, costs, friedman, ref, tests, seed, n_resamples
+        )
+        for label in labels
+    ]
+    for row in rows:  # a harness error is reported whichever seed it happened on
+        row["errors"] = int(frame.loc[frame["label"] == row["policy"], "is_error"].sum())
     table = _drop_unrecorded(pd.DataFrame(rows), gaps_recorded=bool(frame["gap"].notna().any()))
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
@@ -102,11 +112,55 @@ def leaderboard_table(
     ).reset_index(drop=True)
     table.attrs["friedman"] = friedman
     table.attrs["reference"] = ref
-    table.attrs["seeds"] = sorted(int(s) for s in frame["seed"].dropna().unique())
+    table.attrs["seeds"] = seeds
+    table.attrs["unranked"] = {
+        label: sorted(int(s) for s in frame.loc[frame["label"] == label, "seed"].unique())
+        for label in labels
+        if label not in ranked
+    }
     table.attrs["n_resamples"] = int(n_resamples)
     # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
     table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
     return table
+
+
+def table_seeds(frame: pd.DataFrame, reference: str | None) -> tuple[list[int], set[str]]:
+    """The seeds every statistic of the table is computed on, and the policies ranked on them.
+
+    DECISION (api.md §4.5): one stated seed set per table, so adding a policy flown on fewer (or
+    other) seeds never moves the others' numbers, ranks or order. The set is the seeds of the
+    reference's finished episodes; without a reference in the group, the set of finished seeds
+    the most policies share (ties: the larger set, then the one of smaller seeds). A policy with
+    a row on each of these seeds (an error row counts: it is flown, and rerunning fixes it) is
+    ranked, with every statistic over exactly these seeds (its episodes on other seeds are left
+    out; an error row drops its seed from the paired statistics, as before); any other policy is
+    listed after them, unranked, with statistics over its own seeds and no paired comparison.
+
+    Args:
+        frame: one group's prepared episodes (``seed`` is the block index in a suite group).
+        reference: the resolved reference label, or None.
+
+    Returns:
+        (sorted seeds, labels of the ranked policies).
+    """
+
+    def seed_sets(rows: pd.DataFrame) -> dict[str, frozenset[int]]:
+        return {
+            str(label): frozenset(int(s) for s in seeds)
+            for label, seeds in rows.groupby("label")["seed"].unique().items()
+        }
+
+    finished = seed_sets(frame[~frame["is_error"]])
+    flown = seed_sets(frame)
+    if reference is not None and reference in finished:
+        chosen = finished[reference]
+    else:
+        counts: dict[frozenset[int], int] = {}
+        for seeds in finished.values():
+            counts[seeds] = counts.get(seeds, 0) + 1
+        chosen = min(counts, key=lambda s: (-counts[s], -len(s), sorted(s)), default=frozenset())
+    ranked = {label for label, seeds in flown.items() if chosen <= seeds}
+    return sorted(chosen), ranked
 
 
 def _policy_row(

@@ -1,0 +1,1 @@
+"""Examples of docs/plugins.md: optimisers of your own, plugged into ``uav-bench run --import``."""

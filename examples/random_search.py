@@ -1,0 +1,78 @@
+"""Uniform random search: the smallest complete optimiser of the interface (docs/plugins.md §3).
+
+Plug it into the harness with ``uav-bench run --import examples.random_search --policies
+random-search greedy`` from the repository root; importing this module registers the name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from optimizers import BoundsLike, OptimizeResult, normalize_bounds, register_optimizer
+
+
+@register_optimizer("random-search")
+@dataclass(frozen=True)
+class RandomSearch:
+    """Draw ``batch`` uniform points inside the bounds per iteration until the budget is spent.
+
+    Attributes:
+        batch: Points per call of the batch objective.
+    """
+
+    batch: int = 64
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.batch, int) or self.batch < 1:
+            raise ValueError(f"RandomSearch.batch: got {self.batch!r}, expected an integer >= 1")
+
+    def minimize(
+        self,
+        fun,
+        bounds: BoundsLike,
+        *,
+        rng: np.random.Generator | int | None = None,
+        max_evals: int = 10_000,
+        x0=None,
+    ) -> OptimizeResult:
+        """Minimise the batch objective ``fun`` inside ``bounds`` with at most ``max_evals`` rows.
+
+        Args:
+            fun: Batch objective, ``(n, d)`` points to ``(n,)`` costs.
+            bounds: Any form :func:`optimizers.normalize_bounds` accepts; the MPC planner passes
+                ``scipy.optimize.Bounds``.
+            rng: Seed or Generator, the only source of randomness.
+            max_evals: The budget of objective rows; never exceeded.
+            x0: Optional ``(d,)`` warm start, evaluated first (the planner's shifted previous plan).
+
+        Returns:
+            The best point evaluated, with its cost and the best-so-far history.
+        """
+        lo, hi = normalize_bounds(bounds)
+        rng = np.random.default_rng(rng)
+        best_x, best_f, used = (lo + hi) / 2, np.inf, 0
+        history, history_nfev = [], []
+        while used < max_evals:
+            n = min(self.batch, max_evals - used)
+            points = rng.uniform(lo, hi, size=(n, lo.size))
+            if x0 is not None and used == 0:
+                points[0] = np.clip(x0, lo, hi)
+            costs = np.asarray(fun(points), dtype=np.float64)
+            costs = np.where(np.isnan(costs), np.inf, costs)  # a NaN cost never wins
+            used += n
+            i = int(np.argmin(costs))
+            if costs[i] < best_f:
+                best_x, best_f = points[i].copy(), float(costs[i])
+            history.append(best_f)
+            history_nfev.append(used)
+        return OptimizeResult(
+            x=best_x,
+            fun=best_f,
+            nfev=used,
+            nit=len(history) - 1,
+            history=np.array(history),
+            history_nfev=np.array(history_nfev),
+            message="max_evals reached",
+        )
