@@ -17,6 +17,7 @@ episodes, each once.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 from collections import deque
@@ -122,7 +123,11 @@ def dask_results(
         raise ImportError("backend='dask' needs the dist extra: pip install -e '.[dist]'") from error
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True, dashboard_address=None)
+        # A dying worker's restarts are warnings from every nanny; its error row says it once.
+        cluster = LocalCluster(
+            n_workers=max(1, jobs), threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )  # fmt: skip
     client = Client(scheduler or cluster)
     try:
         futures = client.map(fly, list(tasks), pure=False)
