@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from baselines.plan import DEFAULT_MODELS, TrainConfig, default_model_path, vector_class
-from uav_penetration_env.benchmark.commands.common import CLIError, resolve_scenarios
+from uav_penetration_env.benchmark.commands.common import CLIError, path_argument, resolve_scenarios
 from uav_penetration_env.catalogue import SCENARIO_HELP
 
 DEFAULTS = TrainConfig()  # every default of the flags below is TrainConfig's
@@ -68,6 +68,7 @@ def _add_budget_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--out",
+        type=path_argument,
         help=f"model .zip (default: {DEFAULT_MODELS}/ALGO-SCENARIO-sSEED.zip); sidecars go beside it",
     )
     parser.add_argument("--hyperparams", help="YAML file overriding keys of baselines/hyperparams/ALGO.yaml")

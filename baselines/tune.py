@@ -93,6 +93,8 @@ def _per_algo(values: dict[str, int]) -> str:
 
 def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench tune`` (defaults: :class:`TuneConfig`'s)."""
+    from uav_penetration_env.benchmark.commands.common import path_argument
+
     parser.add_argument("--algo", default="ppo", help="ppo, sac or td3 (default: ppo)")
     parser.add_argument("--regime", default="paper", help="paper or random (default: paper)")
     parser.add_argument(
@@ -116,7 +118,9 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
         "--n-envs", dest="n_envs", type=int, default=8, help="sub-envs per trial (default: 8)"
     )
     parser.add_argument("--seed", type=int, default=0, help="training and sampler seed (default: 0)")
-    parser.add_argument("--out", help=f"output folder (default: {DEFAULT_OUT}/ALGO-REGIME)")
+    parser.add_argument(
+        "--out", type=path_argument, help=f"output folder (default: {DEFAULT_OUT}/ALGO-REGIME)"
+    )
     parser.add_argument(
         "--torch-threads", dest="torch_threads", type=int, default=1, help="torch threads (default: 1)"
     )

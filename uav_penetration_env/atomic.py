@@ -44,7 +44,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         ``KeyboardInterrupt``, it is removed and ``path`` is left as it was.
 
     Raises:
-        OSError: the folder cannot be created or written.
+        OSError: the folder cannot be created or written (an error while writing the temporary
+            file names ``path``).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -55,6 +56,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         yield temporary
         os.chmod(temporary, _file_mode())
         os.replace(temporary, path)
+    except OSError as error:
+        temporary.unlink(missing_ok=True)
+        if error.filename not in (None, str(temporary)):
+            raise
+        # A full disk fails the flush of a file that has no name in the error: name the target.
+        raise type(error)(error.errno, error.strerror, str(path)) from error
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise

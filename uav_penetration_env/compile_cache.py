@@ -21,9 +21,12 @@ exports load on first use).
 from __future__ import annotations
 
 import hashlib
+import io
 import os
+import pickletools
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numba
@@ -66,6 +69,48 @@ def _remove_other_digests(parent: Path, keep: Path, prefix: str) -> None:
         pass
 
 
+def damaged_files(folder: Path) -> list[Path]:
+    """The cache files under ``folder`` whose pickle streams are cut short or garbled.
+
+    numba writes each file whole (a temporary file, then a rename), so a damaged one comes from
+    outside: a full disk, a copy made while it was written, a bad sync. The streams are walked
+    opcode by opcode (``pickletools``), not unpickled: about 5 ms for the whole cache.
+    """
+    damaged = []
+    for path in sorted(folder.rglob("*.nb[ci]")):
+        try:
+            stream = io.BytesIO(path.read_bytes())
+            for _ in pickletools.genops(stream):  # .nbc: one pickle; .nbi: numba's version, then the index
+                pass
+            if path.suffix == ".nbi":
+                for _ in pickletools.genops(stream):
+                    pass
+        except (OSError, ValueError, EOFError):
+            damaged.append(path)
+    return damaged
+
+
+def repair_compile_cache(folder: Path) -> bool:
+    """Clear ``folder`` with a warning naming it if any cache file there is damaged; returns whether it did.
+
+    DECISION (model.md §8, a damaged cache): numba unpickles its cache files on a function's first
+    call and a cut one kills the process there (``UnpicklingError``), in every later process. So
+    each process checks the folder when it sets it and clears the whole folder (an index and its
+    data files go together) rather than dying: the physics is compiled again, once.
+    """
+    damaged = damaged_files(folder) if folder.is_dir() else []
+    if not damaged:
+        return False
+    warnings.warn(
+        f"the compile cache {folder} was damaged ({len(damaged)} files cut short or garbled, e.g. "
+        f"{damaged[0].name}); cleared it: the physics is compiled again (about a minute)",
+        RuntimeWarning,
+        stacklevel=2,
+    )
+    shutil.rmtree(folder, ignore_errors=True)
+    return True
+
+
 def configure_compile_cache() -> str:
     """Point numba's cache at the folder of the current sources' digest (see the module docstring).
 
@@ -83,6 +128,7 @@ def configure_compile_cache() -> str:
     else:
         # A shared folder another installed version may be using: nothing is removed there.
         folder = cache.cache_dir() / "numba" / digest
+    repair_compile_cache(folder)
     numba.config.CACHE_DIR = str(folder)
     return str(folder)
 

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from baselines.distill.config import DEFAULT_SCENARIOS, DistillConfig
-from uav_penetration_env.benchmark.commands.common import CLIError
+from uav_penetration_env.benchmark.commands.common import CLIError, path_argument
 
 DEFAULTS = DistillConfig()
 
@@ -23,7 +23,7 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
     add = parser.add_argument
     add("--expert", default=DEFAULTS.expert, help="the planner imitated: any --policies name of `uav-bench run` "
         f"(lattice is cheap, an MPC planner such as ps2o expensive; default: {DEFAULTS.expert})")
-    add("--out", required=True, help="the run folder (round data, networks, policy.npz + policy.json)")
+    add("--out", type=path_argument, required=True, help="the run folder (round data, networks, policy.npz + policy.json)")
     add("--rounds", type=int, default=DEFAULTS.rounds, help=f"DAgger rounds after behaviour cloning (default: {DEFAULTS.rounds})")
     add("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS),
         help="training scenarios: names, random:SEED, random:A-B, YAML paths; never a held-out or suite seed "

@@ -11,6 +11,7 @@ a last-ulp difference per transcendental call, ~1e-16 relative, is what remains.
 from __future__ import annotations
 
 import math
+import os
 
 import numba
 import numpy as np
@@ -333,3 +334,58 @@ def test_the_envs_pass_threads_to_their_model():
     assert vector.unwrapped.model.threads == 2
     with pytest.raises(ValueError, match="threads: got 0"):
         gym.make("UAVPenetrationRandom-v0", threads=0)
+
+
+def cache_files(folder, *, cut: bool) -> None:
+    """A numba-like cache: an index (version pickle, then the index pickle) and a data file, maybe cut."""
+    import pickle
+
+    folder.mkdir(parents=True)
+    (folder / "kernels.f-1.py311.nbi").write_bytes(pickle.dumps("0.60") + pickle.dumps((("stamp", 1), {})))
+    data = pickle.dumps({"library": bytes(range(256)) * 40, "types": ("float64",)})
+    (folder / "kernels.f-1.py311.1.nbc").write_bytes(data[: len(data) // 2] if cut else data)
+
+
+def test_a_damaged_compile_cache_is_cleared_with_a_warning_naming_it(tmp_path):
+    from uav_penetration_env import compile_cache
+
+    intact, damaged = tmp_path / "intact", tmp_path / "damaged"
+    cache_files(intact, cut=False)
+    cache_files(damaged, cut=True)
+    assert compile_cache.damaged_files(intact) == []
+    assert not compile_cache.repair_compile_cache(intact) and len(list(intact.iterdir())) == 2
+    assert compile_cache.damaged_files(damaged) == [damaged / "kernels.f-1.py311.1.nbc"]
+    with pytest.warns(RuntimeWarning, match=f"the compile cache {damaged} was damaged"):
+        assert compile_cache.repair_compile_cache(damaged)
+    assert not damaged.exists()  # compiled again on first use
+
+
+def test_setting_the_compile_cache_repairs_a_damaged_one(tmp_path, monkeypatch):
+    from uav_penetration_env import compile_cache
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
+    folder = tmp_path / f"uav-penetration-{compile_cache.source_digest()}"
+    cache_files(folder / "uav_penetration_env_0123", cut=True)
+    with pytest.warns(RuntimeWarning, match="cleared it: the physics is compiled again"):
+        assert compile_cache.configure_compile_cache() == str(folder)
+    assert not folder.exists()
+
+
+@pytest.mark.slow
+def test_a_process_after_a_cut_compile_cache_recompiles_instead_of_dying(tmp_path):
+    """The real thing: every .nbc file of a filled cache cut to half; the next process still steps the env."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    code = ("import numpy as np, gymnasium as gym, uav_penetration_env; e = gym.make('UAVPenetration-v0'); "
+            "e.reset(seed=0); print('reward', e.step(np.array([0.0, 0.0, 0.1]))[1])")  # fmt: skip
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr[-500:]
+    cut = list(tmp_path.rglob("*.nbc"))
+    for path in cut:
+        os.truncate(path, path.stat().st_size // 2)
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert second.returncode == 0, second.stderr[-500:]
+    assert second.stdout == first.stdout and "was damaged" in second.stderr and cut

@@ -13,6 +13,7 @@ import shutil
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import tiny_scenario
 
@@ -113,7 +114,20 @@ def zeroed_middle(folder: Path, good: Path) -> Path:
     return path
 
 
+def random_pages(folder: Path, good: Path) -> Path:
+    """200 random bytes into every page after the first (a disk's bad blocks): the schema reads, its rows do not."""
+    path = folder / "random.sqlite"
+    data = bytearray(good.read_bytes())
+    page = int.from_bytes(data[16:18], "big")
+    noise = np.random.default_rng(27)
+    for start in range(page, len(data) - page + 1, page):
+        data[start + 8 : start + 208] = noise.bytes(200)
+    path.write_bytes(bytes(data))
+    return path
+
+
 BAD = {
+    "random-pages": (random_pages, "damaged or not a results store"),
     "truncated": (truncated, "damaged"),
     "zeroed-middle": (zeroed_middle, "damaged"),
     "garbled": (garbled, "damaged"),
@@ -123,6 +137,9 @@ BAD = {
     "newer-schema": (newer_schema, f"schema version {SCHEMA_VERSION + 1} is newer"),
     "folder": (folder_store, "is a folder"),
 }
+# Stores whose header and schema read fine: a reader opens them and meets the damage mid-read, and
+# SQLite keeps the side files of that open (run's integrity check refuses them before opening).
+MET_WHILE_READING = {"zeroed-middle", "garbled", "zeroed"}
 
 
 def commands(store: Path, tiny_yaml: Path, out: Path) -> dict[str, list[object]]:
@@ -163,6 +180,8 @@ def test_a_bad_store_is_one_line_exit_2_and_left_unchanged(
     assert line.startswith(f"uav-bench: error: --store {store}: "), line
     assert expected in line
     assert snapshot(store) == before
+    if command == "run" or kind not in MET_WHILE_READING:
+        assert sorted(tmp_path.glob(f"{store.name}-*")) == []  # no -wal or -shm left by the refused open
     written = sorted(p.name for p in out.rglob("*") if p.is_file()) if out.exists() else []
     assert written == []  # nothing half-made from a bad store either
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -162,6 +163,15 @@ def test_cmaes_default_uses_the_package_population():
     rec = Batches(sphere)
     get_optimizer("cmaes-default").minimize(rec, (LO, HI), rng=0, max_evals=70)
     assert rec.sizes == [4 + math.floor(3 * math.log(3))] * 10
+
+
+def test_cmaes_in_100_dimensions_spends_its_budget_without_endless_bound_resampling():
+    """cmaes' ask() resamples out-of-box candidates: in 100-D almost every one leaves the box, and an
+    unbounded resampling would sit in ask() for minutes before the first evaluation (repro_17)."""
+    start = time.perf_counter()
+    res = get_optimizer("cmaes").minimize(lambda x: x.sum(axis=1), [(-5.0, 0.5)] * 100, rng=2, max_evals=17)
+    assert res.nfev == 17 and np.all((res.x >= -5.0) & (res.x <= 0.5))
+    assert time.perf_counter() - start < 30  # about 0.5 s; minutes when the resampling is unbounded
 
 
 def test_ipop_doubles_the_population_in_batches_of_at_most_100(monkeypatch):

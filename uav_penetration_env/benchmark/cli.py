@@ -11,8 +11,10 @@ listed in :data:`EXIT_STATUS` (the epilog of ``uav-bench --help``).
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NoReturn
 
 from uav_penetration_env.benchmark.commands import available_commands
@@ -22,7 +24,8 @@ from uav_penetration_env.benchmark.plugins import PluginUnavailable
 EXIT_STATUS = """exit status:
   0    all the work was done
   1    some work failed (e.g. `run` episodes that ended in an error: stored as error rows,
-       counted in the summary line, retried by rerunning the same command)
+       counted in the summary line, retried by rerunning the same command; a disk that
+       filled up: one line, finished work kept)
   2    bad arguments or inputs (one line `uav-bench: error: ...`; nothing written)
   130  interrupted (Ctrl-C); finished work is kept
   143  terminated (SIGTERM; 128 + the signal's number); finished work is kept"""
@@ -47,6 +50,16 @@ class OneLineParser(argparse.ArgumentParser):
         """
         where = "" if self.prog == "uav-bench" else f"{self.prog}: "
         raise UsageError(f"{where}{message} (see {self.prog} --help)")
+
+
+def say_error(message: object) -> None:
+    """Print ``uav-bench: error: MESSAGE`` on stderr as one line.
+
+    A value the user typed may hold a line break or another control character (a carriage return
+    pasted into ``--seeds``); it is shown escaped, as ``repr`` would, so the message stays one line.
+    """
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(message))
+    print(f"uav-bench: error: {text}", file=sys.stderr)
 
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
@@ -85,14 +98,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser(argv)
     except CLIError as error:  # a clashing plug-in: say so even for --help
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     try:
         args, unknown = parser.parse_known_args(argv)
         if unknown and not getattr(args, "accepts_any_arguments", False):
             parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     except UsageError as error:
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     args.argv = argv
     try:
@@ -103,19 +116,54 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.handler.needs.check(f"uav-bench {args.command}")
         return int(args.handler.run(args) or 0)
     except (CLIError, PluginUnavailable) as error:
-        print(f"uav-bench: error: {error}", file=sys.stderr)
+        say_error(error)
         return 2
     except Exception as error:
-        # A store that goes bad while a command reads it (a damaged page met mid-way) is an input
-        # problem like one refused up front; the store module (pandas) is imported only if needed.
-        if type(error).__name__ != "StoreError":
+        failure = _failure(error, args)
+        if failure is None:
             raise
-        from uav_penetration_env.benchmark.store import StoreError
+        message, status = failure
+        say_error(message)
+        return status
 
-        if not isinstance(error, StoreError):
-            raise
-        print(f"uav-bench: error: {store_error(error)}", file=sys.stderr)
-        return 2
+
+# A write the machine refuses: failed work (exit 1), said in one line, not a bug's traceback.
+FULL_OR_READ_ONLY = (errno.ENOSPC, errno.EDQUOT, errno.EROFS)
+
+
+def _failure(error: Exception, args: argparse.Namespace) -> tuple[str, int] | None:
+    """The one line and exit status of an error met while a command worked; None: a bug (its traceback).
+
+    A store that goes bad while a command reads it (a damaged page met mid-way) is an input problem
+    like one refused up front (2); a write that fails on a full or read-only disk is failed work (1),
+    named by the flag whose folder it was writing. The store module (pandas) is imported only if needed.
+    """
+    if isinstance(error, OSError) and error.errno in FULL_OR_READ_ONLY:
+        return f"{_written_by(error.filename, args)}: {error.strerror}", 1
+    if "StoreError" not in {kind.__name__ for kind in type(error).__mro__}:
+        return None
+    from uav_penetration_env.benchmark.store import StoreError, StoreWriteError
+
+    if not isinstance(error, StoreError):
+        return None
+    return str(store_error(error)), 1 if isinstance(error, StoreWriteError) else 2
+
+
+def _written_by(filename: object, args: argparse.Namespace) -> str:
+    """``--out DIR: cannot write FILE`` naming the path flag ``filename`` lies under, else ``cannot write FILE``.
+
+    A flag's value that is a stem (``--out results/dump`` writing ``dump-episodes.csv``) counts too.
+    """
+    if filename is None:
+        return "cannot write an output"
+    path = Path(str(filename)).absolute()
+    for flag, value in sorted(vars(args).items()):
+        if isinstance(value, (str, Path)) and value and flag not in ("command", "argv"):
+            folder = Path(value).absolute()
+            stem = path.parent == folder.parent and path.name.startswith(folder.name)  # --out STEM
+            if path == folder or folder in path.parents or stem:
+                return f"--{flag.replace('_', '-')} {value}: cannot write {path}"
+    return f"cannot write {path}"
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ row and the sweep goes on.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import datetime as dt
 import hashlib
@@ -31,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env import __version__
+from uav_penetration_env.benchmark import workers
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
 from uav_penetration_env.benchmark.plugins import has_address_repr, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
@@ -110,16 +112,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
     limit_worker_threads(task.threads)  # workers share the cores: one compiled thread each unless told otherwise
     started = time.perf_counter()
     scenario = task.scenario
-    row: dict[str, Any] = {
-        "policy": task.policy_name,
-        "policy_hash": task.policy_hash,
-        "scenario": scenario.name,
-        "scenario_hash": scenario.hash,
-        "seed": int(task.seed),
-        "weights": ",".join(f"{w:g}" for w in scenario.cost.weights),
-        "profile": scenario.profile,
-        **{k: v for k, v in task.extra.items() if k in EPISODE_COLUMNS},
-    }
+    row = _episode_key_row(task)
     steps: list[dict[str, Any]] = []
     try:
         import_plugins(task.imports)
@@ -152,8 +145,41 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         )
         steps = []
     row["episode_seconds"] = time.perf_counter() - started
-    row["finished"] = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
+    row["finished"] = _now()
     return row, steps
+
+
+def worker_died(task: EpisodeTask, reason: str) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The ``error`` row of an episode whose worker process died flying it (:mod:`.workers`)."""
+    row = _episode_key_row(task)
+    row.update(
+        {
+            "outcome": "error",
+            "error": f"{reason}\nthe worker process flying this episode ended abruptly (a crash in "
+            "compiled code, the OOM killer or os._exit in a plug-in); rerunning retries it",
+            "finished": _now(),
+        }
+    )
+    return row, []
+
+
+def _episode_key_row(task: EpisodeTask) -> dict[str, Any]:
+    """The columns of an episode row known before it is flown (its key, scenario and settings)."""
+    scenario = task.scenario
+    return {
+        "policy": task.policy_name,
+        "policy_hash": task.policy_hash,
+        "scenario": scenario.name,
+        "scenario_hash": scenario.hash,
+        "seed": int(task.seed),
+        "weights": ",".join(f"{w:g}" for w in scenario.cost.weights),
+        "profile": scenario.profile,
+        **{k: v for k, v in task.extra.items() if k in EPISODE_COLUMNS},
+    }
+
+
+def _now() -> str:
+    return dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
 # --- the sweep ----------------------------------------------------------------------------------------
@@ -162,40 +188,14 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
 def _iterate(
     tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None
 ) -> Iterator[tuple[dict, list]]:
-    """Episode results as they finish, from the chosen backend."""
+    """Episode results as they finish, from the chosen backend (a worker's death: :mod:`.workers`)."""
     if backend == "sequential" or (n_jobs == 1 and backend == "loky"):
         for task in tasks:
             yield run_episode(task)
     elif backend == "loky":
-        from joblib import Parallel, delayed
-
-        parallel = Parallel(
-            n_jobs=n_jobs,
-            backend="loky",
-            return_as="generator_unordered",
-            batch_size=1,
-            pre_dispatch="2*n_jobs",
-        )
-        yield from parallel(delayed(run_episode)(task) for task in tasks)
+        yield from workers.loky_results(tasks, n_jobs, run_episode, worker_died)
     elif backend == "dask":
-        try:
-            from dask.distributed import Client, LocalCluster, as_completed
-        except ImportError as error:  # pragma: no cover - depends on the installed extras
-            raise ImportError("backend='dask' needs the dist extra: pip install -e '.[dist]'") from error
-        cluster = None
-        if scheduler is None:
-            cluster = LocalCluster(
-                n_workers=max(1, n_jobs), threads_per_worker=1, processes=True, dashboard_address=None
-            )
-        client = Client(scheduler or cluster)
-        try:
-            futures = client.map(run_episode, list(tasks), pure=False)
-            for future in as_completed(futures):
-                yield future.result()
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        yield from workers.dask_results(tasks, n_jobs, scheduler, run_episode, worker_died)
     else:
         raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
 
@@ -397,15 +397,22 @@ def _fly(
     """Fly the pending episodes, storing each as it finishes (an interruption loses none that did)."""
     rows: list[dict[str, Any]] = []
     failures = 0
-    for row, steps in _iterate(pending, jobs, backend, scheduler):
-        if results is not None:
-            row["run_id"] = run_id
-            results.write_episode(row, steps)
-        rows.append(row)
-        failures += row.get("outcome") == "error"
-        bar.finished(row["policy"], float(row.get("episode_seconds", float("nan"))))
-        bar.set_postfix(failures=failures)
+    # closing: an interruption met while storing still shuts the workers down at once
+    with contextlib.closing(_iterate(pending, jobs, backend, scheduler)) as finished:
+        for row, steps in finished:
+            _store(row, steps, results, run_id)
+            rows.append(row)
+            failures += row.get("outcome") == "error"
+            bar.finished(row["policy"], float(row.get("episode_seconds", float("nan"))))
+            bar.set_postfix(failures=failures)
     return rows
+
+
+def _store(row: dict[str, Any], steps: list[dict[str, Any]], results: ResultsStore | None, run_id: int | None) -> None:
+    """Write one finished episode into the store (none: the rows are only returned)."""
+    if results is not None:
+        row["run_id"] = run_id
+        results.write_episode(row, steps)
 
 
 def _requested(results: ResultsStore, tasks: list[EpisodeTask]) -> pd.DataFrame:

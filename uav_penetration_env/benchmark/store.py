@@ -18,10 +18,12 @@ and a rerun skips what is done and retries ``error`` rows.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
+import os
 import sqlite3
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -52,6 +54,13 @@ class StoreError(RuntimeError):
         super().__init__(f"results store {path}: {reason}")
         self.path = Path(path)
         self.reason = reason
+
+
+class StoreWriteError(StoreError):
+    """Writing to a store that opened failed (its disk is full, it became read-only): finished work is kept.
+
+    Failed work rather than a bad input: ``uav-bench`` prints its one line with exit status 1.
+    """
 
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
@@ -103,9 +112,48 @@ def inspect_store_file(path: str | Path, *, must_exist: bool = False) -> None:
     )
 
 
+@contextlib.contextmanager
+def _side_files_removed_on_failure(path: Path) -> Iterator[None]:
+    """Remove the ``-wal``/``-shm`` files an open of ``path`` created, if it is refused as damaged.
+
+    A store refused as damaged is left as it was found, not with two new files beside it.
+    """
+    side = [path.with_name(path.name + suffix) for suffix in ("-wal", "-shm")]
+    before = {file for file in side if file.exists()}
+    try:
+        yield
+    except StoreError:
+        for file in side:
+            if file not in before:
+                file.unlink(missing_ok=True)
+        raise
+
+
 def _read_only(path: Path) -> sqlite3.Connection:
-    """A connection that cannot write to ``path`` (the checks run before any write)."""
-    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60.0)
+    """A connection that cannot write to ``path`` and leaves no file beside it (checks, read-only media).
+
+    DECISION (api.md §4.7, read-only media): a WAL-mode store's readers share a ``-shm`` file,
+    which SQLite creates, with an empty ``-wal``, even for a read-only connection and leaves
+    behind: a damaged store refused by the checks would gain two files, and in a folder nobody
+    can write (a read-only mount, a published store) the open fails. So unless a ``-wal`` file
+    holds a writer's pages, the store is opened ``immutable=1``: read as the file is, with no
+    locks and no side files. On read-only media a ``-wal`` left beside the store is ignored; a
+    store closed by its writer has none.
+    """
+    wal = path.with_name(path.name + "-wal")
+    live = wal.is_file() and wal.stat().st_size > 0 and _writable_folder(path)
+    flags = "mode=ro" if live else "mode=ro&immutable=1"
+    return sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True, timeout=60.0)
+
+
+def _writable_folder(path: Path) -> bool:
+    """Whether files can be created beside ``path`` (False on a read-only file system)."""
+    return os.access(path.resolve().parent, os.W_OK)
+
+
+def _read_only_media(path: Path) -> bool:
+    """Whether ``path`` exists but neither it nor its folder can be written (read-only media)."""
+    return path.is_file() and not (os.access(path, os.W_OK) and _writable_folder(path))
 
 
 def check_integrity(path: str | Path) -> None:
@@ -204,7 +252,10 @@ def _schema_version(path: Path, must_exist: bool) -> tuple[set[str], Any]:
         raise StoreError(path, f"damaged or not a results store ({error})") from None
     finally:
         connection.close()
-    return tables, None if row is None else row[0]
+    if row is None or not isinstance(row[0], int):  # every store writes its version on creation
+        found = "no version" if row is None else f"the version {row[0]!r}"
+        raise StoreError(path, f"damaged or not a results store (its schema_version table holds {found})")
+    return tables, row[0]
 
 
 def _json(value: Any) -> str:
@@ -229,6 +280,23 @@ def _reading(method: _Reader) -> _Reader:
     return read  # type: ignore[return-value]
 
 
+def _writing(method: _Reader) -> _Reader:
+    """A writer of the store whose SQLite errors (a full disk) become :class:`StoreWriteError`.
+
+    Each write is one transaction, so what was written before the failure stays whole.
+    """
+
+    @functools.wraps(method)
+    def write(self: ResultsStore, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except sqlite3.OperationalError as error:
+            hint = "; free space on its disk and rerun: what was stored before is kept" if "full" in str(error) else ""
+            raise StoreWriteError(self.path, f"cannot write to it ({error}){hint}") from error
+
+    return write  # type: ignore[return-value]
+
+
 class ResultsStore:
     """An SQLite results file. Opening creates it (and its folder) if needed.
 
@@ -246,6 +314,10 @@ class ResultsStore:
         self.path = Path(path)
         # Reads only: a file that is not ours is refused unchanged.
         inspect_store_file(self.path, must_exist=not create)
+        if not create and _read_only_media(self.path):
+            self._connection = _read_only(self.path)
+            self._check_readable_as_is()
+            return
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._connection = sqlite3.connect(self.path, timeout=60.0)
@@ -253,14 +325,39 @@ class ResultsStore:
             raise StoreError(
                 self.path, f"cannot open or create it ({error}); expected a writable file path"
             ) from error
+        with _side_files_removed_on_failure(self.path):
+            try:
+                self._connection.execute("PRAGMA journal_mode=WAL")
+                self._connection.execute("PRAGMA synchronous=NORMAL")
+                self._connection.execute("PRAGMA foreign_keys=ON")
+                self._create()
+            except (sqlite3.DatabaseError, StoreError) as error:
+                self._connection.close()
+                if isinstance(error, StoreError):
+                    raise
+                raise StoreError(self.path, f"damaged or not writable ({error})") from error
+
+    def _check_readable_as_is(self) -> None:
+        """A store on read-only media is read unchanged: refuse one that needs the upgrade opening does."""
         try:
-            self._connection.execute("PRAGMA journal_mode=WAL")
-            self._connection.execute("PRAGMA synchronous=NORMAL")
-            self._connection.execute("PRAGMA foreign_keys=ON")
-            self._create()
-        except sqlite3.DatabaseError as error:
+            (version,) = self._connection.execute("SELECT version FROM schema_version").fetchone()
+            missing = [
+                f"{table}.{name}"
+                for table, declared in (("episodes", EPISODE_COLUMNS), ("steps", STEP_COLUMNS), ("window_runs", WINDOW_RUN_COLUMNS))
+                for name in declared
+                if name not in {r[1] for r in self._connection.execute(f"PRAGMA table_info({table})")}
+            ]  # fmt: skip
+        except (sqlite3.DatabaseError, TypeError) as error:
             self._connection.close()
-            raise StoreError(self.path, f"damaged or not writable ({error})") from error
+            raise StoreError(self.path, f"damaged or not a results store ({error})") from None
+        if version != SCHEMA_VERSION or missing:
+            self._connection.close()
+            what = f"schema version {version}" if version != SCHEMA_VERSION else f"no column {missing[0]}"
+            raise StoreError(
+                self.path,
+                f"written by an older version ({what}) and read-only here, so it cannot be upgraded; "
+                "copy it to a writable folder and rerun",
+            )
 
     def _create(self) -> None:
         connection = self._connection
@@ -319,6 +416,7 @@ class ResultsStore:
 
     # --- writing ---------------------------------------------------------------------------------------
 
+    @_writing
     def start_run(self, provenance: Mapping[str, Any], settings: Mapping[str, Any]) -> int:
         """Record a sweep's provenance; returns its ``run_id``."""
         with self._connection:
@@ -328,6 +426,7 @@ class ResultsStore:
             )
         return int(cursor.lastrowid)
 
+    @_writing
     def register(
         self, policies: Mapping[str, tuple[str, Mapping[str, Any]]], scenarios: Mapping[str, tuple[str, str]]
     ) -> None:
@@ -342,6 +441,7 @@ class ResultsStore:
                 [(h, n, y) for h, (n, y) in scenarios.items()],
             )
 
+    @_writing
     def write_episode(self, episode: Mapping[str, Any], steps: Sequence[Mapping[str, Any]]) -> int:
         """Write one finished episode and its steps in one transaction (replacing an ``error`` row).
 
@@ -369,6 +469,7 @@ class ResultsStore:
                 )
         return episode_id
 
+    @_writing
     def drop_policy(self, policy_hash: str) -> tuple[int, int]:
         """Delete every episode of one policy configuration, its steps and its ``policies`` row.
 
@@ -388,6 +489,7 @@ class ResultsStore:
             self._connection.execute("DELETE FROM policies WHERE policy_hash = ?", (policy_hash,))
         return int(episodes.rowcount), int(steps.rowcount)
 
+    @_writing
     def write_window_runs(self, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write optimiser runs on stored window states (``uav-bench windows``) in one transaction.
 
@@ -400,6 +502,7 @@ class ResultsStore:
                 [tuple(_sql_value(row.get(name)) for name in names) for row in rows],
             )
 
+    @_writing
     def load_exported(self, tables: Mapping[str, pd.DataFrame]) -> None:
         """Fill an empty store with exported rows, keeping every id (``uav-bench import``, api.md §4.9).
 

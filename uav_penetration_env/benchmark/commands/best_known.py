@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
     existing_store,
+    path_argument,
     resolve_scenarios,
     split_list,
 )
@@ -56,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--difficulty", type=float, default=0.5, help="difficulty of random: scenarios (default 0.5)"
     )
     parser.add_argument(
-        "--store", default=None, help="results store: stored tracks seed the search; update reads it"
+        "--store", type=path_argument, default=None, help="results store: stored tracks seed the search; update reads it"
     )
     parser.add_argument(
         "--seconds",
@@ -76,7 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--work", default=None, help="checkpoint folder; rerunning continues an interrupted search"
     )
-    parser.add_argument("--records", default=None, help="records folder (default: the package's)")
+    parser.add_argument("--records", type=path_argument, default=None, help="records folder (default: the package's)")
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
 

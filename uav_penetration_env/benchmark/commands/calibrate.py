@@ -13,6 +13,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     int_at_least,
+    path_argument,
     resolve_scenarios,
     split_list,
 )
@@ -49,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--import", dest="imports", action="append", help="a plug-in module to import (repeatable)"
     )
-    parser.add_argument("--out", required=True, help="scenario YAML to write")
+    parser.add_argument("--out", type=path_argument, required=True, help="scenario YAML to write")
 
 
 def _payoff_defaults() -> dict[str, int]:

@@ -185,10 +185,42 @@ def resolve_scenarios(
 # --- files and folders ----------------------------------------------------------------------------
 
 
+# The longest file or folder name, and the longest path, the common file systems take (ext4, APFS,
+# NTFS: 255; Linux's PATH_MAX: 4096): longer ones fail with Errno 36 deep inside a command.
+NAME_MAX = 255
+PATH_MAX = 4096
+
+
+def path_argument(text: str) -> str:
+    """An argparse ``type=`` of every path flag: a usable path, returned as typed.
+
+    Errors become ``argument --FLAG: got ...``: an empty value (which ``Path`` reads as the current
+    folder), a NUL character, a name of more than :data:`NAME_MAX` characters or a path of more
+    than :data:`PATH_MAX`, each of which the operating system would refuse mid-way.
+    """
+    shown = repr(text) if len(text) <= 60 else f"{text[:40]!r}... ({len(text)} characters)"
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a file or folder path")
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"got {shown}, expected a path without a NUL character")
+    longest = max(Path(text).parts, key=len, default="")
+    if len(longest) > NAME_MAX:
+        raise argparse.ArgumentTypeError(
+            f"got {shown}, a name of {len(longest)} characters; expected names of at most {NAME_MAX}"
+        )
+    if len(text) > PATH_MAX:
+        raise argparse.ArgumentTypeError(f"got {shown}, expected a path of at most {PATH_MAX} characters")
+    return text
+
+
+path_argument.__name__ = "path"
+
+
 def add_store_argument(parser: argparse.ArgumentParser, *, default: Path | None = DEFAULT_STORE) -> None:
     """The ``--store`` flag (``default=None``: the command applies :data:`DEFAULT_STORE` itself)."""
     parser.add_argument(
         "--store",
+        type=path_argument,
         default=None if default is None else str(default),
         help=f"results store (default: {DEFAULT_STORE})",
     )

@@ -21,6 +21,7 @@ from uav_penetration_env.benchmark.commands.common import (
     add_store_argument,
     check_writable_folder,
     existing_store,
+    path_argument,
 )
 
 
@@ -30,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_store_argument(parser)
     parser.add_argument(
         "--out",
+        type=path_argument,
         help="output stem, e.g. rows/paper (default: the store path without suffix); a folder (DIR/) "
         "holds files named after the store",
     )

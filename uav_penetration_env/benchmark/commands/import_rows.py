@@ -10,15 +10,26 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from uav_penetration_env.benchmark.commands.common import CLIError, Command, check_writable_folder
+from uav_penetration_env.benchmark.commands.common import (
+    CLIError,
+    Command,
+    check_writable_folder,
+    path_argument,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench import``."""
     parser.add_argument(
-        "--rows", metavar="STEM", required=True, help="exported tables STEM-episodes/-runs/....parquet|csv"
+        "--rows",
+        type=path_argument,
+        metavar="STEM",
+        required=True,
+        help="exported tables STEM-episodes/-runs/....parquet|csv",
     )
-    parser.add_argument("--store", required=True, help="the new results store to write (must not exist)")
+    parser.add_argument(
+        "--store", type=path_argument, required=True, help="the new results store to write (must not exist)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:

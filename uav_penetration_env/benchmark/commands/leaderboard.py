@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    path_argument,
     reference_names,
 )
 
@@ -28,10 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_store_argument(parser, default=None)
     parser.add_argument(
         "--rows",
+        type=path_argument,
         metavar="STEM",
         help="compute from exported rows STEM-episodes/-runs[/-window_runs].parquet|csv instead of a store",
     )
-    parser.add_argument("--out", default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument("--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument(
         "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"
     )

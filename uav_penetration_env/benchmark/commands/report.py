@@ -24,6 +24,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    path_argument,
     reference_names,
 )
 from uav_penetration_env.benchmark.commands.plot import add_altitude_argument, add_min_seeds_argument
@@ -105,7 +106,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench report``."""
     add_store_argument(parser)
     parser.add_argument(
-        "--out", default=str(DEFAULT_OUT), help=f"folder of index.html and its files (default: {DEFAULT_OUT})"
+        "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"folder of index.html and its files (default: {DEFAULT_OUT})"
     )
     parser.add_argument(
         "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"

@@ -31,6 +31,7 @@ from uav_penetration_env.benchmark.commands.common import (
     command_line,
     parse_seeds,
     parse_weights,
+    path_argument,
     resolve_scenarios,
     split_list,
     store_error,
@@ -98,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_store_argument(parser, default=None)
     parser.add_argument(
-        "--out", help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)"
+        "--out", type=path_argument, help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)"
     )
     add_mpc_arguments(parser)
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
@@ -116,7 +117,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--import", dest="import", action="append", help="a plug-in module to import (repeatable)"
     )
     parser.add_argument(
-        "--config", help="YAML file of settings (keys = flag names with _); flags override it"
+        "--config", type=path_argument, help="YAML file of settings (keys = flag names with _); flags override it"
     )
     parser.add_argument(
         "--no-report",

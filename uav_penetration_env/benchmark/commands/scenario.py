@@ -11,6 +11,7 @@ from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
     check_writable_folder,
+    path_argument,
     resolve_scenarios,
 )
 from uav_penetration_env.catalogue import SCENARIO_HELP
@@ -22,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", help=SCENARIO_HELP)
     parser.add_argument("--profile", choices=["benchmark", "paper"])
     parser.add_argument("--difficulty", type=float, default=0.5, help="of random:... (default: 0.5)")
-    parser.add_argument("--out", default=".", help="generate: a .yaml file or a folder")
+    parser.add_argument("--out", type=path_argument, default=".", help="generate: a .yaml file or a folder")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import yaml
 
-from uav_penetration_env.benchmark.commands.common import CLIError, Command
+from uav_penetration_env.benchmark.commands.common import CLIError, Command, path_argument
 from uav_penetration_env.suites import SUITE_FOLDER, SuiteError
 
 
@@ -40,6 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--out",
+        type=path_argument,
         default=str(SUITE_FOLDER),
         help=f"freeze: the folder of the new file (default: {SUITE_FOLDER})",
     )

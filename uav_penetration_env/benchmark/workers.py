@@ -1,0 +1,151 @@
+"""Episodes on worker processes that may die: a dead worker costs its episode an error row, not the run.
+
+A worker process ended by the operating system (a crash in compiled code, the OOM killer, a plug-in
+calling ``os._exit``) raises no exception a planner could catch. loky then breaks its whole pool:
+every episode in flight fails with ``TerminatedWorkerError``, which does not say which of them
+killed the worker. dask retries the episode on other workers and then gives it up as
+``KilledWorker``.
+
+DECISION (api.md §4.7, a worker that dies): the loky sweep keeps at most one episode per worker in
+flight, so that the episodes a broken pool takes down are known. Each of them is flown again alone
+(one episode in flight), once: one that kills its worker again is stored as an error row
+``worker died (exit code N)``; the others' rows are stored as usual. The remaining episodes go on
+on a fresh pool. A dask episode given up as ``KilledWorker`` becomes the same error row. An error
+row is retried by the next run (the resume rule, api.md §4.4), which therefore repeats only the crashing
+episodes, each once.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+Result = tuple[dict[str, Any], list[dict[str, Any]]]
+Fly = Callable[[Any], Result]
+Died = Callable[[Any, str], Result]
+
+# The thread pools a worker may start, each capped at the worker's share of the cores (as joblib's
+# loky backend does) unless the user set the variable: workers share the machine.
+THREAD_VARIABLES = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMBA_NUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+IDLE_WORKER_SECONDS = 300  # idle workers wait this long for the next sweep in the same process
+
+
+def death_reason(error: BaseException) -> str:
+    """``worker died (exit code N)`` from loky's error (its message lists the workers' exit codes)."""
+    codes = re.findall(r"([A-Z]+)\((-?\d+)\)", str(error))
+    if not codes:
+        return f"worker died ({str(error).splitlines()[0] if str(error) else type(error).__name__})"
+    shown = ", ".join(code if name == "EXIT" else f"{code}, {name}" for name, code in codes)
+    return f"worker died (exit code {shown})"
+
+
+def _executor(jobs: int) -> Any:
+    """The reusable loky pool of ``jobs`` workers (a fresh one when the last one broke or was shut down)."""
+    from joblib.externals.loky import cpu_count, get_reusable_executor
+
+    share = str(max(cpu_count() // jobs, 1))
+    env = {name: os.environ.get(name, share) for name in THREAD_VARIABLES}
+    return get_reusable_executor(max_workers=jobs, timeout=IDLE_WORKER_SECONDS, env=env)
+
+
+def loky_results(tasks: Sequence[Any], jobs: int, fly: Fly, died: Died) -> Iterator[Result]:
+    """``fly(task)`` of every task on ``jobs`` loky workers, as they finish; ``died(task, reason)`` for a killer.
+
+    An interruption (Ctrl-C, SIGTERM) or any error leaving this generator kills the workers.
+    """
+    queue = deque(tasks)
+    executor = None
+    try:
+        while queue:
+            executor = _executor(jobs)
+            running: dict[Any, Any] = {}
+            suspects: list[Any] = []
+            while (queue or running) and not suspects:
+                while queue and len(running) < jobs:
+                    task = queue.popleft()
+                    running[executor.submit(fly, task)] = task
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                yield from _collect(done, running, suspects)
+            if suspects:
+                wait(running)  # a broken pool fails the rest of its futures at once
+                yield from _collect(list(running), running, suspects)
+                for task in suspects:
+                    executor = _executor(jobs)
+                    yield _alone(executor, task, fly, died)
+    except BaseException:
+        if executor is not None:
+            executor.shutdown(wait=False, kill_workers=True)
+        raise
+
+
+def _collect(done: Any, running: dict[Any, Any], suspects: list[Any]) -> list[Result]:
+    """The results of the finished futures; the tasks of those a broken pool took down join ``suspects``."""
+    results = []
+    for future in done:
+        task = running.pop(future)
+        try:
+            results.append(future.result())
+        except BrokenProcessPool:
+            suspects.append(task)
+    return results
+
+
+def _alone(executor: Any, task: Any, fly: Fly, died: Died) -> Result:
+    """One suspect flown with nothing else in flight: if its worker dies now, the episode killed it."""
+    try:
+        return executor.submit(fly, task).result()
+    except BrokenProcessPool as error:
+        return died(task, death_reason(error))
+
+
+def dask_results(
+    tasks: Sequence[Any], jobs: int, scheduler: str | None, fly: Fly, died: Died
+) -> Iterator[Result]:
+    """``fly(task)`` of every task on a dask cluster (a local one of ``jobs`` workers unless ``scheduler``)."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+        from distributed.scheduler import KilledWorker
+    except ImportError as error:  # pragma: no cover - depends on the installed extras
+        raise ImportError("backend='dask' needs the dist extra: pip install -e '.[dist]'") from error
+    cluster = None
+    if scheduler is None:
+        # A dying worker's restarts are warnings from every nanny; its error row says it once.
+        cluster = LocalCluster(
+            n_workers=max(1, jobs), threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )  # fmt: skip
+    client = Client(scheduler or cluster)
+    try:
+        futures = client.map(fly, list(tasks), pure=False)
+        owner = {future.key: task for future, task in zip(futures, tasks, strict=True)}
+        for future in as_completed(futures):
+            try:
+                result = future.result()
+            except KilledWorker as error:
+                # dask tried the episode on several workers and every one died running it.
+                result = died(owner[future.key], _dask_reason(error))
+            yield result
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _dask_reason(error: BaseException) -> str:
+    """``worker died (dask tried it on N workers, each died)`` from dask's ``KilledWorker``."""
+    tries = re.search(r"on (\d+) different workers", str(error))
+    return f"worker died (dask tried it on {tries.group(1)} workers, each died)" if tries else "worker died (dask)"
