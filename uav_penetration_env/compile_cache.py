@@ -9,8 +9,9 @@ cache, and no process ever mixes two versions of the physics.
 The folder is ``__pycache__/numba-DIGEST`` next to the package when the package folder is
 writable (older digests' folders there, this install's own, are removed, so the cache does not
 grow with every edit), else ``$UAV_PENETRATION_CACHE/numba/DIGEST`` (the project's cache folder,
-:func:`cache.cache_dir`, which other installed versions may share: nothing is removed there); a
-user's ``NUMBA_CACHE_DIR`` is honoured as the parent, ``NUMBA_CACHE_DIR/uav-penetration-DIGEST``.
+:func:`cache.cache_dir`, which other installed versions may share: a digest goes there only after
+30 days unused, beyond the 4 most recent, :func:`prune_shared`); a user's ``NUMBA_CACHE_DIR`` is
+honoured as the parent, ``NUMBA_CACHE_DIR/uav-penetration-DIGEST`` (never pruned: the folder is theirs).
 
 Every module that defines compiled functions imports this one before its first definition
 (``kernels.py``, ``costtogo.py``, ``value_function.py``, ``checks.py``), so the folder is set however
@@ -67,6 +68,45 @@ def _remove_other_digests(parent: Path, keep: Path, prefix: str) -> None:
                 shutil.rmtree(other, ignore_errors=True)
     except OSError:
         pass
+
+
+SHARED_KEEP = 4  # digests kept in a shared cache folder (each about 1-3 MB)
+SHARED_IDLE_DAYS = 30  # ... and older ones only while some process used them this recently
+
+
+def prune_shared(parent: Path, keep: Path, *, now: float | None = None) -> list[Path]:
+    """Remove old digests' folders from a shared cache folder; returns the removed folders.
+
+    DECISION (model.md §8, the compile cache): the shared folder (``$UAV_PENETRATION_CACHE/numba``,
+    used when the package folder is read-only) may serve other installed versions, so nothing there is
+    removed while it may be in use: ``keep`` (this process's digest) is touched on every start,
+    the ``SHARED_KEEP`` most recently used digests stay, and an older one goes only once no
+    process has started with it for ``SHARED_IDLE_DAYS`` days. The cache thus stays at a few
+    digests (a few MB) however many edits or versions passed through.
+    """
+    import time
+
+    now = time.time() if now is None else now
+    try:
+        keep.mkdir(parents=True, exist_ok=True)
+        os.utime(keep)
+        others = sorted(
+            (path for path in parent.iterdir() if path.is_dir() and path != keep),
+            key=lambda path: path.stat().st_mtime,
+            reverse=True,
+        )
+    except OSError:
+        return []
+    removed = []
+    for path in others[SHARED_KEEP - 1 :]:
+        try:
+            idle = now - path.stat().st_mtime
+        except OSError:
+            continue
+        if idle > SHARED_IDLE_DAYS * 86_400:
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
 
 
 def damaged_files(folder: Path) -> list[Path]:
@@ -126,8 +166,9 @@ def configure_compile_cache() -> str:
         if not folder.exists():  # this install's own folder: older digests are of this install only
             _remove_other_digests(folder.parent, folder, "numba-")
     else:
-        # A shared folder another installed version may be using: nothing is removed there.
+        # A shared folder another installed version may be using: only long-unused digests go.
         folder = cache.cache_dir() / "numba" / digest
+        prune_shared(folder.parent, folder)
     repair_compile_cache(folder)
     numba.config.CACHE_DIR = str(folder)
     return str(folder)

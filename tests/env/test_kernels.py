@@ -389,3 +389,22 @@ def test_a_process_after_a_cut_compile_cache_recompiles_instead_of_dying(tmp_pat
     second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert second.returncode == 0, second.stderr[-500:]
     assert second.stdout == first.stdout and "was damaged" in second.stderr and cut
+
+
+def test_the_shared_compile_cache_keeps_recent_digests_and_drops_long_unused_ones(tmp_path):
+    import os
+
+    from uav_penetration_env.compile_cache import SHARED_IDLE_DAYS, SHARED_KEEP, prune_shared
+
+    now = 1_000_000_000.0
+    day = 86_400.0
+    ages = {"a": 1, "b": 2, "c": 40, "d": 50, "e": 60, "f": 5}  # days since a process last used each
+    for name, age in ages.items():
+        (tmp_path / name).mkdir()
+        os.utime(tmp_path / name, (now - age * day, now - age * day))
+    keep = tmp_path / "mine"
+    removed = prune_shared(tmp_path, keep, now=now)
+    # "mine" (touched now) and the three most recent others stay; of the rest only those idle > 30 days go
+    assert SHARED_KEEP == 4 and SHARED_IDLE_DAYS == 30
+    assert sorted(path.name for path in removed) == ["c", "d", "e"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["a", "b", "f", "mine"]

@@ -23,7 +23,7 @@ import os
 import sys
 import time
 import traceback
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Generator, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -187,7 +187,7 @@ def _now() -> str:
 
 def _iterate(
     tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None
-) -> Iterator[tuple[dict, list]]:
+) -> Generator[tuple[dict, list], None, None]:
     """Episode results as they finish, from the chosen backend (a worker's death: :mod:`.workers`)."""
     if backend == "sequential" or (n_jobs == 1 and backend == "loky"):
         for task in tasks:
