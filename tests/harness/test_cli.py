@@ -599,24 +599,28 @@ def test_sigterm_mid_run_keeps_finished_episodes_exits_143_and_leaves_no_worker(
     assert not alive, f"processes outlived the run: {alive}"
 
 
-def test_run_reference_defaults_to_ihpso_else_the_first_policy_and_refuses_others():
+def test_run_reference_is_the_tables_default_unless_named_and_refuses_others():
     assert run_reference(None, ["greedy", "ihpso", "pso"]) == "ihpso"
-    assert run_reference(None, ["my-search", "greedy"]) == "my-search"
-    assert run_reference("greedy", ["my-search", "greedy"]) == "greedy"
+    assert run_reference(None, ["my-search", "greedy"]) == "ihpso"  # the tables fall back to greedy
+    assert run_reference("my-search", ["my-search", "greedy"]) == "my-search"
     with pytest.raises(CLIError, match=r"--reference gredy: did you mean 'greedy'\? expected one of --policies"):
         run_reference("gredy", ["my-search", "greedy"])
 
 
-def test_a_run_without_ihpso_compares_against_its_reference(tmp_path, tiny_yaml):
+def test_a_run_without_ihpso_compares_against_greedy_and_the_report_command_agrees(tmp_path, tiny_yaml):
     store = tmp_path / "s.sqlite"
-    code = run_cli("run", "--policies", "random,greedy", "--scenarios", tiny_yaml, "--seeds", 2, "--jobs", 1,
+    code = run_cli("run", "--policies", "random", "greedy", "--scenarios", tiny_yaml, "--seeds", 2, "--jobs", 1,
                    "--store", store, "--no-progress")  # fmt: skip
     assert code == 0
     (table,) = [path for path in tmp_path.glob("*.csv") if not path.stem.endswith(("-rl", "-members"))]
+    written_by_run = table.read_bytes()
     rows = pd.read_csv(table).set_index("policy")
-    # random is the first policy, so the reference: greedy's row has the paired difference to it
-    assert np.isfinite(rows.loc["greedy", "delta_mean"]) and rows.loc["greedy", "n_pairs"] == 2
-    assert rows.loc["random", "n_pairs"] == 0 or not np.isfinite(rows.loc["random", "pvalue"])
+    # no ihpso: greedy (the floor) is the reference, so random's row holds the paired difference
+    assert np.isfinite(rows.loc["random", "delta_mean"]) and rows.loc["random", "n_pairs"] == 2
+    assert not np.isfinite(rows.loc["greedy", "delta_mean"])
+    assert run_cli("leaderboard", "--store", store, "--out", tmp_path / "again") == 0
+    rebuilt = (tmp_path / "again" / table.name).read_bytes()
+    assert rebuilt == written_by_run
 
 
 def test_store_list_and_drop_remove_one_configuration_after_confirmation(tmp_path, tiny_yaml, capsys, monkeypatch):

@@ -304,7 +304,13 @@ def test_reference_absent_and_ambiguous_names(tmp_path):
     table = lb.leaderboard_table(episodes, reference="ihpso", n_resamples=200)
     assert set(table["policy"]) == {"greedy", "pso", "ihpso@11111111", "ihpso@22222222"}
     assert table.attrs["reference"] == "ihpso@11111111"
-    none = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="ihpso", n_resamples=200)
+    # without ihpso the default falls back to the greedy floor; a named reference never falls back
+    fallback = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="ihpso", n_resamples=200)
+    assert fallback.attrs["reference"] == "greedy"
+    assert fallback.set_index("policy").loc["pso", "n_pairs"] == 4
+    without = episodes[~episodes["policy"].isin(["ihpso", "greedy"])]
+    assert lb.leaderboard_table(without, reference="ihpso", n_resamples=200).attrs["reference"] == "pso"
+    none = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="cem", n_resamples=200)
     assert none.attrs["reference"] is None and none["pvalue_holm"].isna().all()
     assert "No reference policy" in lb.statistics_paragraph(none)
 
@@ -437,7 +443,7 @@ def test_a_ranked_policy_is_summarised_on_the_table_seeds_only(store_path):
 def test_without_a_reference_the_seed_set_most_policies_share_is_the_table_s(store_path):
     with ResultsStore(store_path) as store:
         episodes = store.episodes()
-    table = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="ihpso", n_resamples=200)
+    table = lb.leaderboard_table(episodes[episodes["policy"] != "ihpso"], reference="none", n_resamples=200)
     # pso and ppo cover 0-7; greedy 0-8 (its error row on 8): the most common set is 0-7
     assert table.attrs["reference"] is None and table.attrs["seeds"] == list(range(8))
     assert table.attrs["unranked"] == {}

@@ -27,6 +27,7 @@ from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.columns import Column, leaderboard_columns
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_ranges,
+    counted,
     format_interval,
     format_number,
     p_text,
@@ -117,7 +118,7 @@ def _verdict(row: Any) -> str:
     )
     pairs = int(row.n_pairs) if _finite(getattr(row, "n_pairs", None)) else 0
     if not significant and stats.minimum_wilcoxon_pvalue(pairs) > ALPHA:
-        text += f" ({pairs} paired seeds cannot reach p < {ALPHA}: run more seeds)"
+        text += f" ({counted(pairs, 'paired seed')} cannot reach p < {ALPHA}: run more seeds)"
     return text + "."
 
 
@@ -142,6 +143,11 @@ def headline(
     rows = table[table["total_cost_mean"].map(_finite)] if "total_cost_mean" in table else table.iloc[:0]
     if rows.empty:
         return f"{name}: no policy finished an episode, so there is nothing to compare."
+    # Only the ranked rows share the table's seed set (api.md §4.5): an unranked policy's mean is
+    # over other seeds, so it is named apart, never "cheapest".
+    ranked = rows[rows["friedman_rank"].map(_finite)] if "friedman_rank" in rows else rows
+    unranked = [str(p) for p in rows["policy"] if str(p) not in set(ranked["policy"].astype(str))]
+    rows = ranked if len(ranked) else rows
     ordered = rows.sort_values(["total_cost_mean", "policy"], kind="mergesort")
     best, *others = list(ordered.itertuples(index=False))
     nxt = others[0] if others else None
@@ -179,5 +185,11 @@ def headline(
     members = pd.to_numeric(rows["members"], errors="coerce").dropna() if "members" in rows else ()
     if len(members):  # a frozen suite's table (leaderboard.suite): its means cover members
         where = f"{int(members.max())} suite members"
-    over = f"{len(seeds)} seeds ({compact_ranges(seeds)})" if len(seeds) else "the stored seeds"
-    return f"{text} Over {over} on {where}: {len(rows)} policies, {episodes} finished episodes."
+    over = f"{counted(len(seeds), 'seed')} ({compact_ranges(seeds)})" if len(seeds) else "the stored seeds"
+    text = (
+        f"{text} Over {over} on {where}: {counted(len(rows), 'policy', 'policies')}, "
+        f"{counted(episodes, 'finished episode')}."
+    )
+    if unranked:
+        text += f" Not ranked (flown on other seeds): {', '.join(unranked)}."
+    return text

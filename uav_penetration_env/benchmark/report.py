@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.atomic import write_text_atomic
+from uav_penetration_env.benchmark.leaderboard.formatting import counted
 from uav_penetration_env.benchmark.store import ResultsStore
 
 SectionRenderer = Callable[["ReportContext"], "str | None"]
@@ -438,9 +439,10 @@ def _glance(context: ReportContext) -> str:
 def _provenance(context: ReportContext) -> str:
     episodes = context.episodes
     lines = [
-        f"<p>Store <code>{html.escape(str(context.store_path))}</code>: {len(episodes)} episodes "
-        f"({int(episodes['is_error'].sum())} errors), {episodes['policy'].nunique()} policies, "
-        f"{episodes['scenario_hash'].nunique()} scenarios. Report written "
+        f"<p>Store <code>{html.escape(str(context.store_path))}</code>: {counted(len(episodes), 'episode')} "
+        f"({counted(int(episodes['is_error'].sum()), 'error')}), "
+        f"{counted(episodes['policy'].nunique(), 'policy', 'policies')}, "
+        f"{counted(episodes['scenario_hash'].nunique(), 'scenario')}. Report written "
         f"{dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()}.</p>"
     ]
     rows = []

@@ -37,6 +37,7 @@ from uav_penetration_env.benchmark.commands.common import (
     store_error,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import SETTING_FIELDS, add_mpc_arguments, mpc_settings
+from uav_penetration_env.benchmark.leaderboard.formatting import counted
 from uav_penetration_env.benchmark.plugins import PluginUnavailable, plugin_policy_forms
 from uav_penetration_env.catalogue import SCENARIO_HELP
 from uav_penetration_env.suggest import did_you_mean
@@ -91,7 +92,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--reference",
         help="policy of --policies the report's paired tests and Δ compare against "
-        "(default: ihpso when it is run, else the first of --policies)",
+        "(default: ihpso where stored, else greedy, else the policy on the most seeds)",
     )
     parser.add_argument("--backend", help="loky (default), dask or sequential")
     parser.add_argument(
@@ -179,11 +180,6 @@ def run_settings(args: argparse.Namespace) -> dict[str, Any]:
     settings["mpc"] = mpc_settings({key: settings.pop(key) for key in SETTING_FIELDS if key in settings})
     settings["explicit"] = explicit
     return settings
-
-
-def counted(n: int, noun: str, plural: str | None = None) -> str:
-    """``1 scenario``, ``2 scenarios``: a count with its noun in the right number."""
-    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
 
 
 def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
@@ -470,15 +466,17 @@ def print_outcome(frame: Any, store_path: Path) -> int:
 
 
 def run_reference(reference: str | None, policies: list[str]) -> str:
-    """The policy the run's report compares against: ``--reference``, else ihpso if run, else the first.
+    """The policy the run's report compares against: ``--reference``, else the tables' default.
 
-    A plug-in optimiser run beside greedy alone still gets its paired tests and Δ column.
+    The default is the leaderboard's (ihpso, else greedy, else the policy on the most seeds;
+    :func:`~uav_penetration_env.benchmark.leaderboard.groups.resolve_reference`), so the report a
+    run writes and the one ``uav-bench report`` rebuilds from the same store agree.
 
     Raises:
         CLIError: ``--reference`` names no policy of ``--policies``.
     """
     if reference is None:
-        return "ihpso" if "ihpso" in policies else policies[0]
+        return "ihpso"
     if reference not in policies:
         raise CLIError(
             f"--reference {reference}: {did_you_mean(reference, policies)}"

@@ -136,8 +136,34 @@ def cost_table(episodes: pd.DataFrame, column: str = "total_cost") -> pd.DataFra
     return table
 
 
+DEFAULT_REFERENCE = "ihpso"
+FALLBACK_REFERENCE = "greedy"
+
+
 def resolve_reference(labels: Sequence[str], episodes: pd.DataFrame, reference: str) -> str | None:
-    """The label that stands for ``reference``: itself, else the configuration of that name with most episodes."""
+    """The label that stands for ``reference``: itself, else the configuration of that name with most episodes.
+
+    DECISION (api.md §4.5, the default reference): when the default reference (``ihpso``) is not
+    in the group, the table compares against the greedy floor if it is there, else against the
+    policy with the most finished seeds (ties: the first label): every table a run, the
+    leaderboard command and the report write from the same store then has the same reference and
+    a filled Δ column. An explicitly named reference is never replaced (the command line refuses
+    one that names nothing stored); it gives None when absent from this group.
+    """
+    found = _named(labels, episodes, reference)
+    if found is not None or reference != DEFAULT_REFERENCE:
+        return found
+    found = _named(labels, episodes, FALLBACK_REFERENCE)
+    if found is not None:
+        return found
+    finished = episodes[~episodes["is_error"]]
+    if finished.empty:
+        return None
+    counts = finished.groupby("label")["seed"].nunique()
+    return str(sorted(counts.index, key=lambda label: (-counts[label], str(label)))[0])
+
+
+def _named(labels: Sequence[str], episodes: pd.DataFrame, reference: str) -> str | None:
     if reference in labels:
         return reference
     named = episodes[(episodes["policy"] == reference) & ~episodes["is_error"]]

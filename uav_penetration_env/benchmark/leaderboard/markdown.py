@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.columns import Column, leaderboard_columns, l
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
     compact_ranges,
+    counted,
     format_interval,
     format_number,
     format_pvalue,
@@ -120,7 +121,7 @@ def seed_set_sentence(table: pd.DataFrame) -> str:
     seeds = table.attrs.get("seeds", [])
     whose = "the reference's" if table.attrs.get("reference") is not None else "those most policies were flown on"
     sentence = (
-        f"Every statistic of a ranked policy is over the same {len(seeds)} {blocks} ({whose}: "
+        f"Every statistic of a ranked policy is over the same {counted(len(seeds), blocks.rstrip('s'))} ({whose}: "
         f"{compact_ranges(seeds)})."
     )
     unranked = table.attrs.get("unranked", {})
@@ -142,13 +143,13 @@ def statistics_paragraph(table: pd.DataFrame) -> str:
     lines = [seed_set_sentence(table)]
     if friedman.statistic is not None:
         lines.append(
-            f"Friedman test over the {friedman.blocks} {blocks} every policy finished ({k} policies): "
+            f"Friedman test over the {friedman.blocks} {blocks} every policy finished ({counted(k, 'policy', 'policies')}): "
             f"χ² = {format_number(friedman.statistic, 3)}, {p_text(friedman.pvalue)}."
         )
     else:
         lines.append(
             f"Friedman test not run: it needs at least 3 policies and 2 {blocks} every policy finished "
-            f"(here {k} policies, {friedman.blocks} seeds); ranks are averages over those seeds."
+            f"(here {counted(k, 'policy', 'policies')}, {counted(friedman.blocks, 'seed')}); ranks are averages over those seeds."
         )
     if reference is None:
         lines.append("No reference policy in this group, so no pairwise tests.")
@@ -263,7 +264,7 @@ def provenance_lines(group: ScenarioGroup, runs: pd.DataFrame, command: str, dat
         )
     else:
         scenario_line = f"- Scenario: {group.name} (hash `{group.scenario_hash}`)"
-        seeds_line = f"- Seeds: {compact_ranges(seeds)} ({len(seeds)} seeds, paired across policies)"
+        seeds_line = f"- Seeds: {compact_ranges(seeds)} ({counted(len(seeds), 'seed')}, paired across policies)"
     return [
         # One text for both sources: the tables built from a store and from its exported rows are
         # the same bytes except the date line, which alone names the command (api.md §4.9).
