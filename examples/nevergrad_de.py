@@ -8,8 +8,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import nevergrad as ng
 import numpy as np
+
+try:
+    import nevergrad as ng
+except ImportError as error:  # one line that says how to get it, for `uav-bench run --import`
+    raise ImportError("examples.nevergrad_de needs nevergrad: pip install -e '.[examples]'") from error
 
 from optimizers import BoundsLike, OptimizeResult, normalize_bounds, register_optimizer
 
@@ -58,7 +62,9 @@ class NevergradTwoPointsDE:
         parametrization = ng.p.Array(init=start, lower=lo, upper=hi)
         # nevergrad draws from a legacy RandomState: seeded from our Generator, so a seed replays a run.
         parametrization.random_state = np.random.RandomState(int(rng.integers(2**32)))
-        optimizer = ng.optimizers.TwoPointsDE(parametrization=parametrization, budget=max_evals, num_workers=self.workers)
+        optimizer = ng.optimizers.TwoPointsDE(
+            parametrization=parametrization, budget=max_evals, num_workers=self.workers
+        )
         if x0 is not None:
             optimizer.suggest(start)  # the next ask returns the warm start itself
         best_x, best_f, used = start.copy(), np.inf, 0
@@ -69,7 +75,9 @@ class NevergradTwoPointsDE:
             costs = np.asarray(fun(points), dtype=np.float64)
             costs = np.where(np.isnan(costs), np.inf, costs)
             for candidate, cost in zip(asked, costs, strict=True):
-                optimizer.tell(candidate, float(cost) if np.isfinite(cost) else 1e300)  # nevergrad wants finite losses
+                optimizer.tell(
+                    candidate, float(cost) if np.isfinite(cost) else 1e300
+                )  # nevergrad wants finite losses
             used += len(asked)
             i = int(np.argmin(costs))
             if costs[i] < best_f:

@@ -20,7 +20,10 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 # The one reason every test that needs Stable-Baselines3/torch gives when the `rl` extra is absent
 # (a core-only install, `pip install -e ".[dev]"`, skips them and passes the rest).
-RL_EXTRA = "the RL tests need the rl extra: pip install -e '.[rl]' (install the CPU torch wheel first: docs/guide.md, Installing)"
+RL_EXTRA = (
+    "the RL tests need the rl extra: pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu "
+    "&& pip install -e '.[rl]'"
+)
 
 
 # --- a tiny, fast scenario: a 75 km map on a 1 km grid, one mountain, two radars ----------------

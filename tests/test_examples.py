@@ -123,3 +123,10 @@ def test_every_run_line_of_the_page_parses():
     assert len(commands) == 2
     for argv in commands:
         cli.build_parser().parse_args(argv)
+
+
+def test_the_page_prints_each_example_file_exactly():
+    """docs/plugins.md shows the examples inline (GitHub renders no include), and they cannot drift."""
+    blocks = re.findall(r"^```python\n(.*?)^```", PAGE.read_text(), flags=re.M | re.S)
+    for name in ("random_search.py", "nevergrad_de.py"):
+        assert (ROOT / "examples" / name).read_text() in blocks, f"docs/plugins.md no longer shows examples/{name}"

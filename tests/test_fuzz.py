@@ -25,7 +25,7 @@ from uav_penetration_env.build import build_scenario
 from uav_penetration_env.scenario import Scenario, ScenarioError
 
 DEFAULT = settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
-SLOW = settings(max_examples=10_000, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+SLOW = settings(max_examples=int(__import__("os").environ.get("FUZZ_EXAMPLES", 10_000)), deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
 
 JUNK = st.one_of(
     st.none(),

@@ -112,7 +112,7 @@ def test_generated_command_lines_end_in_a_status_and_at_most_one_error_line(tmp_
 def test_a_control_character_in_a_value_stays_escaped_in_the_one_error_line(capsys):
     assert cli.main(["run", "\r"]) == 2  # what the fuzzing found: the message broke across lines
     err = capsys.readouterr().err
-    assert err == "uav-bench: error: unrecognized arguments: \\r (see uav-bench --help)\n"
+    assert err == "uav-bench: error: uav-bench run: unrecognized arguments: \\r (see uav-bench run --help)\n"
 
 
 def test_the_fuzzed_commands_are_the_built_in_ones_but_compile():

@@ -11,10 +11,11 @@ import pytest
 from uav_penetration_env.benchmark import cli
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide.md"
 
 
-def blocks(language: str) -> list[str]:
-    return re.findall(rf"^```{language}\n(.*?)^```", README.read_text(), flags=re.M | re.S)
+def blocks(language: str, page: Path = README) -> list[str]:
+    return re.findall(rf"^```{language}\n(.*?)^```", page.read_text(), flags=re.M | re.S)
 
 
 def uav_bench_lines() -> list[list[str]]:
@@ -44,3 +45,25 @@ def test_the_python_blocks_of_the_readme_run(monkeypatch, tmp_path):
     monkeypatch.chdir(tmp_path)
     for block in blocks("python"):
         exec(compile(block, str(README), "exec"), {})
+
+
+# The guide's Python blocks build on each other (one namespace, in order, as a reader runs them);
+# the fifth flies ihpso on 20 seeds (about a minute) and the sixth trains PPO: those are slow.
+GUIDE_FAST_BLOCKS = 4
+
+
+def test_the_guides_first_python_blocks_run_in_order(monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    for block in blocks("python", GUIDE)[:GUIDE_FAST_BLOCKS]:
+        exec(compile(block, str(GUIDE), "exec"), namespace)
+    assert namespace["costs"].shape == (100,) and namespace["res"].nfev <= 20_000
+
+
+@pytest.mark.slow
+def test_the_guides_evaluate_block_runs_after_the_others(monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    for block in blocks("python", GUIDE)[: GUIDE_FAST_BLOCKS + 1]:
+        exec(compile(block, str(GUIDE), "exec"), namespace)
+    assert len(namespace["df"]) == 40

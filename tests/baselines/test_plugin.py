@@ -104,7 +104,7 @@ def test_without_the_rl_extra_help_works_and_sb3_and_train_are_refused_in_one_li
     assert refused.stderr.count("\n") == 1
     assert refused.stderr.startswith("uav-bench: error: --policies: policy 'sb3:models/ppo.zip' needs ")
     assert "pip install 'uav-penetration[rl]'" in refused.stderr
-    assert "torch==2.13.0 from PyTorch's CPU index first" in refused.stderr  # not several GB of CUDA
+    assert "pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu && pip install -e '.[rl]'" in refused.stderr  # not several GB of CUDA
     train = uav_bench_without_rl("train", "--algo", "ppo", "--timesteps", 10, cwd=tmp_path)
     assert train.returncode == 2 and train.stderr.count("\n") == 1
     assert "uav-bench train needs stable_baselines3, torch (not installed)" in train.stderr

@@ -543,7 +543,21 @@ BROKEN = [
         _with(PAPER, (("terrain", "natural"), {"method": "random_walk", "passes": -1})),
         "terrain.natural.passes",
         "-1",
-        ">= 0",
+        "an integer in [0, 1000]",
+    ),
+    (
+        "huge-number",
+        _with(PAPER, (("radars", 0, "z_m"), 1e308)),
+        "radars[0].z_m",
+        "1e+308",
+        "a finite number of magnitude at most 1e+12",
+    ),
+    (
+        "huge-correlation",
+        _with(PAPER, (("terrain", "natural", "correlation_km"), 1e9)),
+        "terrain.natural.correlation_km",
+        "1000000000.0",
+        "at most the map's longer side",
     ),
     (
         "idle-fraction",
@@ -588,9 +602,9 @@ BROKEN = [
     (
         "map-beyond-the-earth",
         _with(PAPER, (("map", "x_km"), [-1e308, 125])),
-        "map.x_km",
+        "map.x_km[0]",
         "-1e+308",
-        "+-20,000 km",
+        "magnitude at most 1e+12",
     ),
     ("map-of-1e6-km", _with(PAPER, (("map", "x_km"), [-1e6, 125])), "map.x_km", "-1000000.0", "+-20,000 km"),
     (

@@ -532,7 +532,10 @@ def test_a_usage_error_names_uav_bench_once(capsys):
 
     assert main(["run", "--no-such-flag"]) == 2
     top = capsys.readouterr().err.strip()
-    assert top.startswith("uav-bench: error: unrecognized arguments: --no-such-flag") and top.count("uav-bench:") == 1
+    assert top.startswith("uav-bench: error: uav-bench run: unrecognized arguments: --no-such-flag")
+    assert top.count("uav-bench:") == 1 and top.endswith("(see uav-bench run --help)")
+    assert main(["run", "--policy", "ihpso"]) == 2
+    assert "— did you mean '--policies'? (see uav-bench run --help)" in capsys.readouterr().err
     assert main(["run", "--horizon", "x"]) == 2
     sub = capsys.readouterr().err.strip()
     assert sub.startswith("uav-bench: error: uav-bench run: argument --horizon") and "(see uav-bench run --help)" in sub
@@ -633,7 +636,8 @@ def test_store_list_and_drop_remove_one_configuration_after_confirmation(tmp_pat
     random_ids = before.loc[before["policy"] == "random", "episode_id"].tolist()
     capsys.readouterr()
     assert run_cli("store", "list", "--store", store) == 0
-    listed = capsys.readouterr().out.splitlines()
+    header, *listed = capsys.readouterr().out.splitlines()
+    assert header.split()[:2] == ["policy", "configuration"]
     assert [line.split()[0] for line in listed] == ["greedy", "random"]
     assert all(" 2 episodes " in line for line in listed)
     # without a terminal and without --yes nothing is dropped

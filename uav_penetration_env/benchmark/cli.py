@@ -78,6 +78,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         epilog=EXIT_STATUS,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    from uav_penetration_env._version import __version__
+
+    parser.add_argument("--version", action="version", version=f"uav-bench {__version__}")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     commands, extensions = available_commands()
     selected = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
@@ -89,7 +92,21 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
             for extension in mine:
                 extension.add_arguments(sub)
         sub.set_defaults(handler=command, extensions=mine)
+    parser.commands = subparsers.choices  # type: ignore[attr-defined]  # for the unknown-flag hint
     return parser
+
+
+def unrecognized(parser: argparse.ArgumentParser, command: str, unknown: Sequence[str]) -> str:
+    """The message for arguments the sub-command does not take, with the closest flags it does take."""
+    from uav_penetration_env.suggest import did_you_mean
+
+    sub = parser.commands.get(command) if hasattr(parser, "commands") else None
+    flags = sorted({s for action in sub._actions for s in action.option_strings}) if sub is not None else []
+    typed = next((word for word in unknown if word.startswith("-")), "")
+    name = typed.split("=", 1)[0]
+    hint = did_you_mean(name, flags).rstrip() if name else ""
+    where = f"uav-bench {command}" if sub is not None else "uav-bench"
+    return f"{where}: unrecognized arguments: {' '.join(unknown)}{' — ' + hint if hint else ''} (see {where} --help)"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -103,7 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args, unknown = parser.parse_known_args(argv)
         if unknown and not getattr(args, "accepts_any_arguments", False):
-            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+            raise UsageError(unrecognized(parser, args.command, unknown))
     except UsageError as error:
         say_error(error)
         return 2

@@ -148,8 +148,12 @@ def _is_number(value: Any) -> bool:
 
 # Scalar field types: which plain values each accepts (then converted by calling the type) and
 # the wording of what it expected.
+# DECISION (model.md §7b, "limits"): a float field's magnitude is at most MAX_MAGNITUDE in its own
+# unit, far above any physical value of a scenario (km, m, s, degrees, m^2), so that squares and
+# products inside the physics stay finite in float64 (1e308 passed "finite" and overflowed there).
+MAX_MAGNITUDE = 1e12
 _SCALARS: dict[type, tuple[Callable[[Any], bool], str]] = {
-    float: (_is_number, "a finite number"),
+    float: (lambda v: _is_number(v) and abs(v) <= MAX_MAGNITUDE, f"a finite number of magnitude at most {MAX_MAGNITUDE:g}"),
     int: (lambda v: _is_number(v) and float(v) == int(v), "an integer"),
     bool: (lambda v: isinstance(v, bool), "true or false"),
     str: (lambda v: isinstance(v, str), "a string"),

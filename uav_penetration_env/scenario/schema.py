@@ -54,6 +54,10 @@ MAX_GRID_NODES = 4_000_000
 MAX_RADARS = 64
 MAX_FLOOR_NODES = 16_000_000
 MIN_TURN_DEG = 0.01
+# A Gaussian field correlates over at most the map's longer side (its smoothing kernel then spans the
+# grid; a longer one costs time and memory for no more relief), and a random walk is smoothed at
+# most MAX_SMOOTHING_PASSES times (each pass costs a sweep of the grid).
+MAX_SMOOTHING_PASSES = 1000
 MAX_PATH_BYTES = 4096  # Linux PATH_MAX; each name in it at most 255 bytes (NAME_MAX)
 _MAP_COORDS = Rule(
     lambda v: all(abs(c) <= MAX_MAP_COORD_KM for c in v), f"bounds within +-{MAX_MAP_COORD_KM:,.0f} km"
@@ -220,7 +224,7 @@ class RandomWalk(Checked):
 
     method: str = "random_walk"
     height_m: float = non_negative(200.0)
-    passes: int = rule(1, lambda v: v >= 0, "an integer >= 0")
+    passes: int = rule(1, lambda v: 0 <= v <= MAX_SMOOTHING_PASSES, f"an integer in [0, {MAX_SMOOTHING_PASSES}]")
 
 
 @dataclass(frozen=True)
@@ -434,6 +438,15 @@ class Scenario(Checked):
 
         require_inside("start", self.start.x_km, self.start.y_km)
         require_inside("goal", self.goal.x_km, self.goal.y_km)
+        natural = self.terrain.natural
+        if isinstance(natural, GaussianField):
+            side = max(x_hi - x_lo, y_hi - y_lo)
+            require(
+                natural.correlation_km <= side,
+                "terrain.natural.correlation_km",
+                natural.correlation_km,
+                f"a correlation length of at most the map's longer side ({side:g} km)",
+            )
         # The goal must leave room for two turn radii to every edge, so a planner can always turn
         # toward it without leaving the map (model.md §1).
         margin = self.goal_edge_margin_km

@@ -118,7 +118,10 @@ def parse_seeds(text: str | int) -> list[int]:
             f"--seeds: got {text!r}, expected a count N (seeds 0..N-1) or START:STOP (half-open)"
         ) from None
     if not seeds or min(seeds) < 0:
-        raise CLIError(f"--seeds: got {text!r}, expected at least one seed, all >= 0")
+        raise CLIError(
+            f"--seeds: got {text!r}, expected a count N >= 1 (seeds 0..N-1) or START:STOP with "
+            "0 <= START < STOP"
+        )
     return seeds
 
 
@@ -178,6 +181,8 @@ def resolve_scenarios(
         except UnknownScenarioError as error:
             raise CLIError(f"{flag}: {error}") from None
         except ScenarioError as error:
+            if error.field == "scenario":  # a bad ``random:`` form: the flag is the field
+                raise CLIError(f"{flag}: got {spec!r}, expected {error.expected}") from None
             raise CLIError(f"{flag}: scenario {spec!r}: {error}") from None
     return scenarios
 

@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
 
         scenarios = [generate_dem_scenario()]  # rebuilt from the raw DEM, not the shipped file
     else:
-        scenarios = resolve_scenarios([args.name], args.profile, None, args.difficulty, flag="name")
+        scenarios = resolve_scenarios([args.name], args.profile, None, args.difficulty, flag=f"scenario {args.action}")
     if args.action == "generate":
         out = Path(args.out)
         if len(scenarios) == 1 and out.suffix in (".yaml", ".yml"):

@@ -98,9 +98,11 @@ def run(args: argparse.Namespace) -> int:
                 rows = configurations(store)
         except StoreError as error:
             raise store_error(error) from None
+        width = max((len(row["policy_hash"]) for row in rows), default=16)
+        print(f"{'policy':<32} {'configuration hash':<{width}}  {'episodes':>15}  {'errors':>11}")
         for row in rows:
             print(
-                f"{row['label']:<32} {row['policy_hash']}  {row['episodes']:>6} episodes  {row['errors']:>4} errors"
+                f"{row['label']:<32} {row['policy_hash']:<{width}}  {row['episodes']:>6} episodes  {row['errors']:>4} errors"
             )
         return 0
     if not args.policy:
