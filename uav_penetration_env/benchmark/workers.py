@@ -123,10 +123,12 @@ def dask_results(
         raise ImportError("backend='dask' needs the dist extra: pip install -e '.[dist]'") from error
     cluster = None
     if scheduler is None:
-        # A dying worker's restarts are warnings from every nanny; its error row says it once.
+        # A dying worker's restarts are warnings from every nanny, its task's failure an error of
+        # the scheduler and a closing worker's heartbeat a traceback; the episode's error row and
+        # the run's summary line say it once, so the local cluster logs only what is critical.
         cluster = LocalCluster(
             n_workers=max(1, jobs), threads_per_worker=1, processes=True, dashboard_address=None,
-            silence_logs=logging.ERROR,
+            silence_logs=logging.CRITICAL,
         )  # fmt: skip
     client = Client(scheduler or cluster)
     try:
