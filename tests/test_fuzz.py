@@ -148,6 +148,18 @@ def env_arguments(draw) -> tuple[str, dict]:
 @settings(max_examples=120, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
 @given(env_arguments())
 def test_gym_make_with_fuzzed_keywords_works_or_refuses_in_one_line(case):
+    check_env_arguments(case)
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:.*render_mode.*:UserWarning")
+@SLOW
+@given(env_arguments())
+def test_ten_thousand_fuzzed_gym_make_calls(case):
+    check_env_arguments(case)
+
+
+def check_env_arguments(case: tuple[str, dict]) -> None:
     env_id, kwargs = case
     try:
         env = gym.make(env_id, disable_env_checker=True, **kwargs)
