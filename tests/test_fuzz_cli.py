@@ -85,12 +85,21 @@ def command_lines(draw) -> list[str]:
 
 
 def test_generated_command_lines_end_in_a_status_and_at_most_one_error_line(tmp_path, monkeypatch):
+    fuzz_command_lines(tmp_path, monkeypatch, 300)
+
+
+@pytest.mark.slow
+def test_ten_thousand_generated_command_lines(tmp_path, monkeypatch):
+    fuzz_command_lines(tmp_path, monkeypatch, 10_000)
+
+
+def fuzz_command_lines(tmp_path, monkeypatch, examples: int) -> None:
     monkeypatch.chdir(tmp_path)  # default outputs (results/) land here
     for module, name in WORK:
         owner = importlib.import_module(module)
         monkeypatch.setattr(owner, name, instead_of(getattr(owner, name)))
 
-    @settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow])
+    @settings(max_examples=examples, suppress_health_check=[HealthCheck.too_slow], deadline=None)
     @given(argv=command_lines())
     def check(argv: list[str]) -> None:
         err = io.StringIO()
