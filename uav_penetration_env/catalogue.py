@@ -39,6 +39,7 @@ from uav_penetration_env.scenario import (
     load_scenario,
     paper_scenario,
 )
+from uav_penetration_env.scenario.errors import MAX_SHOWN, one_line
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.types import FloatArray
 
@@ -178,7 +179,9 @@ def _radar_sites(
             candidates = np.clip(candidates, low, high) if len(candidates) else start[None] + 0.5 * route
         else:
             candidates = rng.uniform(low, high, size=(8, 2))
-        ground = bilinear(heights, *grid.fractional_index(candidates[:, 0] * 1000.0, candidates[:, 1] * 1000.0))
+        ground = bilinear(
+            heights, *grid.fractional_index(candidates[:, 0] * 1000.0, candidates[:, 1] * 1000.0)
+        )
         x, y = candidates[int(np.argmax(ground))]
         mast = rng.uniform(10.0, 30.0)
         radars.append(
@@ -292,18 +295,40 @@ SCENARIO_HELP = f"{', '.join([*NAMED_SCENARIOS, *RANDOM_FORMS])} or a YAML path"
 ScenarioSpec = Scenario | Mapping[str, Any] | str | Path
 
 
+def _is_file(spec: str) -> bool:
+    """Whether ``spec`` names an existing file (False for a name the OS cannot take: too long, a NUL)."""
+    try:
+        return Path(spec).is_file()
+    except (OSError, ValueError):
+        return False
+
+
 class UnknownScenarioError(ScenarioError):
     """A scenario name that is neither in the catalogue nor an existing file."""
 
     def __init__(self, name: str) -> None:
         super().__init__("scenario", name, SCENARIO_HELP)
+        shown = one_line(
+            repr(name)
+            if len(repr(name)) <= MAX_SHOWN
+            else f"{repr(name)[: MAX_SHOWN - 40]}... ({len(name)} characters)"
+        )
         if Path(name).suffix.lower() in (".yaml", ".yml") or "/" in name or "\\" in name:
             # Meant as a file: say the file is missing rather than that a name is unknown.
-            where = "" if Path(name).parent.is_dir() else f" (no folder {str(Path(name).parent)!r} either)"
-            self.args = (f"no such scenario file {name!r}{where} — expected an existing YAML file, or {SCENARIO_HELP}",)
+            try:
+                where = (
+                    ""
+                    if Path(name).parent.is_dir()
+                    else f" (no folder {one_line(str(Path(name).parent))[:MAX_SHOWN]!r} either)"
+                )
+            except (OSError, ValueError):
+                where = " (not a path this system can open)"
+            self.args = (
+                f"no such scenario file {shown}{where} — expected an existing YAML file, or {SCENARIO_HELP}",
+            )
             return
         hint = did_you_mean(name, [*NAMED_SCENARIOS, *RANDOM_FORMS])
-        self.args = (f"unknown scenario {name!r} — {hint}expected {SCENARIO_HELP}",)
+        self.args = (f"unknown scenario {shown} — {hint}expected {SCENARIO_HELP}",)
 
 
 def default_max_steps(name: str | None) -> int:
@@ -356,7 +381,7 @@ def resolve_scenarios(spec: ScenarioSpec, difficulty: float = 0.5) -> list[Scena
             random_scenario(np.random.default_rng(seed), difficulty, name=f"random-{seed}")
             for seed in random_seeds(spec)
         ]
-    if isinstance(spec, str) and not Path(spec).is_file():
+    if isinstance(spec, str) and not _is_file(spec):
         raise UnknownScenarioError(str(spec))
     return [load_scenario(spec)]
 
