@@ -28,6 +28,7 @@ RESERVED_SEEDS: dict[str, range] = {
 DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
 LOSSES = ("mse", "mse-std")
 SELECTIONS = ("best", "last")
+HEADS = ("action", "turn")  # what the network's outputs mean (baselines.distill.heads)
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,9 @@ class DistillConfig:
             (each channel divided by its spread in the round-0 labels; docs/rl.md §4.2).
         select: which round's network becomes the policy: ``best`` (lowest mean validation cost)
             or ``last`` (docs/rl.md §4.5); not part of the key, so a finished run can be re-selected.
+        head: ``action`` (the network regresses the normalised action) or ``turn`` (it classifies
+            the expert's turn into the lattice's five turns and flies the lattice's candidate
+            control for it; docs/rl.md §4.8).
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -83,6 +87,7 @@ class DistillConfig:
     torch_threads: int = 1
     loss: str = "mse"
     select: str = "best"
+    head: str = "action"
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
@@ -105,6 +110,8 @@ class DistillConfig:
             "learning_rate": self.learning_rate,
             "loss": self.loss,
             "seed": self.seed,
+            # Only a non-default head enters the key, so the folders made before heads existed continue.
+            **({"head": self.head} if self.head != "action" else {}),
         }
 
 
@@ -132,7 +139,7 @@ def _check_numbers(config: DistillConfig) -> None:
     rate = config.learning_rate
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
         raise ValueError(f"--learning-rate: got {rate!r}, expected a positive number")
-    for name, choices in (("loss", LOSSES), ("select", SELECTIONS)):
+    for name, choices in (("loss", LOSSES), ("select", SELECTIONS), ("head", HEADS)):
         if getattr(config, name) not in choices:
             raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
