@@ -14,7 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
+from uav_penetration_env.observation import OBSERVATION_SIZE, SLOTS
 from uav_penetration_env.scenario import Scenario
 
 # Seeds of procedural scenarios that some published number is measured on (docs/rl.md §1.1): the
@@ -57,6 +60,9 @@ class DistillConfig:
         head: ``action`` (the network regresses the normalised action) or ``turn`` (it classifies
             the expert's turn into the lattice's five turns and flies the lattice's candidate
             control for it; docs/rl.md §4.8).
+        ignore: observation slots the network is blind to (names of
+            :data:`uav_penetration_env.observation.SLOTS`, e.g. ``position``, ``step_fraction``;
+            docs/rl.md §4.8).
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -88,6 +94,7 @@ class DistillConfig:
     loss: str = "mse"
     select: str = "best"
     head: str = "action"
+    ignore: tuple[str, ...] = ()
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
@@ -112,6 +119,7 @@ class DistillConfig:
             "seed": self.seed,
             # Only a non-default head enters the key, so the folders made before heads existed continue.
             **({"head": self.head} if self.head != "action" else {}),
+            **({"ignore": list(self.ignore)} if self.ignore else {}),
         }
 
 
@@ -142,8 +150,21 @@ def _check_numbers(config: DistillConfig) -> None:
     for name, choices in (("loss", LOSSES), ("select", SELECTIONS), ("head", HEADS)):
         if getattr(config, name) not in choices:
             raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
+    unknown = [name for name in config.ignore if name not in SLOTS]
+    if unknown:
+        raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
         raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
+
+
+def ignored_slots(names: tuple[str, ...]) -> np.ndarray | None:
+    """The boolean mask over the observation of the slots ``names`` (``None`` for none)."""
+    if not names:
+        return None
+    mask = np.zeros(OBSERVATION_SIZE, dtype=bool)
+    for name in names:
+        mask[SLOTS[name]] = True
+    return mask
 
 
 def _check_seeds(spec: str) -> None:

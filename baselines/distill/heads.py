@@ -70,7 +70,14 @@ def network_action(
     state: FloatArray,
     from_unit: Callable[[np.ndarray], np.ndarray],
 ) -> FloatArray:
-    """The physical action a network flies from one observation and its exact state, by its head."""
+    """The physical action a network flies from one observation and its exact state, by its head.
+
+    DECISION (docs/rl.md §4.8): a ``turn`` network flies the lattice's candidate control for its
+    arg-max turn, so it chooses among the five moves its expert chooses among, and its speed and
+    pitch are the closed-form rule greedy and the lattice share: the regression head's failures
+    (§4.6) were shrunken pitch corrections and turns dithering between the five values, and
+    neither exists here.
+    """
     row = np.asarray(observation).reshape(1, -1)
     if head_of(arrays) == "turn":
         logits = outputs(arrays, row)[0]

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.distill.config import DistillConfig, checked
+from baselines.distill.config import DistillConfig, checked, ignored_slots
 from baselines.distill.episodes import FIELDS, fly_episode, fly_learner
 from baselines.distill.files import RunFolder, load_npz, save_npz, sha256_file, write_json
 from baselines.distill.heads import TURNS, learner_of, turn_classes
@@ -131,7 +131,10 @@ def _aggregate(folder: RunFolder, rounds: int) -> dict[str, np.ndarray]:
 def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str, np.ndarray] | None) -> tuple[dict[str, np.ndarray], float, int, float]:
     """Refit on rounds 0..k; returns the arrays, the final loss, the data size and the fit's CPU seconds."""
     data = _aggregate(folder, k + 1)
-    scaling = (start["obs_mean"], start["obs_scale"]) if start is not None else observation_scaling(data["observations"])
+    if start is not None:
+        scaling = (start["obs_mean"], start["obs_scale"])
+    else:
+        scaling = observation_scaling(data["observations"], ignored_slots(config.ignore))
     turn = config.head == "turn"
     targets = turn_classes(data["actions"]) if turn else data["actions"]
     tick = time.process_time()
@@ -252,6 +255,7 @@ def policy_sidecar(
         "hidden": list(config.hidden),
         "activation": "tanh",
         "head": config.head,
+        "ignore": list(config.ignore),
         "action": "normalised to [-1, 1] by the env's action box; clipped",
         "weights_sha256": weights_sha256,
         "key": key,

@@ -46,8 +46,12 @@ def forward(arrays: Mapping[str, np.ndarray], observations: np.ndarray) -> np.nd
     return np.clip(outputs(arrays, observations), -1.0, 1.0)
 
 
-def observation_scaling(observations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def observation_scaling(observations: np.ndarray, ignored: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-slot mean and scale of the round-0 observations; a constant slot gets scale 1.
+
+    ``ignored`` (a boolean mask over the slots) blinds slots: their mean is 0 and their scale
+    infinite, so their normalised input is 0 whatever the observation holds (docs/rl.md §4.8),
+    in the fit and in flight alike, and the saved arrays (hashed) say which slots were blinded.
 
     DECISION (docs/rl.md §4.2): the scaling is computed once, from the expert's own round-0
     states, and frozen: the later rounds warm-start from the previous network, whose first layer
@@ -56,6 +60,9 @@ def observation_scaling(observations: np.ndarray) -> tuple[np.ndarray, np.ndarra
     mean = observations.mean(axis=0)
     std = observations.std(axis=0)
     scale = np.where(std > 1e-6, std, 1.0)
+    if ignored is not None:
+        mean = np.where(ignored, 0.0, mean)
+        scale = np.where(ignored, np.inf, scale)
     return mean.astype(np.float32), scale.astype(np.float32)
 
 

@@ -181,8 +181,11 @@ class ShieldedDistillPolicy(DistillPolicy):
     straight flight to the goal. The failures of the turn networks off their training scenarios
     are flights out of the area and circling until the step limit (§4.8), which the greedy floor,
     turning toward the goal, does not do; one checked candidate and one fixed fallback is a
-    verification, not a search. ``last_record["shield"]`` is 0 on a step the network flew, 1 on
-    one overridden for a failure ahead, 2 for the step budget.
+    verification, not a search; after such an override the greedy floor keeps the controls
+    for ``hold`` = 5 steps, and it flies every step within ``homing`` = 4 steps of flight of the
+    goal, where a network that passes beside the goal flies on toward the edge (§4.8).
+    ``last_record["shield"]`` is 0 on a step the network flew, 1 on one overridden for a
+    failure ahead, 2 for the step budget, 3 during a hold, 4 near the goal.
 
     Args:
         shield: the horizon and the step budget.
@@ -195,13 +198,20 @@ class ShieldedDistillPolicy(DistillPolicy):
         self.shield = shield if shield is not None else Shield()
         self.last_record: dict[str, Any] = {}
         self._budget: float | None = None
+        self._held_until = -1
 
     def __repr__(self) -> str:
         return f"ShieldedDistillPolicy({str(self.weights)!r}, expert={self.sidecar['expert']!r})"
 
     def config(self) -> dict[str, Any]:
         """The unguarded network's key plus the shield's settings, so the two are stored apart."""
-        shield = {"horizon": int(self.shield.horizon), "budget": float(self.shield.budget), "fallback": "greedy"}
+        shield = {
+            "horizon": int(self.shield.horizon),
+            "budget": float(self.shield.budget),
+            "hold": int(self.shield.hold),
+            "homing": float(self.shield.homing),
+            "fallback": "greedy",
+        }
         return {**super().config(), "shield": shield}
 
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
@@ -209,10 +219,11 @@ class ShieldedDistillPolicy(DistillPolicy):
         super().reset(model, seed)
         self.last_record = {}
         self._budget = None
+        self._held_until = -1
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The network's action, or the greedy floor's where the network's rollout fails or the budget is spent."""
-        from baselines.distill.shield import shielded_action, straight_steps
+        from baselines.distill.shield import FAILS_AHEAD, shielded_action, straight_steps
 
         if self._from_unit is None or self._model is None:
             raise RuntimeError("ShieldedDistillPolicy.act() before reset(model, seed)")
@@ -220,8 +231,11 @@ class ShieldedDistillPolicy(DistillPolicy):
         if self._budget is None:
             self._budget = step + self.shield.budget * straight_steps(self._model, info["state"])
         action, why = shielded_action(
-            self.arrays, self._model, self._from_unit, observation, info["state"], step, self.shield, self._budget
-        )
+            self.arrays, self._model, self._from_unit, observation, info["state"], step, self.shield, self._budget,
+            self._held_until,
+        )  # fmt: skip
+        if why == FAILS_AHEAD:
+            self._held_until = step + 1 + self.shield.hold
         self.last_record = {"shield": why}
         return action
 

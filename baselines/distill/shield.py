@@ -6,7 +6,9 @@ env's observation) for ``horizon`` steps from the exact state. If that rollout c
 terrain or leaves the area, the step is flown by the greedy floor instead
 (:func:`~uav_penetration_env.benchmark.policies.greedy_action`); so is every step after the
 episode has used its step budget (``budget`` times the steps a straight flight at v_max would
-take), which ends a network's circling before the step limit truncates the episode.
+take), which ends a network's circling before the step limit truncates the episode. After an
+override for a failure ahead the greedy floor keeps the controls for ``hold`` steps, and it flies
+every step within ``homing`` straight steps of the goal.
 
 One candidate is checked and one fixed action replaces it: nothing is searched, so the decision
 costs ``horizon`` network evaluations and model steps, not an optimisation.
@@ -26,7 +28,7 @@ from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
 # Why a step was overridden, as counted in ``last_record["shield"]``.
-KEPT, FAILS_AHEAD, OVER_BUDGET = 0, 1, 2
+KEPT, FAILS_AHEAD, OVER_BUDGET, HOLDING, HOMING = 0, 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
@@ -37,14 +39,24 @@ class Shield:
         horizon: steps of the network's own rollout checked before each step.
         budget: the episode's step budget as a multiple of a straight flight's steps at v_max
             from the start to the goal; past it the greedy floor flies.
+        hold: steps the greedy floor keeps flying after an override for a failure ahead, so the
+            network, handed back the controls at once, does not steer straight back toward it.
+        homing: within this many straight steps at v_max of the goal the greedy floor flies (it
+            turns onto the goal; a network that passes beside it flies on toward the edge).
     """
 
     horizon: int = 5
     budget: float = 2.0
+    hold: int = 5
+    homing: float = 4.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.horizon, int) and not isinstance(self.horizon, bool) and self.horizon >= 1):
             raise ValueError(f"shield horizon: got {self.horizon!r}, expected an integer >= 1")
+        if not (isinstance(self.hold, int) and not isinstance(self.hold, bool) and self.hold >= 0):
+            raise ValueError(f"shield hold: got {self.hold!r}, expected an integer >= 0")
+        if not (isinstance(self.homing, (int, float)) and math.isfinite(self.homing) and self.homing >= 0):
+            raise ValueError(f"shield homing: got {self.homing!r}, expected a number >= 0")
         if not (isinstance(self.budget, (int, float)) and math.isfinite(self.budget) and self.budget > 0):
             raise ValueError(f"shield budget: got {self.budget!r}, expected a positive number")
 
@@ -88,11 +100,19 @@ def shielded_action(
     step: int,
     shield: Shield,
     step_budget: float,
+    held_until: int = -1,
 ) -> tuple[FloatArray, int]:
-    """The network's action, or the greedy floor's; returns it and why (KEPT, FAILS_AHEAD, OVER_BUDGET)."""
+    """The network's action, or the greedy floor's; returns it and why (KEPT, FAILS_AHEAD, ..., HOMING).
+
+    ``held_until``: the greedy floor flies every step before it (the hold after an override).
+    """
     state = np.asarray(state, dtype=np.float64)
     if step >= step_budget:
         return greedy_action(model, state), OVER_BUDGET
+    if step < held_until:
+        return greedy_action(model, state), HOLDING
+    if straight_steps(model, state) < shield.homing:
+        return greedy_action(model, state), HOMING
 
     def act(obs: np.ndarray, at: FloatArray) -> FloatArray:
         return network_action(arrays, model, obs, at, from_unit)

@@ -324,6 +324,8 @@ def test_the_shield_falls_back_to_greedy_when_the_rollout_fails_or_the_budget_is
     from baselines.distill.heads import TURNS, turn_action
     from baselines.distill.shield import (
         FAILS_AHEAD,
+        HOLDING,
+        HOMING,
         KEPT,
         OVER_BUDGET,
         Shield,
@@ -352,6 +354,13 @@ def test_the_shield_falls_back_to_greedy_when_the_rollout_fails_or_the_budget_is
     # Past the step budget the greedy floor flies, whatever the network would.
     action, why = shielded_action(straight, model, from_unit, observation, info["state"], 7, shield, 7.0)
     assert why == OVER_BUDGET and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    # During a hold after an override the greedy floor flies too.
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 3, shield, 40.0, 4)
+    assert why == HOLDING and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    # Near the goal the greedy floor homes in.
+    near = Shield(homing=1e9)
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 0, near, 40.0)
+    assert why == HOMING and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
     with pytest.raises(ValueError, match=r"^shield horizon: got 0, expected an integer >= 1$"):
         Shield(horizon=0)
 
@@ -363,7 +372,7 @@ def test_the_shielded_policy_is_keyed_apart_and_records_why(distilled):
     shielded = make_policy(f"distill-shield:{distilled.folder.out}")
     assert isinstance(shielded, ShieldedDistillPolicy)
     assert policy_hash(shielded) != policy_hash(plain)
-    assert shielded.config()["shield"] == {"horizon": 5, "budget": 2.0, "fallback": "greedy"}
+    assert shielded.config()["shield"] == {"horizon": 5, "budget": 2.0, "hold": 5, "homing": 4.0, "fallback": "greedy"}
     df = evaluate({"shielded": shielded}, [tiny_scenario()], seeds=[0], progress=False)
     assert df["error"].tolist() == [""]
     from uav_penetration_env.env import UAVPenetrationEnv
@@ -372,4 +381,21 @@ def test_the_shielded_policy_is_keyed_apart_and_records_why(distilled):
     observation, info = env.reset(seed=0)
     shielded.reset(env.model, 0)
     shielded.act(observation, info)
-    assert shielded.last_record["shield"] in (0, 1, 2)
+    assert shielded.last_record["shield"] in (0, 1, 2, 3, 4)
+
+
+def test_ignored_slots_do_not_reach_the_network(tmp_path):
+    from uav_penetration_env.observation import SLOTS
+
+    result = run_distill(tiny_config(tmp_path / "blind", rounds=0, ignore=("position", "step_fraction")))
+    arrays = load_npz(result.folder.policy)
+    observations = load_npz(result.folder.round_data(0))["observations"]
+    moved = observations.copy()
+    moved[:, SLOTS["position"]] += 3.0
+    moved[:, SLOTS["step_fraction"]] = 0.9
+    np.testing.assert_array_equal(forward(arrays, moved), forward(arrays, observations))
+    moved[:, SLOTS["speed"]] += 0.5  # a slot it sees
+    assert not np.array_equal(forward(arrays, moved), forward(arrays, observations))
+    assert result.sidecar["ignore"] == ["position", "step_fraction"]
+    with pytest.raises(ValueError, match=r"^--ignore: got 'altitude', expected observation slots among position, "):
+        run_distill(tiny_config(tmp_path / "never", ignore=("altitude",)))
