@@ -4,7 +4,8 @@
   the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
   ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill:RUN_FOLDER`` (a planner imitated by
   an MLP, :mod:`baselines.distill`); ``distill-safe`` -> :data:`SAFE_DISTILL_POLICY_KIND`, the same
-  network behind a safety layer on its pitch;
+  network behind a safety layer on its pitch; ``distill-shield`` -> :data:`SHIELDED_DISTILL_POLICY_KIND`,
+  the same network behind a verified fallback to the greedy floor;
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
   -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies), ``distill`` -> :data:`DISTILL_COMMAND`
   (``uav-bench distill``) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
@@ -48,6 +49,8 @@ load_distill_policy = later("baselines.distill.policy", "load_distill_policy")
 distill_label = later("baselines.distill.policy", "distill_label")
 load_safe_distill_policy = later("baselines.distill.policy", "load_safe_distill_policy")
 safe_distill_label = later("baselines.distill.policy", "safe_distill_label")
+load_shielded_distill_policy = later("baselines.distill.policy", "load_shielded_distill_policy")
+shielded_distill_label = later("baselines.distill.policy", "shielded_distill_label")
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
@@ -65,6 +68,13 @@ DISTILL_POLICY_KIND = PolicyKind(
 # The same network behind the safety layer that limits its pitch toward the terrain (docs/rl.md §4.7).
 SAFE_DISTILL_POLICY_KIND = PolicyKind(
     prefix="distill-safe", load=load_safe_distill_policy, usage="distill-safe:RUN_FOLDER", label=safe_distill_label
+)
+# The same network behind a verified fallback to the greedy floor (docs/rl.md §4.8).
+SHIELDED_DISTILL_POLICY_KIND = PolicyKind(
+    prefix="distill-shield",
+    load=load_shielded_distill_policy,
+    usage="distill-shield:RUN_FOLDER",
+    label=shielded_distill_label,
 )
 TRAIN_COMMAND = Command(
     name="train",

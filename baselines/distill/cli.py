@@ -40,6 +40,11 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
         f"its spread in the round-0 labels (default: {DEFAULTS.loss})")
     add("--select", default=DEFAULTS.select, help="the policy is the round with the best mean validation cost on the "
         f"training scenarios (best) or the last round (last; default: {DEFAULTS.select})")
+    add("--head", default=DEFAULTS.head, help="action: the network regresses the whole action; turn: it chooses one "
+        "of the lattice's five turns, flown with the lattice's speed and terrain-following pitch (docs/rl.md §4.8; "
+        f"default: {DEFAULTS.head})")
+    add("--ignore", nargs="*", default=[], help="observation slots the network is blind to, e.g. position "
+        "step_fraction (docs/rl.md §4.8; default: none)")
     add("--seed", type=int, default=DEFAULTS.seed, help=f"the run's seed (default: {DEFAULTS.seed})")
     add("--torch-threads", dest="torch_threads", type=int, default=DEFAULTS.torch_threads, help="torch threads (default: 1)")  # fmt: skip
 
@@ -57,7 +62,8 @@ def distill_command(args: argparse.Namespace) -> int:
         out=Path(args.out), expert=args.expert, scenarios=tuple(args.scenarios), difficulty=args.difficulty,
         rounds=args.rounds, episodes=args.episodes, beta0=args.beta0, decay=args.decay, hidden=tuple(args.hidden),
         epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate, seed=args.seed,
-        torch_threads=args.torch_threads, loss=args.loss, select=args.select,
+        torch_threads=args.torch_threads, loss=args.loss, select=args.select, head=args.head,
+        ignore=tuple(args.ignore),
     )  # fmt: skip
     try:
         config = checked(config)

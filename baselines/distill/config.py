@@ -14,7 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
+from uav_penetration_env.observation import OBSERVATION_SIZE, SLOTS
 from uav_penetration_env.scenario import Scenario
 
 # Seeds of procedural scenarios that some published number is measured on (docs/rl.md §1.1): the
@@ -28,6 +31,7 @@ RESERVED_SEEDS: dict[str, range] = {
 DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
 LOSSES = ("mse", "mse-std")
 SELECTIONS = ("best", "last")
+HEADS = ("action", "turn")  # what the network's outputs mean (baselines.distill.heads)
 
 
 @dataclass(frozen=True)
@@ -53,6 +57,12 @@ class DistillConfig:
             (each channel divided by its spread in the round-0 labels; docs/rl.md §4.2).
         select: which round's network becomes the policy: ``best`` (lowest mean validation cost)
             or ``last`` (docs/rl.md §4.5); not part of the key, so a finished run can be re-selected.
+        head: ``action`` (the network regresses the normalised action) or ``turn`` (it classifies
+            the expert's turn into the lattice's five turns and flies the lattice's candidate
+            control for it; docs/rl.md §4.8).
+        ignore: observation slots the network is blind to (names of
+            :data:`uav_penetration_env.observation.SLOTS`, e.g. ``position``, ``step_fraction``;
+            docs/rl.md §4.8).
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -83,6 +93,8 @@ class DistillConfig:
     torch_threads: int = 1
     loss: str = "mse"
     select: str = "best"
+    head: str = "action"
+    ignore: tuple[str, ...] = ()
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
@@ -105,6 +117,9 @@ class DistillConfig:
             "learning_rate": self.learning_rate,
             "loss": self.loss,
             "seed": self.seed,
+            # Only a non-default head enters the key, so the folders made before heads existed continue.
+            **({"head": self.head} if self.head != "action" else {}),
+            **({"ignore": list(self.ignore)} if self.ignore else {}),
         }
 
 
@@ -132,11 +147,24 @@ def _check_numbers(config: DistillConfig) -> None:
     rate = config.learning_rate
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
         raise ValueError(f"--learning-rate: got {rate!r}, expected a positive number")
-    for name, choices in (("loss", LOSSES), ("select", SELECTIONS)):
+    for name, choices in (("loss", LOSSES), ("select", SELECTIONS), ("head", HEADS)):
         if getattr(config, name) not in choices:
             raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
+    unknown = [name for name in config.ignore if name not in SLOTS]
+    if unknown:
+        raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
         raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
+
+
+def ignored_slots(names: tuple[str, ...]) -> np.ndarray | None:
+    """The boolean mask over the observation of the slots ``names`` (``None`` for none)."""
+    if not names:
+        return None
+    mask = np.zeros(OBSERVATION_SIZE, dtype=bool)
+    for name in names:
+        mask[SLOTS[name]] = True
+    return mask
 
 
 def _check_seeds(spec: str) -> None:

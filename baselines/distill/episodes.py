@@ -66,7 +66,7 @@ def _outcome(info: dict[str, Any], truncated: bool) -> str:
 def fly_episode(
     env: UAVPenetrationEnv,
     expert: Any,
-    learner: Callable[[np.ndarray], np.ndarray] | None,
+    learner: Callable[[PenetrationModel, np.ndarray, np.ndarray], np.ndarray] | None,
     beta: float,
     seeds: np.random.SeedSequence,
 ) -> tuple[EpisodeData, int]:
@@ -75,7 +75,8 @@ def fly_episode(
     Args:
         env: the env of the training scenario.
         expert: the expert policy (copied: each episode starts from the same expert state).
-        learner: normalised observation batch -> normalised actions; ``None`` (round 0): the expert flies.
+        learner: (model, observation, exact state) -> physical action
+            (:func:`baselines.distill.heads.learner_of`); ``None`` (round 0): the expert flies.
         beta: the probability that the expert's action is applied at a step.
         seeds: spawns the env's reset seed, the expert's seed and the mixing generator.
     """
@@ -90,7 +91,7 @@ def fly_episode(
     while not done:
         label = to_unit(expert.act(observation, info))
         expert_flies = learner is None or mixing.random() < beta
-        flown = label if expert_flies else np.clip(learner(observation[None])[0], -1.0, 1.0)
+        flown = label if expert_flies else to_unit(learner(env.model, observation, info["state"]))
         for name, value in zip(
             FIELDS, (observation, label, info["state"], info["step"], expert_flies, flown), strict=True
         ):
@@ -110,14 +111,15 @@ def fly_episode(
     return EpisodeData(arrays, summary), len(rows["steps"])
 
 
-def fly_learner(env: UAVPenetrationEnv, learner: Callable[[np.ndarray], np.ndarray], seeds: np.random.SeedSequence) -> dict[str, Any]:
+def fly_learner(
+    env: UAVPenetrationEnv, learner: Callable[[PenetrationModel, np.ndarray, np.ndarray], np.ndarray], seeds: np.random.SeedSequence
+) -> dict[str, Any]:
     """Fly one episode with the learner alone, no expert asked; returns its total J, penalty, steps, outcome."""
     observation, info = env.reset(seed=int(seeds.generate_state(1)[0]))
-    _, from_unit = normalisers(env.model)
     total_j, steps, done, truncated = 0.0, 0, False, False
     while not done:
-        unit = np.clip(learner(observation[None])[0], -1.0, 1.0)
-        observation, _, terminated, truncated, info = env.step(from_unit(unit))
+        action = learner(env.model, observation, info["state"])
+        observation, _, terminated, truncated, info = env.step(action)
         total_j += float(info["J"])
         steps += 1
         done = terminated or truncated

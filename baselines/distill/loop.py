@@ -18,10 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from baselines.distill.config import DistillConfig, checked
+from baselines.distill.config import DistillConfig, checked, ignored_slots
 from baselines.distill.episodes import FIELDS, fly_episode, fly_learner
 from baselines.distill.files import RunFolder, load_npz, save_npz, sha256_file, write_json
-from baselines.distill.network import fit, forward, observation_scaling
+from baselines.distill.heads import TURNS, learner_of, turn_classes
+from baselines.distill.network import fit, observation_scaling
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import OBSERVATION_SIZE
 
@@ -95,7 +96,7 @@ def collect_round(context: _Context, folder: RunFolder, k: int, learner: dict[st
     """
     config = context.config
     beta = config.beta(k)
-    fly = None if learner is None else (lambda obs: forward(learner, obs))
+    fly = None if learner is None else learner_of(learner)
     parts, summaries, labels, seconds = [], [], 0, 0.0
     for i in range(len(context.scenarios)):
         for j in range(config.episodes):
@@ -130,13 +131,20 @@ def _aggregate(folder: RunFolder, rounds: int) -> dict[str, np.ndarray]:
 def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str, np.ndarray] | None) -> tuple[dict[str, np.ndarray], float, int, float]:
     """Refit on rounds 0..k; returns the arrays, the final loss, the data size and the fit's CPU seconds."""
     data = _aggregate(folder, k + 1)
-    scaling = (start["obs_mean"], start["obs_scale"]) if start is not None else observation_scaling(data["observations"])
+    if start is not None:
+        scaling = (start["obs_mean"], start["obs_scale"])
+    else:
+        scaling = observation_scaling(data["observations"], ignored_slots(config.ignore))
+    turn = config.head == "turn"
+    targets = turn_classes(data["actions"]) if turn else data["actions"]
     tick = time.process_time()
     arrays, loss = fit(
-        data["observations"], data["actions"], start=start, scaling=scaling, hidden=config.hidden,
+        data["observations"], targets, start=start, scaling=scaling, hidden=config.hidden,
         epochs=config.epochs, batch_size=config.batch_size, learning_rate=config.learning_rate,
-        seed=(config.seed, k), loss=config.loss,
+        seed=(config.seed, k), loss=config.loss, classes=len(TURNS) if turn else 0,
     )  # fmt: skip
+    if turn:
+        arrays["turns"] = np.asarray(TURNS, dtype=np.float32)
     return arrays, loss, len(data["actions"]), time.process_time() - tick
 
 
@@ -187,7 +195,7 @@ def validate(context: _Context, arrays: dict[str, np.ndarray]) -> list[dict[str,
     rows = []
     for i, scenario in enumerate(context.scenarios):
         seeds = np.random.SeedSequence([context.config.seed, VALIDATION_STREAM, i])
-        row = fly_learner(context.env(i), lambda obs: forward(arrays, obs), seeds)
+        row = fly_learner(context.env(i), learner_of(arrays), seeds)
         rows.append({"scenario": scenario.name, **row})
     return rows
 
@@ -246,6 +254,8 @@ def policy_sidecar(
         "observation_size": OBSERVATION_SIZE,
         "hidden": list(config.hidden),
         "activation": "tanh",
+        "head": config.head,
+        "ignore": list(config.ignore),
         "action": "normalised to [-1, 1] by the env's action box; clipped",
         "weights_sha256": weights_sha256,
         "key": key,

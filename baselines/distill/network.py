@@ -25,6 +25,17 @@ def layer_count(arrays: Mapping[str, np.ndarray]) -> int:
     return count
 
 
+def outputs(arrays: Mapping[str, np.ndarray], observations: np.ndarray) -> np.ndarray:
+    """The last linear layer's values (n, outputs) for observations (n, 67), in float64, unclipped."""
+    x = (np.asarray(observations, dtype=np.float64) - arrays["obs_mean"]) / arrays["obs_scale"]
+    last = layer_count(arrays) - 1
+    for i in range(last + 1):
+        x = x @ arrays[f"W{i}"].astype(np.float64).T + arrays[f"b{i}"]
+        if i < last:
+            x = np.tanh(x)
+    return x
+
+
 def forward(arrays: Mapping[str, np.ndarray], observations: np.ndarray) -> np.ndarray:
     """The network's outputs (n, 3) in [-1, 1] for observations (n, 67), computed in float64.
 
@@ -32,17 +43,15 @@ def forward(arrays: Mapping[str, np.ndarray], observations: np.ndarray) -> np.nd
     [-1, 1]: the expert's actions sit on the bounds (full turns, full acceleration), which a tanh
     output reaches only asymptotically and which an MSE fit then pulls inwards.
     """
-    x = (np.asarray(observations, dtype=np.float64) - arrays["obs_mean"]) / arrays["obs_scale"]
-    last = layer_count(arrays) - 1
-    for i in range(last + 1):
-        x = x @ arrays[f"W{i}"].astype(np.float64).T + arrays[f"b{i}"]
-        if i < last:
-            x = np.tanh(x)
-    return np.clip(x, -1.0, 1.0)
+    return np.clip(outputs(arrays, observations), -1.0, 1.0)
 
 
-def observation_scaling(observations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def observation_scaling(observations: np.ndarray, ignored: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-slot mean and scale of the round-0 observations; a constant slot gets scale 1.
+
+    ``ignored`` (a boolean mask over the slots) blinds slots: their mean is 0 and their scale
+    infinite, so their normalised input is 0 whatever the observation holds (docs/rl.md §4.8),
+    in the fit and in flight alike, and the saved arrays (hashed) say which slots were blinded.
 
     DECISION (docs/rl.md §4.2): the scaling is computed once, from the expert's own round-0
     states, and frozen: the later rounds warm-start from the previous network, whose first layer
@@ -51,6 +60,9 @@ def observation_scaling(observations: np.ndarray) -> tuple[np.ndarray, np.ndarra
     mean = observations.mean(axis=0)
     std = observations.std(axis=0)
     scale = np.where(std > 1e-6, std, 1.0)
+    if ignored is not None:
+        mean = np.where(ignored, 0.0, mean)
+        scale = np.where(ignored, np.inf, scale)
     return mean.astype(np.float32), scale.astype(np.float32)
 
 
@@ -110,6 +122,7 @@ def fit(
     learning_rate: float,
     seed: Sequence[int],
     loss: str = "mse",
+    classes: int = 0,
 ) -> tuple[Arrays, float]:
     """Fit the MLP to (observation, normalised expert action) pairs by MSE; returns arrays and final loss.
 
@@ -123,15 +136,21 @@ def fit(
     divides each channel's error by that channel's spread in the labels (the ``action_scale``
     saved with the arrays, frozen at round 0 as the observation scaling is), so the pitch
     channel, whose labels are 40 times narrower than the turn's, is not left to noise.
+
+    ``classes`` > 0: ``actions`` are class indices (n,) and the network's ``classes`` outputs are
+    logits fitted by cross-entropy (the ``turn`` head, docs/rl.md §4.8); ``loss`` is then unused.
     """
     torch = _torch()
     generator = torch.Generator().manual_seed(int(np.random.SeedSequence(list(seed)).generate_state(1)[0]))
     torch.manual_seed(int(np.random.SeedSequence([*seed, 1]).generate_state(1)[0]))
-    net = _build(torch, observations.shape[1], hidden, actions.shape[1])
+    net = _build(torch, observations.shape[1], hidden, classes or actions.shape[1])
     if start is not None:
         _load_arrays(torch, net, start)
     mean, scale = scaling
     x = torch.from_numpy(((observations - mean) / scale).astype(np.float32))
+    if classes:
+        return _fit_classes(torch, net, x, torch.from_numpy(np.asarray(actions, dtype=np.int64)), generator,
+                            epochs, batch_size, learning_rate, mean, scale)  # fmt: skip
     y = torch.from_numpy(np.asarray(actions, dtype=np.float32))
     if start is not None and "action_scale" in start:
         action_scale = np.asarray(start["action_scale"], dtype=np.float32)
@@ -152,3 +171,22 @@ def fit(
         final = float(torch.mean(weight * (net(x) - y) ** 2))
     del loss
     return {**_to_arrays(net, mean, scale), "action_scale": action_scale}, final
+
+
+def _fit_classes(
+    torch: Any, net: Any, x: Any, y: Any, generator: Any, epochs: int, batch_size: int, learning_rate: float,
+    mean: np.ndarray, scale: np.ndarray,
+) -> tuple[Arrays, float]:
+    """Cross-entropy on class indices ``y``, with the minibatches and Adam of the regression fit."""
+    optimiser = torch.optim.Adam(net.parameters(), lr=learning_rate)
+    criterion = torch.nn.CrossEntropyLoss()
+    for _ in range(epochs):
+        order = torch.randperm(len(x), generator=generator)
+        for begin in range(0, len(x), batch_size):
+            batch = order[begin : begin + batch_size]
+            optimiser.zero_grad()
+            criterion(net(x[batch]), y[batch]).backward()
+            optimiser.step()
+    with torch.no_grad():
+        final = float(criterion(net(x), y))
+    return _to_arrays(net, mean, scale), final

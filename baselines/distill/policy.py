@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from baselines.distill.files import load_npz, sha256_file
-from baselines.distill.network import forward, layer_count
+from baselines.distill.heads import head_of, network_action
+from baselines.distill.network import layer_count
 from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -42,6 +43,7 @@ class DistillPolicy:
         self.arrays = arrays
         self.sidecar = sidecar
         self._from_unit: Any = None
+        self._model: PenetrationModel | None = None
 
     def __repr__(self) -> str:
         return f"DistillPolicy({str(self.weights)!r}, expert={self.sidecar['expert']!r})"
@@ -52,13 +54,15 @@ class DistillPolicy:
         Hashes, not paths, and nothing measured (training seconds), so the key is the same in
         every process and for a moved file.
         """
-        return {
+        key = {
             "kind": "distill",
             "weights_sha256": self.sidecar["weights_sha256"],
             "hidden": list(self.sidecar["hidden"]),
             "activation": self.sidecar["activation"],
             "deterministic": True,
         }
+        # The action head's key is the one of the networks made before heads existed.
+        return key if head_of(self.arrays) == "action" else {**key, "head": head_of(self.arrays)}
 
     @property
     def metadata(self) -> dict[str, Any]:
@@ -80,14 +84,17 @@ class DistillPolicy:
                 f"not {profile!r} (scenario {model.scenario.name!r})"
             )
         _, self._from_unit = normalisers(model)
+        self._model = model
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
-        """The network's action for ``observation``, in physical units [dv, dphi, dtheta]."""
-        del info
-        if self._from_unit is None:
+        """The network's action for ``observation``, in physical units [dv, dphi, dtheta].
+
+        A ``turn`` network's chosen turn is flown as the lattice's candidate control from the
+        exact state in ``info`` (:func:`baselines.distill.heads.turn_action`).
+        """
+        if self._from_unit is None or self._model is None:
             raise RuntimeError("DistillPolicy.act() before reset(model, seed)")
-        unit = forward(self.arrays, np.asarray(observation).reshape(1, -1))[0]
-        return self._from_unit(unit)
+        return network_action(self.arrays, self._model, observation, info["state"], self._from_unit)
 
 
 def safe_action(
@@ -165,6 +172,74 @@ class SafeDistillPolicy(DistillPolicy):
         return action
 
 
+class ShieldedDistillPolicy(DistillPolicy):
+    """A distilled network behind a verified fallback to the greedy floor (:mod:`baselines.distill.shield`).
+
+    DECISION (docs/rl.md §4.8): before each step the network's own policy is flown forward
+    ``horizon`` = 5 steps with the model; if it collides or leaves the area, the greedy floor
+    flies the step, and it flies every step once the episode is past twice the steps of a
+    straight flight to the goal. The failures of the turn networks off their training scenarios
+    are flights out of the area and circling until the step limit (§4.8), which the greedy floor,
+    turning toward the goal, does not do; one checked candidate and one fixed fallback is a
+    verification, not a search; after such an override the greedy floor keeps the controls
+    for ``hold`` = 5 steps, and it flies every step within ``homing`` = 4 steps of flight of the
+    goal, where a network that passes beside the goal flies on toward the edge (§4.8).
+    ``last_record["shield"]`` is 0 on a step the network flew, 1 on one overridden for a
+    failure ahead, 2 for the step budget, 3 during a hold, 4 near the goal.
+
+    Args:
+        shield: the horizon and the step budget.
+    """
+
+    def __init__(self, weights: Path, arrays: dict[str, np.ndarray], sidecar: dict[str, Any], shield: Any = None) -> None:
+        from baselines.distill.shield import Shield
+
+        super().__init__(weights, arrays, sidecar)
+        self.shield = shield if shield is not None else Shield()
+        self.last_record: dict[str, Any] = {}
+        self._budget: float | None = None
+        self._held_until = -1
+
+    def __repr__(self) -> str:
+        return f"ShieldedDistillPolicy({str(self.weights)!r}, expert={self.sidecar['expert']!r})"
+
+    def config(self) -> dict[str, Any]:
+        """The unguarded network's key plus the shield's settings, so the two are stored apart."""
+        shield = {
+            "horizon": int(self.shield.horizon),
+            "budget": float(self.shield.budget),
+            "hold": int(self.shield.hold),
+            "homing": float(self.shield.homing),
+            "fallback": "greedy",
+        }
+        return {**super().config(), "shield": shield}
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """As the unguarded policy's; the step budget is set from the first state flown."""
+        super().reset(model, seed)
+        self.last_record = {}
+        self._budget = None
+        self._held_until = -1
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The network's action, or the greedy floor's where the network's rollout fails or the budget is spent."""
+        from baselines.distill.shield import FAILS_AHEAD, shielded_action, straight_steps
+
+        if self._from_unit is None or self._model is None:
+            raise RuntimeError("ShieldedDistillPolicy.act() before reset(model, seed)")
+        step = int(info["step"])
+        if self._budget is None:
+            self._budget = step + self.shield.budget * straight_steps(self._model, info["state"])
+        action, why = shielded_action(
+            self.arrays, self._model, self._from_unit, observation, info["state"], step, self.shield, self._budget,
+            self._held_until,
+        )  # fmt: skip
+        if why == FAILS_AHEAD:
+            self._held_until = step + 1 + self.shield.hold
+        self.last_record = {"shield": why}
+        return action
+
+
 def weights_path(path: str | Path) -> Path:
     """A run folder -> its ``policy.npz``; a file path as given (``.npz`` may be omitted)."""
     path = Path(path)
@@ -208,6 +283,17 @@ def load_safe_distill_policy(path: str | Path) -> SafeDistillPolicy:
     """The harness Policy ``distill-safe:PATH``: the network of ``distill:PATH`` behind the safety layer."""
     plain = load_distill_policy(path)
     return SafeDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+
+
+def load_shielded_distill_policy(path: str | Path) -> ShieldedDistillPolicy:
+    """The harness Policy ``distill-shield:PATH``: the network of ``distill:PATH`` behind the greedy fallback."""
+    plain = load_distill_policy(path)
+    return ShieldedDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+
+
+def shielded_distill_label(path: str | Path) -> str:
+    """A shielded policy's name in result tables: ``distill-shield:NAME``."""
+    return "distill-shield:" + distill_label(path).partition(":")[2]
 
 
 def safe_distill_label(path: str | Path) -> str:

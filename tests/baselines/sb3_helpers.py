@@ -52,6 +52,7 @@ def baselines_plugins(monkeypatch):
             "sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND),
             "distill": plugins.Plugin("distill", plugin.DISTILL_POLICY_KIND),
             "distill-safe": plugins.Plugin("distill-safe", plugin.SAFE_DISTILL_POLICY_KIND),
+            "distill-shield": plugins.Plugin("distill-shield", plugin.SHIELDED_DISTILL_POLICY_KIND),
         },
         plugins.COMMAND_GROUP: {
             "train": plugins.Plugin("train", plugin.TRAIN_COMMAND),

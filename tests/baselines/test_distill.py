@@ -244,3 +244,158 @@ def test_the_guarded_policy_is_keyed_apart_and_counts_its_overrides(distilled):
     assert safe.config()["weights_sha256"] == plain.config()["weights_sha256"]
     df = evaluate({"safe": safe}, [tiny_scenario()], seeds=[0], progress=False)
     assert df["error"].tolist() == [""]
+
+
+class TurnExpert:
+    """An expert that flies the lattice's candidate control for a turn chosen by the goal's side."""
+
+    def config(self):
+        return {"kind": "turn-test-expert"}
+
+    def reset(self, model, seed=None):
+        self.model = model
+
+    def turn(self, observation):
+        from uav_penetration_env.observation import GOAL_BEARING
+
+        # sin(bearing to the goal - heading) > 0: the goal lies to the left; turn half toward it.
+        return 0.5 if observation[GOAL_BEARING + 1] > 0 else -0.5
+
+    def act(self, observation, info):
+        from baselines.distill.heads import turn_action
+
+        return turn_action(self.model, np.asarray(info["state"], dtype=np.float64), self.turn(observation))
+
+
+def test_turn_classes_are_the_nearest_lattice_turn():
+    from baselines.distill.heads import TURNS, turn_classes
+
+    assert TURNS == (-1.0, -0.5, 0.0, 0.5, 1.0)
+    unit = np.array([[0.3, -0.9, 0.0], [-1.0, -0.3, 0.2], [0.0, 0.2, -0.1], [1.0, 0.51, 0.0], [0.0, 1.0, 1.0]])
+    assert turn_classes(unit).tolist() == [0, 1, 2, 3, 4]
+
+
+def test_the_turn_head_flies_the_lattices_candidate_control(tmp_path):
+    from baselines.distill.heads import TURNS, head_of, turn_action
+
+    config = tiny_config(tmp_path / "turn", expert=TurnExpert(), head="turn", rounds=1, epochs=60)
+    result = run_distill(config)
+    arrays = load_npz(result.folder.policy)
+    assert head_of(arrays) == "turn" and arrays["W2"].shape[0] == len(TURNS)
+    assert arrays["turns"].tolist() == list(TURNS) and result.sidecar["head"] == "turn"
+    policy = make_policy(f"distill:{result.folder.out}")
+    assert policy.config()["head"] == "turn"
+    # On the states it was fitted on, the policy's action is the candidate control of the expert's turn.
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    data = load_npz(result.folder.round_data(1))
+    policy.reset(env.model, 0)
+    expert = TurnExpert()
+    expert.reset(env.model)
+    for observation, state, step in zip(data["observations"], data["states"], data["steps"], strict=True):
+        action = policy.act(observation, {"state": state, "step": int(step)})
+        np.testing.assert_array_equal(action, turn_action(env.model, state, expert.turn(observation)))
+    df = evaluate({"turn": policy}, [tiny_scenario()], seeds=[0], progress=False)
+    assert df["error"].tolist() == [""]
+    # The head is part of the run's key: the folder refuses to continue as an action head.
+    with pytest.raises(ValueError, match=r"^--head: the run folder .* was made with 'turn', not None"):
+        run_distill(tiny_config(tmp_path / "turn", expert=TurnExpert(), rounds=1, epochs=60))
+
+
+def test_the_head_flag_is_checked(capsys, tmp_path):
+    assert main(["distill", "--out", str(tmp_path / "never"), "--head", "turns"]) == 2
+    assert "--head: got 'turns', expected one of action, turn" in capsys.readouterr().err
+
+
+def constant_network(output):
+    """A one-layer network whose output is ``output`` for every observation (zero weights, the bias)."""
+    output = np.asarray(output, dtype=np.float32)
+    return {
+        "obs_mean": np.zeros(OBSERVATION_SIZE, np.float32),
+        "obs_scale": np.ones(OBSERVATION_SIZE, np.float32),
+        "W0": np.zeros((output.size, OBSERVATION_SIZE), np.float32),
+        "b0": output,
+    }
+
+
+def test_the_shield_falls_back_to_greedy_when_the_rollout_fails_or_the_budget_is_spent():
+    from baselines.distill.episodes import normalisers
+    from baselines.distill.heads import TURNS, turn_action
+    from baselines.distill.shield import (
+        FAILS_AHEAD,
+        HOLDING,
+        HOMING,
+        KEPT,
+        OVER_BUDGET,
+        Shield,
+        rollout_fails,
+        shielded_action,
+    )
+    from uav_penetration_env.benchmark.policies import greedy_action
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    observation, info = env.reset(seed=0)
+    model = env.model
+    from_unit = normalisers(model)[1]
+    low, _ = low_and_high_states(model, np.asarray(info["state"], dtype=np.float64))
+    shield = Shield(horizon=5, budget=2.0)
+    diver = constant_network([0.0, 0.0, -1.0])  # the action head: full pitch-down at every step
+    obs_low = model.observe(low[None], 0)[0]
+    dive = from_unit(np.array([0.0, 0.0, -1.0]))
+    assert rollout_fails(model, lambda o, s: dive, obs_low, low, 0, dive, 5)
+    action, why = shielded_action(diver, model, from_unit, obs_low, low, 0, shield, step_budget=40.0)
+    assert why == FAILS_AHEAD and np.array_equal(action, greedy_action(model, low))
+    # A turn network holding its course follows the terrain like the lattice: it is kept.
+    straight = {**constant_network([0.0, 0.0, 9.0, 0.0, 0.0]), "turns": np.asarray(TURNS, np.float32)}
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 0, shield, 40.0)
+    assert why == KEPT and np.array_equal(action, turn_action(model, np.asarray(info["state"]), 0.0))
+    # Past the step budget the greedy floor flies, whatever the network would.
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 7, shield, 7.0)
+    assert why == OVER_BUDGET and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    # During a hold after an override the greedy floor flies too.
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 3, shield, 40.0, 4)
+    assert why == HOLDING and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    # Near the goal the greedy floor homes in.
+    near = Shield(homing=1e9)
+    action, why = shielded_action(straight, model, from_unit, observation, info["state"], 0, near, 40.0)
+    assert why == HOMING and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    with pytest.raises(ValueError, match=r"^shield horizon: got 0, expected an integer >= 1$"):
+        Shield(horizon=0)
+
+
+def test_the_shielded_policy_is_keyed_apart_and_records_why(distilled):
+    from baselines.distill.policy import ShieldedDistillPolicy
+
+    plain = make_policy(f"distill:{distilled.folder.out}")
+    shielded = make_policy(f"distill-shield:{distilled.folder.out}")
+    assert isinstance(shielded, ShieldedDistillPolicy)
+    assert policy_hash(shielded) != policy_hash(plain)
+    assert shielded.config()["shield"] == {"horizon": 5, "budget": 2.0, "hold": 5, "homing": 4.0, "fallback": "greedy"}
+    df = evaluate({"shielded": shielded}, [tiny_scenario()], seeds=[0], progress=False)
+    assert df["error"].tolist() == [""]
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    observation, info = env.reset(seed=0)
+    shielded.reset(env.model, 0)
+    shielded.act(observation, info)
+    assert shielded.last_record["shield"] in (0, 1, 2, 3, 4)
+
+
+def test_ignored_slots_do_not_reach_the_network(tmp_path):
+    from uav_penetration_env.observation import SLOTS
+
+    result = run_distill(tiny_config(tmp_path / "blind", rounds=0, ignore=("position", "step_fraction")))
+    arrays = load_npz(result.folder.policy)
+    observations = load_npz(result.folder.round_data(0))["observations"]
+    moved = observations.copy()
+    moved[:, SLOTS["position"]] += 3.0
+    moved[:, SLOTS["step_fraction"]] = 0.9
+    np.testing.assert_array_equal(forward(arrays, moved), forward(arrays, observations))
+    moved[:, SLOTS["speed"]] += 0.5  # a slot it sees
+    assert not np.array_equal(forward(arrays, moved), forward(arrays, observations))
+    assert result.sidecar["ignore"] == ["position", "step_fraction"]
+    with pytest.raises(ValueError, match=r"^--ignore: got 'altitude', expected observation slots among position, "):
+        run_distill(tiny_config(tmp_path / "never", ignore=("altitude",)))

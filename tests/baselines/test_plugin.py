@@ -23,6 +23,7 @@ def test_pyproject_declares_the_plugins_of_baselines():
         "sb3": "baselines.plugin:SB3_POLICY_KIND",
         "distill": "baselines.plugin:DISTILL_POLICY_KIND",
         "distill-safe": "baselines.plugin:SAFE_DISTILL_POLICY_KIND",
+        "distill-shield": "baselines.plugin:SHIELDED_DISTILL_POLICY_KIND",
     }
     assert entry_points[COMMAND_GROUP] == {
         "train": "baselines.plugin:TRAIN_COMMAND",
@@ -41,6 +42,7 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert isinstance(plugin.DISTILL_COMMAND, Command) and plugin.DISTILL_COMMAND.name == "distill"
     assert plugin.DISTILL_POLICY_KIND.needs.modules == ()  # flown with NumPy: no extra needed
     assert plugin.SAFE_DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill-safe:lattice-s0"
+    assert plugin.SHIELDED_DISTILL_POLICY_KIND.label("results/distill/turn-s0") == "distill-shield:turn-s0"
 
 
 # A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl

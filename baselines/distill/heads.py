@@ -1,0 +1,94 @@
+"""What the network's outputs mean: the whole action (``action`` head) or the lattice's turn (``turn`` head).
+
+The ``action`` head regresses the normalised action (dv, dphi, dtheta) and flies it as it is
+(docs/rl.md §4.2). The ``turn`` head classifies the expert's action into the lattice planner's
+candidate turns (``LatticeGuidance.turns``, fractions of dphi_max) and flies the chosen turn as the
+lattice flies each of its candidates: toward v_max, with the terrain-following pitch at the
+lattice's clearance along the new heading (:func:`turn_action`, the lattice's own candidate
+control). The network then chooses one of five discrete moves; speed and altitude follow the
+closed-form rule that the greedy floor and the lattice share (docs/rl.md §4.8).
+
+A ``turn`` network is recognised by its ``turns`` array (saved with the weights, so the weights'
+hash covers it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from baselines.distill.episodes import normalisers
+from baselines.distill.network import forward, outputs
+from uav_penetration_env.kinematics import HEADING, SPEED
+from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.types import FloatArray
+from uav_penetration_env.value_function import LATTICE_GUIDANCE, terrain_following_dtheta
+
+TURNS = tuple(float(t) for t in LATTICE_GUIDANCE.turns)
+
+# A learner as the DAgger loop flies it: (model, observation, exact state) -> the physical action.
+Learner = Callable[[PenetrationModel, np.ndarray, FloatArray], FloatArray]
+
+
+def head_of(arrays: Mapping[str, np.ndarray]) -> str:
+    """``turn`` for a network saved with its ``turns`` array, else ``action``."""
+    return "turn" if "turns" in arrays else "action"
+
+
+def turn_classes(unit_actions: np.ndarray, turns: tuple[float, ...] = TURNS) -> np.ndarray:
+    """(n,) the index of the turn in ``turns`` nearest to each normalised label's dphi.
+
+    The action box is symmetric, so a normalised dphi is the turn as a fraction of dphi_max, the
+    unit of ``turns``; the lattice's own labels sit on the turns exactly.
+    """
+    dphi = np.asarray(unit_actions, dtype=np.float64)[:, 1]
+    return np.argmin(np.abs(dphi[:, None] - np.asarray(turns)[None, :]), axis=1).astype(np.int64)
+
+
+def turn_action(model: PenetrationModel, state: FloatArray, turn: float) -> FloatArray:
+    """The lattice's candidate control for ``turn`` (a fraction of dphi_max) from ``state``.
+
+    Accelerate toward v_max, turn by ``turn`` x dphi_max, pitch toward the lattice's clearance
+    above the highest terrain under the next steps along the new heading: the control the lattice
+    planner prices for each of its turns (``value_function._candidate_controls``).
+    """
+    limits = model.limits
+    dv = float(np.clip(limits.speed_max - state[SPEED], -limits.dv_max, limits.dv_max))
+    speed = min(limits.speed_max, float(state[SPEED]) + dv)
+    dphi = float(turn) * limits.dheading_max
+    dtheta = terrain_following_dtheta(
+        model, state, float(state[HEADING]) + dphi, speed, LATTICE_GUIDANCE.clearance_m, LATTICE_GUIDANCE.lookahead_steps
+    )
+    return np.array([dv, dphi, dtheta])
+
+
+def network_action(
+    arrays: Mapping[str, np.ndarray],
+    model: PenetrationModel,
+    observation: np.ndarray,
+    state: FloatArray,
+    from_unit: Callable[[np.ndarray], np.ndarray],
+) -> FloatArray:
+    """The physical action a network flies from one observation and its exact state, by its head.
+
+    DECISION (docs/rl.md §4.8): a ``turn`` network flies the lattice's candidate control for its
+    arg-max turn, so it chooses among the five moves its expert chooses among, and its speed and
+    pitch are the closed-form rule greedy and the lattice share: the regression head's failures
+    (§4.6) were shrunken pitch corrections and turns dithering between the five values, and
+    neither exists here.
+    """
+    row = np.asarray(observation).reshape(1, -1)
+    if head_of(arrays) == "turn":
+        logits = outputs(arrays, row)[0]
+        return turn_action(model, np.asarray(state, dtype=np.float64), float(arrays["turns"][int(np.argmax(logits))]))
+    return from_unit(forward(arrays, row)[0])
+
+
+def learner_of(arrays: Mapping[str, np.ndarray]) -> Learner:
+    """A network as the DAgger loop's learner: its physical action from (model, observation, state)."""
+
+    def learner(model: PenetrationModel, observation: np.ndarray, state: FloatArray) -> FloatArray:
+        return network_action(arrays, model, observation, state, normalisers(model)[1])
+
+    return learner
