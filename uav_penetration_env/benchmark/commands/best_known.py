@@ -57,7 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--difficulty", type=float, default=0.5, help="difficulty of random: scenarios (default 0.5)"
     )
     parser.add_argument(
-        "--store", type=path_argument, default=None, help="results store: stored tracks seed the search; update reads it"
+        "--store",
+        type=path_argument,
+        default=None,
+        help="results store: stored tracks seed the search; update reads it",
     )
     parser.add_argument(
         "--seconds",
@@ -77,7 +80,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--work", default=None, help="checkpoint folder; rerunning continues an interrupted search"
     )
-    parser.add_argument("--records", type=path_argument, default=None, help="records folder (default: the package's)")
+    parser.add_argument(
+        "--records", type=path_argument, default=None, help="records folder (default: the package's)"
+    )
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
 
 
@@ -232,7 +237,15 @@ def run(args: argparse.Namespace) -> int:
     if args.records is not None and args.action == "verify" and not Path(args.records).is_dir():
         raise CLIError(f"--records {args.records}: not found; expected a folder of best-known records")
     if args.records is not None:
-        Path(args.records).mkdir(parents=True, exist_ok=True)  # compute and update write there
+        folder = Path(args.records)
+        if folder.exists() and not folder.is_dir():
+            raise CLIError(f"--records {args.records}: is a file; expected a folder of best-known records")
+        try:
+            folder.mkdir(parents=True, exist_ok=True)  # compute and update write there
+        except OSError as error:
+            raise CLIError(
+                f"--records {args.records}: cannot create it ({error.strerror}); expected a writable folder"
+            ) from None
     if args.action == "compute":
         if not args.scenarios:
             raise CLIError("--scenarios: missing, expected the scenarios to compute records for (e.g. paper)")
