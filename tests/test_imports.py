@@ -223,7 +223,18 @@ def test_forbidden_directions_are_reported(tmp_path):
 LIGHT_FORBIDDEN = ("numba", "pandas", "matplotlib", "torch", "stable_baselines3", "optuna", "scipy.optimize")
 
 
-PARSER_COMMANDS = ("--help", "run", "leaderboard", "plot", "windows", "report", "export", "train", "tune", "distill")
+PARSER_COMMANDS = (
+    "--help",
+    "run",
+    "leaderboard",
+    "plot",
+    "windows",
+    "report",
+    "export",
+    "train",
+    "tune",
+    "distill",
+)
 
 
 def test_the_cli_parser_loads_neither_the_physics_nor_the_heavy_libraries():
@@ -281,3 +292,29 @@ def test_an_export_named_like_its_submodule_stays_the_export_after_the_submodule
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.split() == ["True", "True", "uav_penetration_env.benchmark.evaluate"]
+
+
+def test_uav_bench_help_imports_neither_the_harness_nor_the_scenarios():
+    """``uav-bench --help`` answers in a fraction of a second: none of these load for it (issue: a slow CLI)."""
+    import subprocess
+    import sys
+
+    heavy = [
+        "pandas",
+        "scipy",
+        "matplotlib",
+        "plotly",
+        "uav_penetration_env.catalogue",
+        "uav_penetration_env.scenario",
+    ]
+    code = (
+        "import contextlib, io, sys\n"
+        "from uav_penetration_env.benchmark.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
+        "    main(['--help'])\n"
+        f"print(sorted(m for m in {heavy!r} if m in sys.modules))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert result.stdout.strip() == "[]", result.stdout

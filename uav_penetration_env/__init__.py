@@ -67,15 +67,16 @@ ENV_IDS = {
 }
 
 
+# K_max (time.max_steps) of each id's default scenario: the bundled files' value and the default
+# time settings' (procedural scenarios), written here so that importing the package reads no file
+# (`uav-bench --help` answers in a fraction of a second); tests/env/test_gym_conventions.py checks
+# that every value equals the file's.
+REGISTERED_MAX_STEPS = {"paper": 150, "dem": 150, None: 150}
+
+
 def _registered_max_steps(name: str | None) -> int:
-    """K_max of an id's default scenario: a bundled file's ``time.max_steps``, or the default time settings.
-
-    Read from the scenario files alone (catalogue.default_max_steps gives the same for every
-    catalogue name), so registering the ids loads no terrain and no compiled code.
-    """
-    from uav_penetration_env.scenario import TimeConfig, load_bundled
-
-    return TimeConfig().max_steps if name is None else load_bundled(f"{name}.yaml").time.max_steps
+    """K_max of an id's default scenario, from :data:`REGISTERED_MAX_STEPS` (a bundled file's ``time.max_steps``)."""
+    return REGISTERED_MAX_STEPS[name]
 
 
 for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():

@@ -32,6 +32,16 @@ def fly_level(env, steps: int):
 # --- the time limit in the spec -------------------------------------------------------------------
 
 
+def test_the_registered_k_max_is_each_default_scenarios_own():
+    from uav_penetration_env import REGISTERED_MAX_STEPS
+    from uav_penetration_env.scenario import TimeConfig, load_bundled
+
+    for name, k_max in REGISTERED_MAX_STEPS.items():
+        expected = TimeConfig().max_steps if name is None else load_bundled(f"{name}.yaml").time.max_steps
+        assert k_max == expected, name
+    assert {kwargs.get("default_scenario") for *_, kwargs in ENV_IDS.values()} == set(REGISTERED_MAX_STEPS)
+
+
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_the_spec_registers_k_max(env_id):
     assert gym.spec(env_id).max_episode_steps == 150  # time.max_steps of every catalogue scenario

@@ -27,13 +27,13 @@ from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.columns import Column, leaderboard_columns
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_ranges,
-    counted,
     format_interval,
     format_number,
     p_text,
 )
 from uav_penetration_env.benchmark.leaderboard.table import ALPHA
 from uav_penetration_env.benchmark.summary import infer_reference
+from uav_penetration_env.wording import counted
 
 # The leaderboard columns (names in the column registry) a reader scans first, in page order; the
 # others follow behind a toggle. Friedman rank first: the rows are sorted by it.

@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.atomic import write_text_atomic
-from uav_penetration_env.benchmark.leaderboard.formatting import counted
 from uav_penetration_env.benchmark.store import ResultsStore
+from uav_penetration_env.wording import counted
 
 SectionRenderer = Callable[["ReportContext"], "str | None"]
 

@@ -23,7 +23,6 @@ from uav_penetration_env.benchmark.commands.common import (
     resolve_scenarios,
     split_list,
 )
-from uav_penetration_env.catalogue import SCENARIO_HELP
 
 ACTIONS = ("compute", "verify", "update")
 NAMED_SECONDS = 600.0  # the named members (paper, paper-w2, DEM) head the tables, so they get a longer search
@@ -45,6 +44,7 @@ def positive_seconds(text: str) -> float:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench best-known``."""
     from uav_penetration_env.benchmark.commands.common import int_at_least
+    from uav_penetration_env.catalogue import SCENARIO_HELP
 
     parser.add_argument("action", choices=ACTIONS, help="compute | verify | update")
     parser.add_argument(

@@ -17,12 +17,13 @@ from uav_penetration_env.benchmark.commands.common import (
     resolve_scenarios,
     split_list,
 )
-from uav_penetration_env.catalogue import SCENARIO_HELP
 from uav_penetration_env.suggest import did_you_mean
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench calibrate``."""
+    from uav_penetration_env.catalogue import SCENARIO_HELP
+
     parser.add_argument("--scenario", default="paper", help=f"{SCENARIO_HELP} (default: paper)")
     parser.add_argument("--optimizer", required=True, help="reference optimiser, e.g. ihpso")
     # Defaults are payoff_table's own (api.md: --runs 20 --horizon 10; the MPC budget per step).

@@ -20,9 +20,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from uav_penetration_env.benchmark.plugins import Needs
-from uav_penetration_env.catalogue import UnknownScenarioError
-from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
-from uav_penetration_env.scenario import ScenarioError
 
 if TYPE_CHECKING:  # the store module imports pandas: loaded by the commands that need it
     from uav_penetration_env.benchmark.store import StoreError
@@ -171,6 +168,10 @@ def resolve_scenarios(
     Raises:
         CLIError: an unknown name (with a did-you-mean) or a broken scenario, naming ``flag``.
     """
+    from uav_penetration_env.catalogue import UnknownScenarioError
+    from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+    from uav_penetration_env.scenario import ScenarioError
+
     scenarios = []
     for spec in specs:
         try:

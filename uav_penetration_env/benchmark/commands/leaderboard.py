@@ -33,7 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="STEM",
         help="compute from exported rows STEM-episodes/-runs[/-window_runs].parquet|csv instead of a store",
     )
-    parser.add_argument("--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})"
+    )
     parser.add_argument(
         "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"
     )

@@ -46,7 +46,9 @@ def setting_error(error: SettingError) -> CLIError:
     return CLIError(f"{flag_name(error.field)}: {error.body}")
 
 
-def mpc_settings(given: Mapping[str, Any] | argparse.Namespace, base: MPCSettings = MPC_DEFAULTS) -> MPCSettings:
+def mpc_settings(
+    given: Mapping[str, Any] | argparse.Namespace, base: MPCSettings = MPC_DEFAULTS
+) -> MPCSettings:
     """The settings from flags or ``--config`` values (None: not given, ``base``'s value kept).
 
     Args:

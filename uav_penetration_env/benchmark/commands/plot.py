@@ -44,7 +44,9 @@ def add_min_seeds_argument(parser: argparse.ArgumentParser) -> None:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench plot``."""
     add_store_argument(parser)
-    parser.add_argument("--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})"
+    )
     parser.add_argument("--suite", help="aggregate figures over all the store's scenarios, named SUITE")
     add_altitude_argument(parser)
     add_min_seeds_argument(parser)

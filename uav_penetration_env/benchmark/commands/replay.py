@@ -21,7 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--policy", required=True, help="the policy's name in the store (e.g. ihpso)")
     parser.add_argument("--seed", required=True, type=int, help="the episode's seed")
     parser.add_argument("--scenario", help="the scenario's name (needed when the policy flew several)")
-    parser.add_argument("--out", type=path_argument, required=True, help="FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg)")
+    parser.add_argument(
+        "--out", type=path_argument, required=True, help="FILE.gif (Pillow) or FILE.mp4 (needs ffmpeg)"
+    )
     parser.add_argument("--fps", type=float, default=4.0, help="track points per second (default: 4)")
 
 

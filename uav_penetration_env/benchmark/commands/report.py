@@ -106,7 +106,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench report``."""
     add_store_argument(parser)
     parser.add_argument(
-        "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"folder of index.html and its files (default: {DEFAULT_OUT})"
+        "--out",
+        type=path_argument,
+        default=str(DEFAULT_OUT),
+        help=f"folder of index.html and its files (default: {DEFAULT_OUT})",
     )
     parser.add_argument(
         "--reference", help="policy the paired tests compare against (default: ihpso, where stored)"

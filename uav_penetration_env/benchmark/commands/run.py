@@ -37,10 +37,9 @@ from uav_penetration_env.benchmark.commands.common import (
     store_error,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import SETTING_FIELDS, add_mpc_arguments, mpc_settings
-from uav_penetration_env.benchmark.leaderboard.formatting import counted
 from uav_penetration_env.benchmark.plugins import PluginUnavailable, plugin_policy_forms
-from uav_penetration_env.catalogue import SCENARIO_HELP
 from uav_penetration_env.suggest import did_you_mean
+from uav_penetration_env.wording import counted
 
 MAIN_JOB_POLICIES = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "greedy")
 RUN_DEFAULTS: dict[str, Any] = {
@@ -72,6 +71,8 @@ CONFIG_KEYS = [*(key for key in RUN_DEFAULTS if key not in ("report", "progress"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`, the MPC ones in ``MPC_DEFAULTS``)."""
+    from uav_penetration_env.catalogue import SCENARIO_HELP
+
     plugin_forms = "".join(f", {form}" for form in plugin_policy_forms())
     parser.add_argument(
         "--policies",
@@ -87,7 +88,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", help="N (seeds 0..N-1) or START:STOP (default: 5)")
     parser.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
     parser.add_argument(
-        "--threads", type=int, help="compiled threads per worker (default: 1 per worker; results do not change)"
+        "--threads",
+        type=int,
+        help="compiled threads per worker (default: 1 per worker; results do not change)",
     )
     parser.add_argument(
         "--reference",
@@ -100,7 +103,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_store_argument(parser, default=None)
     parser.add_argument(
-        "--out", type=path_argument, help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)"
+        "--out",
+        type=path_argument,
+        help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)",
     )
     add_mpc_arguments(parser)
     parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
@@ -118,7 +123,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--import", dest="import", action="append", help="a plug-in module to import (repeatable)"
     )
     parser.add_argument(
-        "--config", type=path_argument, help="YAML file of settings (keys = flag names with _); flags override it"
+        "--config",
+        type=path_argument,
+        help="YAML file of settings (keys = flag names with _); flags override it",
     )
     parser.add_argument(
         "--no-report",
@@ -415,7 +422,9 @@ def open_store(store_path: Path, out: Path | None) -> Any:
 
     try:
         inspect_store_file(store_path)  # before anything is written
-        check_integrity(store_path)  # pages damaged inside a file of the right size, which run would write into
+        check_integrity(
+            store_path
+        )  # pages damaged inside a file of the right size, which run would write into
     except StoreError as error:
         raise store_error(error) from None
     check_writable_folder(store_path.parent, "--store", store_path)
@@ -428,7 +437,12 @@ def open_store(store_path: Path, out: Path | None) -> Any:
 
 
 def announce(
-    settings: dict[str, Any], policies: dict[str, Any], scenarios: list[Any], seeds: list[int], include: Any, store_path: Path
+    settings: dict[str, Any],
+    policies: dict[str, Any],
+    scenarios: list[Any],
+    seeds: list[int],
+    include: Any,
+    store_path: Path,
 ) -> None:
     """Print the run's size: policies x scenarios x seeds, or the suite's members under its seed rule."""
     if include is None:

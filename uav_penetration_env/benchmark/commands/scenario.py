@@ -14,11 +14,12 @@ from uav_penetration_env.benchmark.commands.common import (
     path_argument,
     resolve_scenarios,
 )
-from uav_penetration_env.catalogue import SCENARIO_HELP
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of ``uav-bench scenario``."""
+    from uav_penetration_env.catalogue import SCENARIO_HELP
+
     parser.add_argument("action", choices=["show", "validate", "generate"])
     parser.add_argument("name", help=SCENARIO_HELP)
     parser.add_argument("--profile", choices=["benchmark", "paper"])
@@ -33,7 +34,9 @@ def run(args: argparse.Namespace) -> int:
 
         scenarios = [generate_dem_scenario()]  # rebuilt from the raw DEM, not the shipped file
     else:
-        scenarios = resolve_scenarios([args.name], args.profile, None, args.difficulty, flag=f"scenario {args.action}")
+        scenarios = resolve_scenarios(
+            [args.name], args.profile, None, args.difficulty, flag=f"scenario {args.action}"
+        )
     if args.action == "generate":
         out = Path(args.out)
         if len(scenarios) == 1 and out.suffix in (".yaml", ".yml"):

@@ -15,11 +15,12 @@ from pathlib import Path
 import yaml
 
 from uav_penetration_env.benchmark.commands.common import CLIError, Command, path_argument
-from uav_penetration_env.suites import SUITE_FOLDER, SuiteError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of ``uav-bench suite``."""
+    from uav_penetration_env.suites import SUITE_FOLDER
+
     parser.add_argument("action", choices=["list", "show", "verify", "freeze"])
     parser.add_argument("name", nargs="?", help="suite name (show, verify, freeze) or a suite .yaml file")
     parser.add_argument(
@@ -48,6 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the action; suite problems become one-line errors."""
+    from uav_penetration_env.suites import SuiteError
+
     if args.action == "list" and args.name is not None:
         raise CLIError(
             f"suite list {args.name}: list takes no suite name; use `uav-bench suite show {args.name}`"

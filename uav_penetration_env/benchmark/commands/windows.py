@@ -22,10 +22,7 @@ from uav_penetration_env.benchmark.commands.common import (
     split_list,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import add_mpc_arguments, mpc_settings, setting_error
-from uav_penetration_env.catalogue import UnknownScenarioError
-from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
 from uav_penetration_env.mpc import MPCSettings, SettingError
-from uav_penetration_env.scenario import ScenarioError
 from uav_penetration_env.suggest import did_you_mean
 
 
@@ -88,6 +85,9 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.provenance import provenance
     from uav_penetration_env.benchmark.store import ResultsStore
     from uav_penetration_env.benchmark.windows import collect_windows, run_windows
+    from uav_penetration_env.catalogue import UnknownScenarioError
+    from uav_penetration_env.catalogue import resolve_scenarios as resolve_catalogue
+    from uav_penetration_env.scenario import ScenarioError
 
     steps = parse_steps(args.steps)
     seeds = parse_seeds(args.seeds)

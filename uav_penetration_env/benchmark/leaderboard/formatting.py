@@ -91,7 +91,3 @@ def compact_ranges(values: Iterable[int]) -> str:
         previous = number
     return ", ".join(parts)
 
-
-def counted(n: int, noun: str, plural: str | None = None) -> str:
-    """``1 scenario``, ``2 scenarios``: a count with its noun in the right number."""
-    return f"{n} {noun if n == 1 else (plural or noun + 's')}"

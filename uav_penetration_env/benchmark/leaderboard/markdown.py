@@ -19,7 +19,6 @@ from uav_penetration_env.benchmark.columns import Column, leaderboard_columns, l
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
     compact_ranges,
-    counted,
     format_interval,
     format_number,
     format_pvalue,
@@ -28,6 +27,7 @@ from uav_penetration_env.benchmark.leaderboard.formatting import (
 )
 from uav_penetration_env.benchmark.leaderboard.groups import ScenarioGroup
 from uav_penetration_env.benchmark.leaderboard.table import ALPHA
+from uav_penetration_env.wording import counted
 
 
 def _success_cell(r: Any, reference: str | None) -> str:
