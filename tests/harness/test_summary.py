@@ -146,6 +146,18 @@ def test_the_eta_prices_each_remaining_episode_at_its_own_policy_median():
     assert eta.seconds_left() == (1 * 10.0 + 2 * 1.0) / (52.0 / 20.0)
 
 
+def test_the_parallelism_is_measured_from_when_the_work_began_not_from_the_workers_start_up():
+    from uav_penetration_env.benchmark.progress import EpisodeETA
+
+    clock = Clock()
+    eta = EpisodeETA(["p"] * 6, clock=clock)
+    clock.now = 13.0  # two workers took 3 s to start, then each flew a 10 s episode
+    eta.finished("p", 10.0)
+    eta.finished("p", 10.0)
+    # work began at 13 - 10 = 3 s: parallelism 20 / 10 = 2, so 4 x 10 s left take 20 s (not 26 s)
+    assert eta.seconds_left() == 4 * 10.0 / 2.0
+
+
 def test_a_policy_not_seen_yet_is_priced_at_the_median_of_all_finished_episodes():
     from uav_penetration_env.benchmark.progress import EpisodeETA
 

@@ -23,7 +23,8 @@ class EpisodeETA:
     mean rate so far, is therefore off by 10-50x early on. Here each remaining episode is priced at
     the median duration of its own policy's finished episodes (the median ignores the few slow
     first ones; a policy not seen yet gets the median over all finished episodes), and the sum is
-    divided by the parallelism observed so far (finished episode-seconds per elapsed second).
+    divided by the parallelism observed so far (finished episode-seconds per second since the earliest
+    finished episode began, so the workers' start-up does not count as idle parallelism).
 
     Args:
         remaining: the key (policy name) of every episode still to fly.
@@ -37,17 +38,21 @@ class EpisodeETA:
         self._seconds: dict[Hashable, list[float]] = {}
         self._clock = clock
         self._started = clock()
+        self._first_work = math.inf  # when the earliest finished episode began (its end minus its duration)
 
     def finished(self, key: Hashable, seconds: float) -> None:
         """One episode of ``key`` took ``seconds`` (its own duration, in its worker)."""
         self._left[key] = max(self._left.get(key, 0) - 1, 0)
         if math.isfinite(seconds) and seconds >= 0:
             self._seconds.setdefault(key, []).append(float(seconds))
+            self._first_work = min(self._first_work, self._clock() - float(seconds))
 
     def seconds_left(self) -> float | None:
         """The estimate, or None before the first finished episode."""
         every = [s for durations in self._seconds.values() for s in durations]
-        elapsed = self._clock() - self._started
+        # The parallelism is measured from when the work began, not from the command's start: the
+        # seconds before the first episode (worker processes starting) would make it look lower.
+        elapsed = self._clock() - max(self._started, min(self._first_work, self._clock()))
         if not every or elapsed <= 0:
             return None
         fallback = statistics.median(every)
