@@ -61,6 +61,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from uav_penetration_env.benchmark.commands.common import OUT_SOURCE_FILE
+
 REPO = Path(__file__).resolve().parents[1]
 ROOT = Path("results/v2")
 STORE = ROOT / "leaderboard.sqlite"
@@ -161,7 +163,9 @@ def parts(
     if agents:
         random_agents = [a for a in agents if "-random-" in a]
         hybrids = [f"ihpso+{agent}" for agent in chosen_paper_ppo(agents, rl_root)]
-        commands.append(["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON])
+        commands.append(
+            ["run", "--scenarios", "paper", "paper-w2", "--policies", *agents, "--seeds", "20", *COMMON]
+        )
         if random_agents:
             commands.append(["run", "--suite", "uavpen-v1", "--policies", *random_agents, *COMMON])
         # Every agent on the held-out set: the Random-regime agents' test, the paper agents' generalisation.
@@ -342,7 +346,11 @@ def rebuild_checked(attempts: list[dict], commands: Sequence[str] = ()) -> bool:
         return False
     earlier = set(ORDER[: ORDER.index("tables")])
     since = max((i for i, a in enumerate(attempts[:check]) if a.get("part") in earlier), default=-1)
-    rebuilt = {a["command"] for a in attempts[since + 1 : check] if a.get("part") == "tables" and a.get("status") == 0}
+    rebuilt = {
+        a["command"]
+        for a in attempts[since + 1 : check]
+        if a.get("part") == "tables" and a.get("status") == 0
+    }
     return all(command in rebuilt for command in commands)
 
 
@@ -362,13 +370,15 @@ def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
         if (target / folder).is_dir():
             shutil.rmtree(target / folder)
     copied = []
-    for path in sorted(p for p in out.rglob("*") if p.is_file()):
+    for path in sorted(p for p in out.rglob("*") if p.is_file() and p.name != OUT_SOURCE_FILE):
         destination = target / path.relative_to(out)
         destination.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(path, destination)
         copied.append(destination)
     log = REPO / ROOT / "compute.jsonl"
-    if log.is_file():  # the compute the README quotes, committed with the tables (benchmarks/headline.py reads it)
+    if (
+        log.is_file()
+    ):  # the compute the README quotes, committed with the tables (benchmarks/headline.py reads it)
         shutil.copyfile(log, target / "compute.jsonl")
         copied.append(target / "compute.jsonl")
     return copied
@@ -442,7 +452,9 @@ def compute_table(
         items, seconds = sum(n for n, _ in unlogged), sum(s for _, s in unlogged)
         total_worker += seconds
         lines.append(f"| (runs of no logged command) | | | | {items} | {seconds / 3600:.2f} |")
-    lines.append(f"| total | | {total_wall / 3600:.2f} | {total_cpu / 3600:.2f} | | {total_worker / 3600:.2f} |")
+    lines.append(
+        f"| total | | {total_wall / 3600:.2f} | {total_cpu / 3600:.2f} | | {total_worker / 3600:.2f} |"
+    )
     for what, _, wall in rl_compute(rl_root):
         lines.append(f"| {what} | | {wall / 3600:.2f} | (one core each) | | |")
     return "\n".join(lines)
@@ -505,7 +517,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--dry-run", action="store_true", help="print every command and its state; run nothing"
     )
-    parser.add_argument("--compute", action="store_true", help="print the compute table (wall, CPU, worker time); run nothing")
+    parser.add_argument(
+        "--compute", action="store_true", help="print the compute table (wall, CPU, worker time); run nothing"
+    )
     parser.add_argument(
         "--from-published",
         action="store_true",

@@ -124,7 +124,18 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     from uav_penetration_env.benchmark.commands.mpc_flags import mpc_settings
     from uav_penetration_env.mpc import MPCSettings
 
-    given = ["--horizon", "4", "--discount", "0.5", "--max-evals", "9", "--terminal", "dubins", "--terminal-cost", "2"]
+    given = [
+        "--horizon",
+        "4",
+        "--discount",
+        "0.5",
+        "--max-evals",
+        "9",
+        "--terminal",
+        "dubins",
+        "--terminal-cost",
+        "2",
+    ]
     for command in (["run"], ["windows", "--steps", "3"]):
         args = cli.build_parser().parse_args([*command, *given])
         assert mpc_settings(args) == MPCSettings(4, 0.5, 9, "dubins", 2.0)
@@ -538,7 +549,10 @@ def test_a_usage_error_names_uav_bench_once(capsys):
     assert "— did you mean '--policies'? (see uav-bench run --help)" in capsys.readouterr().err
     assert main(["run", "--horizon", "x"]) == 2
     sub = capsys.readouterr().err.strip()
-    assert sub.startswith("uav-bench: error: uav-bench run: argument --horizon") and "(see uav-bench run --help)" in sub
+    assert (
+        sub.startswith("uav-bench: error: uav-bench run: argument --horizon")
+        and "(see uav-bench run --help)" in sub
+    )
 
 
 def test_counts_name_their_noun_in_the_right_number():
@@ -606,7 +620,9 @@ def test_run_reference_is_the_tables_default_unless_named_and_refuses_others():
     assert run_reference(None, ["greedy", "ihpso", "pso"]) == "ihpso"
     assert run_reference(None, ["my-search", "greedy"]) == "ihpso"  # the tables fall back to greedy
     assert run_reference("my-search", ["my-search", "greedy"]) == "my-search"
-    with pytest.raises(CLIError, match=r"--reference gredy: did you mean 'greedy'\? expected one of --policies"):
+    with pytest.raises(
+        CLIError, match=r"--reference gredy: did you mean 'greedy'\? expected one of --policies"
+    ):
         run_reference("gredy", ["my-search", "greedy"])
 
 
@@ -626,7 +642,9 @@ def test_a_run_without_ihpso_compares_against_greedy_and_the_report_command_agre
     assert rebuilt == written_by_run
 
 
-def test_store_list_and_drop_remove_one_configuration_after_confirmation(tmp_path, tiny_yaml, capsys, monkeypatch):
+def test_store_list_and_drop_remove_one_configuration_after_confirmation(
+    tmp_path, tiny_yaml, capsys, monkeypatch
+):
     store = tmp_path / "s.sqlite"
     assert run_cli("run", "--policies", "greedy,random", "--scenarios", tiny_yaml, "--seeds", 2, "--jobs", 1,
                    "--store", store, "--no-report", "--no-progress") == 0  # fmt: skip
@@ -655,3 +673,28 @@ def test_store_list_and_drop_remove_one_configuration_after_confirmation(tmp_pat
     assert after["policy"].tolist() == ["greedy", "greedy"]
     assert f"dropped 2 episodes and {steps_removed} steps of random" in capsys.readouterr().out
     assert steps_removed > 2
+
+
+def test_an_out_folder_of_another_store_is_refused_unless_replaced(tmp_path, tiny_yaml, capsys):
+    first, second, out = tmp_path / "a" / "s.sqlite", tmp_path / "b" / "s.sqlite", tmp_path / "out"
+    for store in (first, second):
+        assert run_cli("run", "--policies", "greedy", "--scenarios", tiny_yaml, "--seeds", 1, "--jobs", 1,
+                       "--store", store, "--no-report", "--no-progress") == 0  # fmt: skip
+    assert run_cli("leaderboard", "--store", first, "--out", out) == 0
+    written = {path.name: path.read_bytes() for path in out.iterdir() if path.suffix in (".md", ".csv")}
+    capsys.readouterr()
+    for argv in (["leaderboard", "--store", second, "--out", out], ["plot", "--store", second, "--out", out],
+                 ["report", "--store", second, "--out", out],
+                 ["run", "--policies", "greedy", "--scenarios", tiny_yaml, "--seeds", 1, "--store", second,
+                  "--out", out, "--no-progress"]):  # fmt: skip
+        assert run_cli(*argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(
+            f"uav-bench: error: --out {out}: holds the tables and report of {first.resolve()}"
+        ), err
+    assert {
+        path.name: path.read_bytes() for path in out.iterdir() if path.suffix in (".md", ".csv")
+    } == written
+    assert run_cli("leaderboard", "--store", first, "--out", out) == 0  # its own folder: fine
+    assert run_cli("leaderboard", "--store", second, "--out", out, "--replace-out") == 0
+    assert (out / ".uav-bench-source").read_text().strip() == str(second.resolve())

@@ -257,6 +257,64 @@ def existing_store(path: str | Path) -> Path:
     return store
 
 
+OUT_SOURCE_FILE = ".uav-bench-source"  # in an output folder: the store (or rows) its files were written from
+
+
+def check_out_folder(out: Path, source: str | Path, *, replace: bool = False, flag: str = "--out") -> None:
+    """Refuse an output folder that holds another store's tables and report (see :func:`record_out_folder`).
+
+    DECISION (api.md §4.7, outputs of one store): a command writing tables, figures or a report
+    records in the folder, once its files are written, which store (or exported rows) they come
+    from. A later command from another source refuses the folder in one line, before any work,
+    rather than mixing two stores' files or replacing the first's report; ``--replace-out`` says
+    the replacement is meant. A folder with no record (written before this rule, or by hand) is
+    taken as it is.
+
+    Raises:
+        CLIError: the folder's files come from another source and ``replace`` is False.
+    """
+    theirs = _out_source(out)
+    mine = _source_key(source)
+    if theirs and theirs != mine and not replace:
+        raise CLIError(
+            f"{flag} {out}: holds the tables and report of {theirs}; expected a folder of {mine}'s own "
+            "(choose another --out, or --replace-out to replace them)"
+        )
+
+
+def record_out_folder(out: Path, source: str | Path) -> None:
+    """Record ``source`` as the origin of ``out``'s files (after they are written; atomic)."""
+    if _out_source(out) == _source_key(source):
+        return
+    from uav_penetration_env.atomic import write_text_atomic
+
+    try:
+        write_text_atomic(out / OUT_SOURCE_FILE, _source_key(source) + "\n")
+    except OSError:
+        pass  # the outputs are written; a folder that takes no more files only loses the record
+
+
+def _source_key(source: str | Path) -> str:
+    return str(Path(source).expanduser().resolve())
+
+
+def _out_source(out: Path) -> str:
+    try:
+        return (out / OUT_SOURCE_FILE).read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError):
+        return ""
+
+
+def add_replace_out_argument(parser: argparse.ArgumentParser) -> None:
+    """``--replace-out``: write into an --out folder that holds another store's outputs (:func:`check_out_folder`)."""
+    parser.add_argument(
+        "--replace-out",
+        action="store_true",
+        default=None,
+        help="write into an --out folder holding another store's tables and report, replacing them",
+    )
+
+
 def check_writable_folder(path: Path, flag: str, value: str | Path | None = None) -> None:
     """Create ``path`` if needed and check a file can be written there.
 

@@ -14,12 +14,15 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_STORE,
     CLIError,
     Command,
+    add_replace_out_argument,
     add_store_argument,
+    check_out_folder,
     check_reference,
     check_writable_folder,
     command_line,
     existing_store,
     path_argument,
+    record_out_folder,
     reference_names,
 )
 
@@ -27,6 +30,7 @@ from uav_penetration_env.benchmark.commands.common import (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench leaderboard``."""
     add_store_argument(parser, default=None)
+    add_replace_out_argument(parser)
     parser.add_argument(
         "--rows",
         type=path_argument,
@@ -75,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         )
 
     check_writable_folder(Path(args.out), "--out")
+    source = args.rows or args.store or DEFAULT_STORE
+    check_out_folder(Path(args.out), source, replace=bool(args.replace_out))
     written = write_leaderboards(
         store,
         Path(args.out),
@@ -93,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
             store, Path(args.out), reference=args.reference or "ihpso", command=command_line(args)
         )
     )
+    record_out_folder(Path(args.out), source)
     print_summary(written)  # the reference of each table is read from it (a label may differ)
     for path in fixed:
         print(f"fixed target: {path}")

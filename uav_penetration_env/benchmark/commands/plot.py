@@ -13,11 +13,14 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
     CLIError,
     Command,
+    add_replace_out_argument,
     add_store_argument,
+    check_out_folder,
     check_writable_folder,
     existing_store,
     int_at_least,
     path_argument,
+    record_out_folder,
 )
 
 
@@ -44,6 +47,7 @@ def add_min_seeds_argument(parser: argparse.ArgumentParser) -> None:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench plot``."""
     add_store_argument(parser)
+    add_replace_out_argument(parser)
     parser.add_argument(
         "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})"
     )
@@ -61,12 +65,14 @@ def run(args: argparse.Namespace) -> int:
             "one group; expected the default 1 with --suite"
         )
     check_writable_folder(Path(args.out), "--out")
+    check_out_folder(Path(args.out), store, replace=bool(args.replace_out))
     from uav_penetration_env.benchmark.figures import write_figures
 
     for path in write_figures(
         store, Path(args.out), suite=args.suite, altitude=args.altitude, min_seeds=args.min_seeds
     ):
         print(path)
+    record_out_folder(Path(args.out), store)
     if args.min_seeds > 1:
         from uav_penetration_env.benchmark.rows import store_tables
 

@@ -19,12 +19,15 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
     CLIError,
     Command,
+    add_replace_out_argument,
     add_store_argument,
+    check_out_folder,
     check_reference,
     check_writable_folder,
     command_line,
     existing_store,
     path_argument,
+    record_out_folder,
     reference_names,
 )
 from uav_penetration_env.benchmark.commands.plot import add_altitude_argument, add_min_seeds_argument
@@ -105,6 +108,7 @@ def print_written(written: Written, out: Path, reference: str | None = None) -> 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench report``."""
     add_store_argument(parser)
+    add_replace_out_argument(parser)
     parser.add_argument(
         "--out",
         type=path_argument,
@@ -152,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
             )
     out = Path(args.out)
     check_writable_folder(out, "--out")
+    check_out_folder(out, store, replace=bool(args.replace_out))
     written = write_results(
         store,
         out,
@@ -161,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
         min_seeds=args.min_seeds,
         extra_figures=extra,
     )
+    record_out_folder(out, store)
     print_written(written, out)
     return 0
 

@@ -26,12 +26,15 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_STORE,
     CLIError,
     Command,
+    add_replace_out_argument,
     add_store_argument,
+    check_out_folder,
     check_writable_folder,
     command_line,
     parse_seeds,
     parse_weights,
     path_argument,
+    record_out_folder,
     resolve_scenarios,
     split_list,
     store_error,
@@ -51,6 +54,7 @@ RUN_DEFAULTS: dict[str, Any] = {
     "jobs": None,
     "threads": None,
     "reference": None,
+    "replace_out": None,
     "backend": "loky",
     "scheduler": None,
     "store": str(DEFAULT_STORE),
@@ -137,6 +141,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-progress", dest="progress", action="store_const", const=False, help="no progress bar"
     )
+    add_replace_out_argument(parser)
 
 
 def load_config(path: str | None) -> dict[str, Any]:
@@ -318,6 +323,8 @@ def run(args: argparse.Namespace) -> int:
     # The report goes next to the store it reads unless --out says where: a run on another store
     # never replaces the main job's report in ./results.
     out = Path(settings["out"]) if "out" in settings["explicit"] else store_path.parent
+    if settings["report"]:  # refused before the store is opened: the report would land among another's files
+        check_out_folder(out, store_path, replace=bool(settings["replace_out"]))
     store = open_store(store_path, out if settings["report"] else None)
     announce(settings, policies, scenarios, seeds, include, store_path)
     command = command_line(args)
@@ -504,6 +511,7 @@ def report(store: Path, out: Path, command: str, reference: str = "ihpso") -> No
     from uav_penetration_env.benchmark.commands.report import print_written, write_results
 
     written = write_results(store, out, command=command, reference=reference, formats=("png", "pdf"))
+    record_out_folder(out, store)
     print()
     print_written(written, out, reference)
 
@@ -521,6 +529,7 @@ def suite_report(store: Path, out: Path, command: str, suite: str, reference: st
 
     name = load_suite(suite).name
     tables = write_leaderboards(store, out, reference=reference, command=command)
+    record_out_folder(out, store)
     own = [path for path in tables if path.stem == name or path.stem.startswith(f"{name}-")]
     print()
     print_summary(own)
