@@ -80,13 +80,11 @@ def test_the_harness_extra_lists_what_the_commands_check():
     tomllib = pytest.importorskip("tomllib")  # Python 3.11+
     pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
     project = pyproject["project"]
-    core = {
-        requirement.split(">")[0].split("=")[0].strip().lower() for requirement in project["dependencies"]
-    }
-    extra = {
-        requirement.split(">")[0].split("=")[0].strip().lower()
-        for requirement in project["optional-dependencies"]["harness"]
-    }
+
+    def names(requirements: list[str]) -> set[str]:
+        return {requirement.split(">")[0].split("=")[0].strip().lower() for requirement in requirements}
+
+    core, extra = names(project["dependencies"]), names(project["optional-dependencies"]["harness"])
     assert not core & {"pandas", "pyarrow", "matplotlib", "plotly", "rich", "joblib"}, core
     assert set(HARNESS.modules) <= extra, (HARNESS.modules, extra)
     assert "uav-penetration[harness]" in project["optional-dependencies"]["dev"]

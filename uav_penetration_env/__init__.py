@@ -74,11 +74,6 @@ ENV_IDS = {
 REGISTERED_MAX_STEPS = {"paper": 150, "dem": 150, None: 150}
 
 
-def _registered_max_steps(name: str | None) -> int:
-    """K_max of an id's default scenario, from :data:`REGISTERED_MAX_STEPS` (a bundled file's ``time.max_steps``)."""
-    return REGISTERED_MAX_STEPS[name]
-
-
 for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
     if _id not in registry:
         register(
@@ -86,5 +81,5 @@ for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
             entry_point=_entry,
             vector_entry_point=_vector_entry,
             kwargs=_kwargs,
-            max_episode_steps=_registered_max_steps(_kwargs.get("default_scenario")),
+            max_episode_steps=REGISTERED_MAX_STEPS[_kwargs.get("default_scenario")],
         )

@@ -39,7 +39,7 @@ from uav_penetration_env.scenario import (
     load_scenario,
     paper_scenario,
 )
-from uav_penetration_env.scenario.errors import MAX_SHOWN, one_line
+from uav_penetration_env.scenario.errors import shown
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.types import FloatArray
 
@@ -308,27 +308,23 @@ class UnknownScenarioError(ScenarioError):
 
     def __init__(self, name: str) -> None:
         super().__init__("scenario", name, SCENARIO_HELP)
-        shown = one_line(
-            repr(name)
-            if len(repr(name)) <= MAX_SHOWN
-            else f"{repr(name)[: MAX_SHOWN - 40]}... ({len(name)} characters)"
-        )
+        typed = shown(name)
         if Path(name).suffix.lower() in (".yaml", ".yml") or "/" in name or "\\" in name:
             # Meant as a file: say the file is missing rather than that a name is unknown.
             try:
                 where = (
                     ""
                     if Path(name).parent.is_dir()
-                    else f" (no folder {one_line(str(Path(name).parent))[:MAX_SHOWN]!r} either)"
+                    else f" (no folder {shown(str(Path(name).parent))} either)"
                 )
             except (OSError, ValueError):
                 where = " (not a path this system can open)"
             self.args = (
-                f"no such scenario file {shown}{where} — expected an existing YAML file, or {SCENARIO_HELP}",
+                f"no such scenario file {typed}{where} — expected an existing YAML file, or {SCENARIO_HELP}",
             )
             return
         hint = did_you_mean(name, [*NAMED_SCENARIOS, *RANDOM_FORMS])
-        self.args = (f"unknown scenario {shown} — {hint}expected {SCENARIO_HELP}",)
+        self.args = (f"unknown scenario {typed} — {hint}expected {SCENARIO_HELP}",)
 
 
 def default_max_steps(name: str | None) -> int:

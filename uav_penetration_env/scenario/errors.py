@@ -15,6 +15,14 @@ def one_line(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
+def shown(value: Any) -> str:
+    """``repr(value)`` on one line, cut to :data:`MAX_SHOWN` characters (a 5 000-character path still says what it is)."""
+    text = repr(value)
+    if len(text) > MAX_SHOWN:
+        text = f"{text[: MAX_SHOWN - 40]}... ({len(text)} characters)"
+    return one_line(text)
+
+
 class ScenarioError(ValueError):
     """A scenario field holds an invalid value.
 
@@ -28,10 +36,7 @@ class ScenarioError(ValueError):
         self.field = field
         self.value = value
         self.expected = expected
-        shown = repr(value)
-        if len(shown) > MAX_SHOWN:  # a 5 000-character path: the line still says what it is
-            shown = f"{shown[: MAX_SHOWN - 40]}... ({len(shown)} characters)"
-        super().__init__(f"{one_line(field)}: got {one_line(shown)}, expected {one_line(expected)}")
+        super().__init__(f"{one_line(field)}: got {shown(value)}, expected {one_line(expected)}")
 
     def within(self, prefix: str) -> ScenarioError:
         """The same error with ``prefix`` prepended to the field path."""

@@ -97,14 +97,21 @@ def leaderboard_table(
         if ref is not None and ref in costs and costs[ref].notna().any()
         else pd.DataFrame(columns=["n_pairs", "median_difference", "statistic", "pvalue", "pvalue_holm"])
     )
+    errors = frame.groupby("label")["is_error"].sum()  # a harness error counts whichever seed it hit
     rows = [
         _policy_row(
-            on_seeds if label in ranked else frame, label, costs, friedman, ref, tests, seed, n_resamples
+            on_seeds if label in ranked else frame,
+            label,
+            costs,
+            friedman,
+            ref,
+            tests,
+            seed,
+            n_resamples,
+            errors=int(errors[label]),
         )
         for label in labels
     ]
-    for row in rows:  # a harness error is reported whichever seed it happened on
-        row["errors"] = int(frame.loc[frame["label"] == row["policy"], "is_error"].sum())
     table = _drop_unrecorded(pd.DataFrame(rows), gaps_recorded=bool(frame["gap"].notna().any()))
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
@@ -172,6 +179,8 @@ def _policy_row(
     tests: pd.DataFrame,
     seed: int,
     n_resamples: int,
+    *,
+    errors: int,
 ) -> dict[str, Any]:
     """One policy's leaderboard row: outcome counts, success, cost statistics, aggregates, tests, gaps."""
     rows_of = frame[frame["label"] == label]
@@ -190,7 +199,7 @@ def _policy_row(
         "policy": label,
         "policy_hash": ",".join(sorted(rows_of["policy_hash"].astype(str).unique())),
         "episodes": n,
-        "errors": int(rows_of["is_error"].sum()),
+        "errors": errors,
         "successes": successes,
         "collided": int((valid["outcome"] == "collided").sum()),
         "out_of_area": int((valid["outcome"] == "out_of_area").sum()),
