@@ -5,13 +5,14 @@
     python benchmarks/distill_rounds.py results/distill/lattice-s0 random:10001 3   # a held-out member
 
 Each printed step shows the exact state, and the normalised action of the network next to the one
-the lattice expert would take from that state (docs/rl.md §4.6 reads the crashes from this).
+the run's expert (its ``config.json``; ``lattice`` for a Python-object expert) would take from that state (docs/rl.md §4.6 reads the crashes from this).
 The episode seed is the harness's seed 0 (`episode_seeds(0, scenario.hash)`), as `uav-bench run`.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +34,11 @@ def _line(info, learner, expert) -> str:
     )
 
 
-def fly(env, scenario, policy, verbose: bool) -> tuple[float, float, int, str]:
+def fly(env, scenario, policy, verbose: bool, expert_spec: str = "lattice") -> tuple[float, float, int, str]:
     env_seed, policy_seed = episode_seeds(0, scenario.hash)
     observation, info = env.reset(seed=env_seed)
     policy.reset(env.model, policy_seed)
-    expert = make_policy("lattice")
+    expert = make_policy(expert_spec)
     expert.reset(env.model, None)
     to_unit, _ = normalisers(env.model)
     total_j, steps, done = 0.0, 0, False
@@ -59,12 +60,16 @@ def main() -> None:
     parser.add_argument("scenario", help="a scenario spec (paper, random:SEED, ...)")
     parser.add_argument("detail", type=int, nargs="?", default=-1, help="a round to print step by step")
     args = parser.parse_args()
+    # The expert the run imitated (its config.json), so each step compares with the labeller's action.
+    config = args.run / "config.json"
+    expert = json.loads(config.read_text()).get("expert", "lattice") if config.is_file() else "lattice"
+    expert = expert if isinstance(expert, str) else "lattice"
     scenario = resolve_scenarios(args.scenario)[0]
     env = UAVPenetrationEnv(scenario)
     k = 0
     while (args.run / "nets" / f"round-{k}.npz").is_file():
         policy = load_distill_policy(args.run / "nets" / f"round-{k}.npz")
-        total_j, penalty, steps, outcome = fly(env, scenario, policy, k == args.detail)
+        total_j, penalty, steps, outcome = fly(env, scenario, policy, k == args.detail, expert)
         print(f"round {k}: total J {total_j + penalty:.2f} (J {total_j:.2f} + penalty {penalty:.0f}), {steps} steps, {outcome}")
         k += 1
 

@@ -41,6 +41,7 @@ import hashlib
 import math
 import time
 import weakref
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -485,22 +486,54 @@ def terrain_following_dtheta(
     return float(np.clip(pitch - state[PITCH], -limits.dpitch_max, limits.dpitch_max))
 
 
+def candidate_control(
+    model: PenetrationModel,
+    state: FloatArray,
+    turn: float,
+    guidance: LatticeGuidance = LATTICE_GUIDANCE,
+    scenario_index: int = 0,
+) -> FloatArray:
+    """(3,) the lattice planner's candidate control for ``turn`` (a fraction of dphi_max) from ``state``.
+
+    Accelerate toward v_max, turn by ``turn`` x dphi_max, and pitch toward ``guidance.clearance_m``
+    above the highest terrain under the next ``guidance.lookahead_steps`` steps along the new
+    heading (:func:`terrain_following_dtheta`).
+    """
+    limits = model.limits
+    dv = float(np.clip(limits.speed_max - state[SPEED], -limits.dv_max, limits.dv_max))
+    speed = min(limits.speed_max, state[SPEED] + dv)
+    dphi = turn * limits.dheading_max
+    dtheta = terrain_following_dtheta(
+        model, state, state[HEADING] + dphi, speed, guidance.clearance_m, guidance.lookahead_steps, scenario_index
+    )
+    return np.array([dv, dphi, dtheta])
+
+
 def _candidate_controls(
     model: PenetrationModel, states: np.ndarray, guidance: LatticeGuidance, scenario_index: int
 ) -> np.ndarray:
     """(B, C, 3) the lattice planner's candidate controls from each of B states (C = len(turns))."""
-    limits = model.limits
     controls = np.empty((states.shape[0], len(guidance.turns), 3))
     for b, state in enumerate(states):
-        dv = float(np.clip(limits.speed_max - state[SPEED], -limits.dv_max, limits.dv_max))
-        speed = min(limits.speed_max, state[SPEED] + dv)
         for i, turn in enumerate(guidance.turns):
-            dphi = turn * limits.dheading_max
-            dtheta = terrain_following_dtheta(
-                model, state, state[HEADING] + dphi, speed, guidance.clearance_m, guidance.lookahead_steps, scenario_index
-            )
-            controls[b, i] = (dv, dphi, dtheta)
+            controls[b, i] = candidate_control(model, state, turn, guidance, scenario_index)
     return controls
+
+
+def value_ahead(
+    model: PenetrationModel, vf: ValueFunction, state: FloatArray, turns: Sequence[float] = LATTICE_GUIDANCE.turns
+) -> tuple[float, FloatArray]:
+    """V at the pose of ``state`` and (len(turns),) V one step of v_max * dt ahead along each turned heading.
+
+    For turn i, the heading psi_i = psi + turn_i * dphi_max and the point p + v_max dt (cos psi_i,
+    sin psi_i): where the field says each turn leads, read from V alone (no move is flown or priced;
+    docs/rl.md §4.9). Used by the ``value-greedy`` rule and the distilled planners' ``value`` inputs.
+    """
+    step = model.limits.speed_max * model.limits.dt
+    heading = float(state[HEADING])
+    here = float(vf(state[0], state[1], heading))
+    turned = heading + np.asarray(turns, dtype=np.float64) * model.limits.dheading_max
+    return here, vf(state[0] + step * np.cos(turned), state[1] + step * np.sin(turned), turned)
 
 
 def lattice_action(

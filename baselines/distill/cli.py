@@ -45,6 +45,8 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
         f"default: {DEFAULTS.head})")
     add("--ignore", nargs="*", default=[], help="observation slots the network is blind to, e.g. position "
         "step_fraction (docs/rl.md §4.8; default: none)")
+    add("--features", nargs="*", default=[], help="inputs appended to the observation: value (the cost-to-go "
+        "field at five points one step ahead along the lattice's turns; docs/rl.md §4.9; default: none)")
     add("--seed", type=int, default=DEFAULTS.seed, help=f"the run's seed (default: {DEFAULTS.seed})")
     add("--torch-threads", dest="torch_threads", type=int, default=DEFAULTS.torch_threads, help="torch threads (default: 1)")  # fmt: skip
 
@@ -63,7 +65,7 @@ def distill_command(args: argparse.Namespace) -> int:
         rounds=args.rounds, episodes=args.episodes, beta0=args.beta0, decay=args.decay, hidden=tuple(args.hidden),
         epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate, seed=args.seed,
         torch_threads=args.torch_threads, loss=args.loss, select=args.select, head=args.head,
-        ignore=tuple(args.ignore),
+        ignore=tuple(args.ignore), features=tuple(args.features),
     )  # fmt: skip
     try:
         config = checked(config)

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from baselines.distill.features import check_features
 from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
 from uav_penetration_env.observation import OBSERVATION_SIZE, SLOTS
 from uav_penetration_env.scenario import Scenario
@@ -63,6 +64,9 @@ class DistillConfig:
         ignore: observation slots the network is blind to (names of
             :data:`uav_penetration_env.observation.SLOTS`, e.g. ``position``, ``step_fraction``;
             docs/rl.md §4.8).
+        features: inputs appended to the observation (names of
+            :data:`baselines.distill.features.FEATURE_SETS`, e.g. ``value``: the cost-to-go field
+            around the pose; docs/rl.md §4.9).
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -95,6 +99,7 @@ class DistillConfig:
     select: str = "best"
     head: str = "action"
     ignore: tuple[str, ...] = ()
+    features: tuple[str, ...] = ()
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
@@ -120,6 +125,7 @@ class DistillConfig:
             # Only a non-default head enters the key, so the folders made before heads existed continue.
             **({"head": self.head} if self.head != "action" else {}),
             **({"ignore": list(self.ignore)} if self.ignore else {}),
+            **({"features": list(self.features)} if self.features else {}),
         }
 
 
@@ -153,15 +159,16 @@ def _check_numbers(config: DistillConfig) -> None:
     unknown = [name for name in config.ignore if name not in SLOTS]
     if unknown:
         raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
+    check_features(config.features)
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
         raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
 
 
-def ignored_slots(names: tuple[str, ...]) -> np.ndarray | None:
-    """The boolean mask over the observation of the slots ``names`` (``None`` for none)."""
+def ignored_slots(names: tuple[str, ...], width: int = OBSERVATION_SIZE) -> np.ndarray | None:
+    """The boolean mask over the network's ``width`` inputs of the observation slots ``names`` (``None`` for none)."""
     if not names:
         return None
-    mask = np.zeros(OBSERVATION_SIZE, dtype=bool)
+    mask = np.zeros(width, dtype=bool)
     for name in names:
         mask[SLOTS[name]] = True
     return mask

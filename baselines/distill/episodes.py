@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from gymnasium.wrappers.utils import rescale_box
 
+from baselines.distill.features import learner_input
 from uav_penetration_env.env import UAVPenetrationEnv, action_space
 from uav_penetration_env.model import PenetrationModel
 
@@ -29,7 +30,7 @@ class EpisodeData:
     """What one episode adds to the data set (one row per visited state).
 
     Attributes:
-        arrays: ``observations`` (n, 67), ``actions`` (n, 3): the expert's label normalised to
+        arrays: ``observations`` (n, 67 + feature widths): the network's inputs, ``actions`` (n, 3): the expert's label normalised to
             [-1, 1], ``states`` (n, 6) and ``steps`` (n,): the exact state labelled,
             ``expert_flew`` (n,): whether the expert's action was applied, ``flown`` (n, 3): the
             normalised action applied.
@@ -69,6 +70,7 @@ def fly_episode(
     learner: Callable[[PenetrationModel, np.ndarray, np.ndarray], np.ndarray] | None,
     beta: float,
     seeds: np.random.SeedSequence,
+    features: tuple[str, ...] = (),
 ) -> tuple[EpisodeData, int]:
     """Fly one episode and label every visited state by the expert; returns the data and label count.
 
@@ -79,6 +81,8 @@ def fly_episode(
             (:func:`baselines.distill.heads.learner_of`); ``None`` (round 0): the expert flies.
         beta: the probability that the expert's action is applied at a step.
         seeds: spawns the env's reset seed, the expert's seed and the mixing generator.
+        features: feature sets recorded after each observation (:mod:`baselines.distill.features`):
+            the saved ``observations`` are the network's inputs.
     """
     env_seed, policy_seed, mix_seed = seeds.spawn(3)
     mixing = np.random.default_rng(mix_seed)
@@ -93,7 +97,7 @@ def fly_episode(
         expert_flies = learner is None or mixing.random() < beta
         flown = label if expert_flies else to_unit(learner(env.model, observation, info["state"]))
         for name, value in zip(
-            FIELDS, (observation, label, info["state"], info["step"], expert_flies, flown), strict=True
+            FIELDS, (learner_input(features, env.model, observation, info["state"]), label, info["state"], info["step"], expert_flies, flown), strict=True
         ):
             rows[name].append(np.copy(value))
         observation, _, terminated, truncated, info = env.step(from_unit(flown))

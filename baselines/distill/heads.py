@@ -14,16 +14,18 @@ hash covers it).
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from baselines.distill.episodes import normalisers
+from baselines.distill.features import features_of, learner_input
 from baselines.distill.network import forward, outputs
-from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
-from uav_penetration_env.value_function import LATTICE_GUIDANCE, terrain_following_dtheta
+from uav_penetration_env.value_function import LATTICE_GUIDANCE, LatticeGuidance, candidate_control
 
 TURNS = tuple(float(t) for t in LATTICE_GUIDANCE.turns)
 
@@ -36,6 +38,17 @@ def head_of(arrays: Mapping[str, np.ndarray]) -> str:
     return "turn" if "turns" in arrays else "action"
 
 
+def turn_clearance(arrays: Mapping[str, np.ndarray]) -> float:
+    """The terrain-following clearance [m] a ``turn`` network flies: its expert's (a ``clearance_m`` array), else the lattice's."""
+    return float(arrays["clearance_m"]) if "clearance_m" in arrays else LATTICE_GUIDANCE.clearance_m
+
+
+def expert_clearance(expert: object) -> float:
+    """The terrain-following clearance [m] of a lattice expert (``lattice-cN``), the lattice's own otherwise."""
+    guidance = getattr(expert, "guidance", None)
+    return float(getattr(guidance, "clearance_m", LATTICE_GUIDANCE.clearance_m))
+
+
 def turn_classes(unit_actions: np.ndarray, turns: tuple[float, ...] = TURNS) -> np.ndarray:
     """(n,) the index of the turn in ``turns`` nearest to each normalised label's dphi.
 
@@ -46,21 +59,23 @@ def turn_classes(unit_actions: np.ndarray, turns: tuple[float, ...] = TURNS) -> 
     return np.argmin(np.abs(dphi[:, None] - np.asarray(turns)[None, :]), axis=1).astype(np.int64)
 
 
-def turn_action(model: PenetrationModel, state: FloatArray, turn: float) -> FloatArray:
+def turn_action(
+    model: PenetrationModel, state: FloatArray, turn: float, clearance_m: float = LATTICE_GUIDANCE.clearance_m
+) -> FloatArray:
     """The lattice's candidate control for ``turn`` (a fraction of dphi_max) from ``state``.
 
-    Accelerate toward v_max, turn by ``turn`` x dphi_max, pitch toward the lattice's clearance
-    above the highest terrain under the next steps along the new heading: the control the lattice
-    planner prices for each of its turns (``value_function._candidate_controls``).
+    Accelerate toward v_max, turn by ``turn`` x dphi_max, pitch toward ``clearance_m`` (the
+    expert lattice's clearance; default the lattice's own) above the highest terrain under the
+    next steps along the new heading: the control the lattice planner prices for each of its turns
+    (:func:`uav_penetration_env.value_function.candidate_control`).
     """
-    limits = model.limits
-    dv = float(np.clip(limits.speed_max - state[SPEED], -limits.dv_max, limits.dv_max))
-    speed = min(limits.speed_max, float(state[SPEED]) + dv)
-    dphi = float(turn) * limits.dheading_max
-    dtheta = terrain_following_dtheta(
-        model, state, float(state[HEADING]) + dphi, speed, LATTICE_GUIDANCE.clearance_m, LATTICE_GUIDANCE.lookahead_steps
-    )
-    return np.array([dv, dphi, dtheta])
+    guidance = LATTICE_GUIDANCE if clearance_m == LATTICE_GUIDANCE.clearance_m else _guidance(clearance_m)
+    return candidate_control(model, np.asarray(state, dtype=np.float64), float(turn), guidance)
+
+
+@functools.lru_cache(maxsize=16)
+def _guidance(clearance_m: float) -> LatticeGuidance:
+    return dataclasses.replace(LATTICE_GUIDANCE, clearance_m=clearance_m)
 
 
 def network_action(
@@ -78,10 +93,11 @@ def network_action(
     (§4.6) were shrunken pitch corrections and turns dithering between the five values, and
     neither exists here.
     """
-    row = np.asarray(observation).reshape(1, -1)
+    row = learner_input(features_of(arrays), model, observation, state).reshape(1, -1)
     if head_of(arrays) == "turn":
         logits = outputs(arrays, row)[0]
-        return turn_action(model, np.asarray(state, dtype=np.float64), float(arrays["turns"][int(np.argmax(logits))]))
+        turn = float(arrays["turns"][int(np.argmax(logits))])
+        return turn_action(model, np.asarray(state, dtype=np.float64), turn, turn_clearance(arrays))
     return from_unit(forward(arrays, row)[0])
 
 

@@ -20,11 +20,13 @@ import numpy as np
 
 from baselines.distill.config import DistillConfig, checked, ignored_slots
 from baselines.distill.episodes import FIELDS, fly_episode, fly_learner
+from baselines.distill.features import input_size
 from baselines.distill.files import RunFolder, load_npz, save_npz, sha256_file, write_json
-from baselines.distill.heads import TURNS, learner_of, turn_classes
+from baselines.distill.heads import TURNS, expert_clearance, learner_of, turn_classes
 from baselines.distill.network import fit, observation_scaling
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import OBSERVATION_SIZE
+from uav_penetration_env.value_function import LATTICE_GUIDANCE
 
 FORMAT = "uav-penetration-distill-1"
 # The third entropy word of the validation episodes' seeds (the rounds' episodes use the round index).
@@ -104,7 +106,8 @@ def collect_round(context: _Context, folder: RunFolder, k: int, learner: dict[st
             if not path.is_file():
                 tick = time.process_time()
                 data, count = fly_episode(
-                    context.env(i), context.expert, fly, beta, np.random.SeedSequence([config.seed, k, i, j])
+                    context.env(i), context.expert, fly, beta, np.random.SeedSequence([config.seed, k, i, j]),
+                    config.features,
                 )
                 spent = time.process_time() - tick
                 tallies = {"labels": np.int64(count), "cpu_seconds": np.float64(spent)}
@@ -134,7 +137,8 @@ def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str
     if start is not None:
         scaling = (start["obs_mean"], start["obs_scale"])
     else:
-        scaling = observation_scaling(data["observations"], ignored_slots(config.ignore))
+        width = data["observations"].shape[1]
+        scaling = observation_scaling(data["observations"], ignored_slots(config.ignore, width))
     turn = config.head == "turn"
     targets = turn_classes(data["actions"]) if turn else data["actions"]
     tick = time.process_time()
@@ -145,6 +149,11 @@ def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str
     )  # fmt: skip
     if turn:
         arrays["turns"] = np.asarray(TURNS, dtype=np.float32)
+        clearance = expert_clearance(_make_expert(config.expert))
+        if clearance != LATTICE_GUIDANCE.clearance_m:  # a network of the default expert keeps its old arrays
+            arrays["clearance_m"] = np.asarray(clearance)
+    if config.features:
+        arrays["features"] = np.asarray(config.features, dtype=str)
     return arrays, loss, len(data["actions"]), time.process_time() - tick
 
 
@@ -252,6 +261,8 @@ def policy_sidecar(
         "scenarios": [{"name": s.name, "hash": s.hash} for s in scenarios],
         "profiles": sorted({s.profile for s in scenarios}),
         "observation_size": OBSERVATION_SIZE,
+        "input_size": input_size(config.features),
+        "features": list(config.features),
         "hidden": list(config.hidden),
         "activation": "tanh",
         "head": config.head,

@@ -18,13 +18,17 @@ from typing import Any
 
 import numpy as np
 
+from baselines.distill.features import check_features, features_of, input_size, prepare
 from baselines.distill.files import load_npz, sha256_file
-from baselines.distill.heads import head_of, network_action
+from baselines.distill.heads import head_of, network_action, turn_clearance
 from baselines.distill.network import layer_count
+from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
 from uav_penetration_env.value_function import terrain_following_dtheta
+
+GREEDY_CLEARANCE_M = float(GreedyPolicy.clearance_m)  # the greedy floor's own clearance [m]
 
 
 class DistillPolicy:
@@ -62,7 +66,11 @@ class DistillPolicy:
             "deterministic": True,
         }
         # The action head's key is the one of the networks made before heads existed.
-        return key if head_of(self.arrays) == "action" else {**key, "head": head_of(self.arrays)}
+        if head_of(self.arrays) != "action":
+            key["head"] = head_of(self.arrays)
+        if features_of(self.arrays):
+            key["features"] = list(features_of(self.arrays))
+        return key
 
     @property
     def metadata(self) -> dict[str, Any]:
@@ -85,6 +93,7 @@ class DistillPolicy:
             )
         _, self._from_unit = normalisers(model)
         self._model = model
+        prepare(features_of(self.arrays), model)
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The network's action for ``observation``, in physical units [dv, dphi, dtheta].
@@ -212,7 +221,20 @@ class ShieldedDistillPolicy(DistillPolicy):
             "homing": float(self.shield.homing),
             "fallback": "greedy",
         }
+        if self._fallback_clearance() != GREEDY_CLEARANCE_M:  # keyed only where it differs (older keys unchanged)
+            shield["fallback_clearance_m"] = self._fallback_clearance()
         return {**super().config(), "shield": shield}
+
+    def _fallback_clearance(self) -> float:
+        """The greedy fallback's clearance: a turn network's own flight clearance, else the floor's 100 m.
+
+        DECISION (docs/rl.md §4.9): a network that flies its expert's lower clearance
+        (``lattice-cN``) falls back to the greedy floor's rule at that same clearance, so the
+        shield's steps change the route, not the height the whole flight is planned at.
+        """
+        if head_of(self.arrays) == "turn" and "clearance_m" in self.arrays:
+            return turn_clearance(self.arrays)
+        return GREEDY_CLEARANCE_M
 
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
         """As the unguarded policy's; the step budget is set from the first state flown."""
@@ -232,7 +254,7 @@ class ShieldedDistillPolicy(DistillPolicy):
             self._budget = step + self.shield.budget * straight_steps(self._model, info["state"])
         action, why = shielded_action(
             self.arrays, self._model, self._from_unit, observation, info["state"], step, self.shield, self._budget,
-            self._held_until,
+            self._held_until, self._fallback_clearance(),
         )  # fmt: skip
         if why == FAILS_AHEAD:
             self._held_until = step + 1 + self.shield.hold
@@ -274,8 +296,16 @@ def load_distill_policy(path: str | Path) -> DistillPolicy:
         )
     arrays = load_npz(weights)
     first = arrays["W0"].shape[1] if layer_count(arrays) else None
-    if first != OBSERVATION_SIZE or sidecar.get("observation_size") != OBSERVATION_SIZE:
-        raise ValueError(f"{weights}: a network for observations of size {first}, this env's are {OBSERVATION_SIZE}")
+    features = features_of(arrays)
+    try:
+        check_features(features)
+    except ValueError as error:
+        raise ValueError(f"{weights}: {error}") from None
+    if first != input_size(features) or sidecar.get("observation_size") != OBSERVATION_SIZE:
+        raise ValueError(
+            f"{weights}: a network for inputs of size {first}, this env's observations ({OBSERVATION_SIZE}) "
+            f"with the features {list(features)} are {input_size(features)}"
+        )
     return DistillPolicy(weights, arrays, sidecar)
 
 

@@ -101,23 +101,26 @@ def shielded_action(
     shield: Shield,
     step_budget: float,
     held_until: int = -1,
+    clearance_m: float = 100.0,
 ) -> tuple[FloatArray, int]:
     """The network's action, or the greedy floor's; returns it and why (KEPT, FAILS_AHEAD, ..., HOMING).
 
     ``held_until``: the greedy floor flies every step before it (the hold after an override).
+    ``clearance_m``: the height above the terrain the greedy floor's fallback aims at (the
+    network's own flight clearance; the floor's 100 m by default).
     """
     state = np.asarray(state, dtype=np.float64)
     if step >= step_budget:
-        return greedy_action(model, state), OVER_BUDGET
+        return greedy_action(model, state, clearance_m), OVER_BUDGET
     if step < held_until:
-        return greedy_action(model, state), HOLDING
+        return greedy_action(model, state, clearance_m), HOLDING
     if straight_steps(model, state) < shield.homing:
-        return greedy_action(model, state), HOMING
+        return greedy_action(model, state, clearance_m), HOMING
 
     def act(obs: np.ndarray, at: FloatArray) -> FloatArray:
         return network_action(arrays, model, obs, at, from_unit)
 
     proposed = act(observation, state)
     if rollout_fails(model, act, observation, state, step, proposed, shield.horizon):
-        return greedy_action(model, state), FAILS_AHEAD
+        return greedy_action(model, state, clearance_m), FAILS_AHEAD
     return proposed, KEPT

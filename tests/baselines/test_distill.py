@@ -399,3 +399,72 @@ def test_ignored_slots_do_not_reach_the_network(tmp_path):
     assert result.sidecar["ignore"] == ["position", "step_fraction"]
     with pytest.raises(ValueError, match=r"^--ignore: got 'altitude', expected observation slots among position, "):
         run_distill(tiny_config(tmp_path / "never", ignore=("altitude",)))
+
+
+def test_value_features_are_the_field_one_step_ahead_along_each_turn():
+    from baselines.distill.features import VALUE_TURNS, value_features
+    from uav_penetration_env.env import UAVPenetrationEnv
+    from uav_penetration_env.value_function import value_function
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    _, info = env.reset(seed=0)
+    model, state = env.model, np.asarray(info["state"], dtype=np.float64)
+    vf = value_function(model)
+    step = model.limits.speed_max * model.limits.dt
+    from uav_penetration_env.kinematics import HEADING
+
+    here = float(vf(state[0], state[1], state[HEADING]))
+    expected = [min(here, 50.0) / 10.0]
+    for turn in VALUE_TURNS:  # one look-up at a time, the loop the vectorised feature must equal
+        psi = state[HEADING] + turn * model.limits.dheading_max
+        ahead = float(vf(state[0] + step * np.cos(psi), state[1] + step * np.sin(psi), psi))
+        expected.append(min(max(ahead - here, -5.0), 5.0))
+    np.testing.assert_allclose(value_features(model, state), expected, rtol=0, atol=1e-12)
+    assert 0.0 < here < 50.0  # the tiny scenario's start is on the lattice, short of the crash price
+
+
+def test_a_network_with_value_features_reads_them_in_training_and_in_flight(tmp_path):
+    from baselines.distill.features import input_size, learner_input, value_features
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    config = tiny_config(tmp_path / "value", expert=TurnExpert(), head="turn", features=("value",), rounds=1, epochs=20)
+    result = run_distill(config)
+    arrays = load_npz(result.folder.policy)
+    assert arrays["features"].tolist() == ["value"] and arrays["W0"].shape[1] == input_size(("value",)) == OBSERVATION_SIZE + 6
+    assert result.sidecar["features"] == ["value"] and result.sidecar["input_size"] == OBSERVATION_SIZE + 6
+    env = UAVPenetrationEnv(tiny_scenario())
+    data = load_npz(result.folder.round_data(1))
+    # The saved inputs are the observation followed by the features of the exact state labelled.
+    for row, state in zip(data["observations"], data["states"], strict=True):
+        np.testing.assert_array_equal(row[OBSERVATION_SIZE:], value_features(env.model, state).astype(np.float32))
+    policy = make_policy(f"distill:{result.folder.out}")
+    assert policy.config()["features"] == ["value"]
+    policy.reset(env.model, 0)
+    observation, info = env.reset(seed=0)
+    from baselines.distill.heads import network_action
+
+    action = policy.act(observation, info)
+    np.testing.assert_array_equal(action, network_action(arrays, env.model, observation, info["state"], None))
+    assert learner_input(("value",), env.model, observation, info["state"]).shape == (OBSERVATION_SIZE + 6,)
+    df = evaluate({"value": policy}, [tiny_scenario()], seeds=[0], progress=False)
+    assert df["error"].tolist() == [""]
+    with pytest.raises(ValueError, match=r"^--features: the run folder .* was made with \['value'\], not None"):
+        run_distill(tiny_config(tmp_path / "value", expert=TurnExpert(), head="turn", rounds=1, epochs=20))
+    with pytest.raises(ValueError, match=r"^--features: got 'values', expected feature sets among value"):
+        run_distill(tiny_config(tmp_path / "never", features=("values",)))
+
+
+def test_a_turn_network_flies_its_lattice_experts_clearance(tmp_path):
+    from baselines.distill.heads import expert_clearance, turn_action, turn_clearance
+
+    expert = make_policy("lattice-c40")
+    assert expert.guidance.clearance_m == 40.0 and expert_clearance(expert) == 40.0
+    assert expert_clearance(make_policy("lattice")) == 100.0 == expert_clearance(TurnExpert())
+    arrays = {"turns": np.zeros(5), "clearance_m": np.asarray(40.0)}
+    assert turn_clearance(arrays) == 40.0 and turn_clearance({"turns": np.zeros(5)}) == 100.0
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    _, info = env.reset(seed=0)
+    low, high = (turn_action(env.model, info["state"], 0.0, c)[2] for c in (40.0, 100.0))
+    assert low <= high  # a lower clearance never pitches up more

@@ -221,6 +221,15 @@ def test_make_policy_names():
     assert forms["value"].config()["value_algorithm"] >= 1 and "lattice" in forms["value"].config()
     assert "lattice" not in forms["distance"].config()
     assert isinstance(make_policy("lattice"), LatticePolicy)
+    # lattice-cN: the lattice planner at another clearance, keyed apart; N checked.
+    low = make_policy("lattice-c40")
+    assert isinstance(low, LatticePolicy) and low.guidance.clearance_m == 40.0
+    assert low.config()["guidance"]["clearance_m"] == 40.0 and low.config() != make_policy("lattice").config()
+    for bad in ("lattice-c5", "lattice-c", "lattice-c4.5", "lattice-c2000"):
+        with pytest.raises(ValueError, match=r"expected lattice-cN with N an integer number of metres in \[10, 1000\]"):
+            make_policy(bad)
+    assert make_policy("value-greedy-c40").guidance.clearance_m == 40.0
+    assert make_policy("value-greedy").config()["kind"] == "value-greedy"
     expected = {"ihpso", "ihpso-eq37", "greedy", "random", "lattice", "cem-eq37", "cem-ctg-value"}
     assert expected <= set(policy_names())
     with pytest.raises(KeyError, match="did you mean 'ihpso'"):
@@ -326,3 +335,29 @@ def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
         terminal_cost=terminal_cost_for(env.unwrapped.model, policy.settings.terminal, policy.settings.terminal_cost),
     )
     np.testing.assert_array_equal(cost(plans), expected)
+
+
+def test_value_greedy_flies_the_turn_toward_the_lowest_value_one_step_ahead():
+    from uav_penetration_env.value_function import LATTICE_GUIDANCE, value_function
+
+    env = UAVPenetrationEnv(tiny_scenario())
+    policy = make_policy("value-greedy-c60")
+    observation, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    vf = value_function(env.model)
+    limits = env.model.limits
+    done, steps = False, 0
+    while not done:
+        state = np.asarray(info["state"], dtype=np.float64)
+        ahead = []
+        for turn in LATTICE_GUIDANCE.turns:  # the loop the rule must agree with: one point per turn
+            psi = state[4] + turn * limits.dheading_max
+            step = limits.speed_max * limits.dt
+            ahead.append(float(vf(state[0] + step * math.cos(psi), state[1] + step * math.sin(psi), psi)))
+        action = policy.act(observation, info)
+        best = LATTICE_GUIDANCE.turns[int(np.argmin(ahead))]
+        assert action[1] == pytest.approx(best * limits.dheading_max, abs=1e-12)
+        assert action[0] == pytest.approx(min(limits.dv_max, limits.speed_max - state[3]))  # toward v_max
+        observation, _, terminated, truncated, info = env.step(action)
+        done, steps = terminated or truncated, steps + 1
+    assert info["reached_goal"] and steps > 3

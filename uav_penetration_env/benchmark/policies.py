@@ -42,9 +42,11 @@ from uav_penetration_env.value_function import (
     LATTICE_GUIDANCE,
     LatticeGuidance,
     ValueFunction,
+    candidate_control,
     lattice_action,
     terminal_cost_for,
     terrain_following_dtheta,
+    value_ahead,
     value_function,
 )
 
@@ -156,6 +158,48 @@ class LatticePolicy:
             raise RuntimeError("LatticePolicy.act() before reset(model, seed)")
         state = np.asarray(info["state"], dtype=np.float64)
         return lattice_action(self.model, self._value, state, int(info["step"]), self.guidance)
+
+
+@dataclass
+class ValueGreedyPolicy:
+    """The turn whose point one step ahead has the lowest V, flown as the lattice's candidate (docs/rl.md §4.9).
+
+    Each step: for each of the lattice's turns, V one step of v_max * dt ahead along the turned
+    heading (:func:`value_function.value_ahead`, five look-ups, no move flown or priced); the
+    turn with the lowest is flown as the lattice's candidate control at ``guidance.clearance_m``
+    (:func:`value_function.candidate_control`), ties to the first turn. It reads exactly the
+    inputs the distilled planners' ``value`` features hold, so it is the rule a network on those
+    inputs competes with (``value-greedy``; ``value-greedy-cN`` at N metres, as ``lattice-cN``).
+    """
+
+    deterministic: ClassVar[bool] = True
+    guidance: LatticeGuidance = LATTICE_GUIDANCE
+    model: PenetrationModel | None = field(default=None, repr=False)
+    _value: ValueFunction | None = field(default=None, repr=False)
+
+    def config(self) -> dict[str, Any]:
+        """The lattice and guidance settings (hashed into the results store key)."""
+        return {
+            "kind": "value-greedy",
+            "lattice": dataclasses.asdict(LATTICE_DEFAULTS),
+            "guidance": dataclasses.asdict(self.guidance),
+            "algorithm": VALUE_ALGORITHM_VERSION,
+            "deterministic": True,
+        }
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Bind the model and load (or build) its value function; ``seed`` is unused."""
+        del seed
+        self.model = model
+        self._value = value_function(model)
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The candidate control of the turn with the lowest V ahead, from the exact state in ``info``."""
+        if self.model is None or self._value is None:
+            raise RuntimeError("ValueGreedyPolicy.act() before reset(model, seed)")
+        state = np.asarray(info["state"], dtype=np.float64)
+        _, ahead = value_ahead(self.model, self._value, state, self.guidance.turns)
+        return candidate_control(self.model, state, self.guidance.turns[int(np.argmin(ahead))], self.guidance)
 
 
 @dataclass
@@ -481,7 +525,27 @@ def trace_summary(trace: Any, nfev: int, max_evals: int) -> dict[str, Any]:
 
 FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}
 # Named policies that are neither floors nor MPC planners: the classical global planner.
-BASELINE_POLICIES = {"lattice": LatticePolicy}
+BASELINE_POLICIES: dict[str, Any] = {"lattice": LatticePolicy, "value-greedy": ValueGreedyPolicy}
+CLEARANCE_SUFFIX = "-c"  # lattice-cN, value-greedy-cN: the rule following the terrain at N metres
+CLEARANCES_M = (10, 1000)  # the N a -cN name accepts
+
+
+def with_clearance(spec: str) -> LatticePolicy | ValueGreedyPolicy | None:
+    """``lattice-cN`` / ``value-greedy-cN`` -> that planner at a terrain-following clearance of N metres; other names -> None.
+
+    The value function V is the lattice's own (built at ``LATTICE_DEFAULTS.clearance_m``); only
+    the clearance the candidate moves aim at changes (model.md §7e.3).
+
+    Raises:
+        ValueError: N not an integer in ``CLEARANCES_M``.
+    """
+    base, suffix, digits = spec.rpartition(CLEARANCE_SUFFIX)
+    if not suffix or base not in BASELINE_POLICIES:
+        return None
+    low, high = CLEARANCES_M
+    if not (digits.isdigit() and low <= int(digits) <= high):
+        raise ValueError(f"policy {spec!r}: expected {base}-cN with N an integer number of metres in [{low}, {high}]")
+    return BASELINE_POLICIES[base](dataclasses.replace(LATTICE_GUIDANCE, clearance_m=float(int(digits))))
 EQ37_SUFFIX = "-eq37"
 # An MPC planner's name with one of these suffixes fixes its terminal cost's form (model.md §7e).
 TERMINAL_SUFFIXES = {
@@ -550,7 +614,9 @@ def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any)
     ``settings.terminal``'s form), the same with a suffix
     that fixes the form (``NAME-eq37``: none, the paper's literal eq. 37; ``NAME-ctg-distance``,
     ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e), ``greedy``, ``random``, ``lattice``
-    (the lattice planner), ``PREFIX:ARGUMENT`` of a plug-in
+    (the lattice planner), ``value-greedy`` (the turn toward the lowest V one step ahead),
+    ``lattice-cN`` and ``value-greedy-cN`` (the same following the terrain at N metres),
+    ``PREFIX:ARGUMENT`` of a plug-in
     policy kind (entry-point group ``uav_penetration.policies``; the ``rl`` extra's ``baselines``
     adds ``sb3:PATH.zip``), or ``PLANNER+PREFIX:ARGUMENT``: the MPC planner warm-started by the
     plug-in policy, when its kind offers that (``ihpso+sb3:PATH.zip``, docs/rl-statistics.md §3).
@@ -575,6 +641,9 @@ def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any)
         return FLOOR_POLICIES[spec]()
     if spec in BASELINE_POLICIES:
         return BASELINE_POLICIES[spec]()
+    planner = with_clearance(spec)
+    if planner is not None:
+        return planner
     hybrid = split_hybrid(spec)
     if hybrid is not None:
         return _make_hybrid(spec, *hybrid, settings)
@@ -593,7 +662,7 @@ def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any)
         hint = did_you_mean(prefix, kinds) if colon else did_you_mean(spec, policy_names())
         if colon:  # name the mechanism: the kind may belong to a package that is not installed
             hint = f"no installed plug-in provides the kind {prefix!r} (entry points {POLICY_GROUP}); {hint}"
-        known = ", ".join(["greedy", "random", "lattice", "NAME-eq37", "NAME-ctg-FORM", *plugin_policy_forms()])
+        known = ", ".join(["greedy", "random", "lattice", "lattice-cN", "value-greedy", "value-greedy-cN", "NAME-eq37", "NAME-ctg-FORM", *plugin_policy_forms()])
         raise KeyError(
             f"unknown policy {spec!r} — {hint}known: {known} and the optimisers {', '.join(names)}"
         )
