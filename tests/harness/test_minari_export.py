@@ -207,3 +207,31 @@ def test_the_layout_groups_by_configuration_and_scenario_set(store):
     assert [len(p.episodes) for p in plan_datasets(family, policies=["greedy"], scenarios=["random"])] == [2]
     with pytest.raises(MinariExportError, match="no finished episode"):
         plan_datasets(episodes.assign(error="Boom"))
+
+
+def test_a_set_of_several_scenarios_is_one_dataset_with_each_scenarios_env(tmp_path, monkeypatch):
+    """tiny-1 and tiny-2 (two terrains) make the set tiny; each episode re-flies in its scenario's env."""
+    import gymnasium as gym
+
+    paths = []
+    for seed in (1, 2):
+        scenario = tiny_scenario(name=f"tiny-{seed}", time={"max_steps": 6}, terrain={"seed": seed})
+        paths.append(str(scenario.to_yaml(tmp_path / f"tiny-{seed}.yaml")))
+    store = tmp_path / "two.sqlite"
+    argv = ["run", "--policies", "greedy", "--scenarios", *paths, "--seeds", "1", "--store", str(store)]
+    assert cli.main([*argv, "--no-report", "--no-progress", "--jobs", "1"]) == 0
+    out = tmp_path / "d"
+    assert cli.main(["export", "--minari", "--store", str(store), "--out", str(out)]) == 0
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(out))
+    dataset = minari.load_dataset("uav-penetration/tiny-greedy-v0")
+    scenarios = dataset.storage.metadata["uav_penetration"]["scenarios"]
+    assert sorted(s["name"] for s in scenarios.values()) == ["tiny-1", "tiny-2"]
+    assert dataset.recover_environment().unwrapped.scenario.name == "tiny-1"  # the first episode's
+    for episode, extra in zip(dataset.iterate_episodes(), episode_metadata(dataset), strict=True):
+        env = gym.make(dataset.env_spec.id, **scenarios[extra["scenario_hash"]]["env_kwargs"])
+        assert env.unwrapped.scenario.hash == extra["scenario_hash"]
+        observation, _ = env.reset(seed=extra["seed"])
+        assert np.array_equal(observation, episode.observations[0])
+        rewards = [env.step(action)[1] for action in episode.actions]
+        assert np.array_equal(rewards, episode.rewards)
+        assert float(np.sum(rewards)) == pytest.approx(-extra["total_cost"], rel=1e-12, abs=1e-12)

@@ -389,6 +389,7 @@ def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path)
             steps = store.steps([int(episode["episode_id"])], include_start=True).sort_values("step")
             episodes.append(refly_episode(env, episode, steps))
             env.close()
+        _check_one_action_box(plan, [scenarios[h] for h in specs])
         flown.append((plan, episodes, specs))
     temporary = Path(tempfile.mkdtemp(prefix=".minari-export-", dir=out))
     written = []
@@ -461,8 +462,8 @@ def _create(plan: DatasetPlan, episodes: Sequence[Reflown], specs: Mapping[str, 
 
     from uav_penetration_env.benchmark.provenance import git_commit
 
-    first = sorted(specs)[0]  # the env of the first scenario (the only one, unless the set has several)
-    env = gym.make(specs[first])
+    first = next(iter(specs))  # the first episode's scenario (the only one, unless the set has several)
+    env: Any = gym.make(specs[first])
     high = np.asarray(env.unwrapped.model.limits.action_high, dtype=np.float64)
     buffers = [
         EpisodeBuffer(
@@ -517,6 +518,23 @@ def _create(plan: DatasetPlan, episodes: Sequence[Reflown], specs: Mapping[str, 
         ],
         range(len(rows)),
     )
+
+
+def _check_one_action_box(plan: DatasetPlan, scenarios: Sequence[Any]) -> None:
+    """Refuse a dataset whose scenarios have different action limits (a dataset has one action space).
+
+    Raises:
+        MinariExportError: two scenarios' per-step limits differ.
+    """
+    from uav_penetration_env.kinematics import UAVLimits
+
+    first = UAVLimits.from_scenario(scenarios[0]).action_high
+    for scenario in scenarios[1:]:
+        if not np.array_equal(UAVLimits.from_scenario(scenario).action_high, first):
+            raise MinariExportError(
+                f"--scenarios: {plan.dataset_id} would mix {scenarios[0].name!r} and {scenario.name!r}, whose "
+                "action limits differ; expected scenarios of one action box per dataset (export them apart)"
+            )
 
 
 def _copy_namespace_metadata(temporary: Path, out: Path, dataset_id: str) -> None:
