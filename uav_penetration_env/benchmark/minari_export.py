@@ -378,16 +378,20 @@ def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path)
     flown: list[tuple[DatasetPlan, list[Reflown], dict[str, Any]]] = []
     for plan in plans:
         episodes = []
-        specs = {}
+        specs: dict[str, Any] = {}
+        envs: dict[str, Any] = {}  # one env per scenario, reset for each of its episodes
+        rows = store.steps(plan.episodes["episode_id"].astype(int).tolist(), include_start=True)
+        steps_of = dict(iter(rows.groupby("episode_id", sort=False)))
         for _, episode in plan.episodes.iterrows():
             scenario_hash = str(episode["scenario_hash"])
             if scenario_hash not in scenarios:
                 scenarios[scenario_hash] = stored_scenario(store, scenario_hash)
             if scenario_hash not in specs:
                 specs[scenario_hash] = env_spec(scenarios[scenario_hash])
-            env = gym.make(specs[scenario_hash])
-            steps = store.steps([int(episode["episode_id"])], include_start=True).sort_values("step")
-            episodes.append(refly_episode(env, episode, steps))
+                envs[scenario_hash] = gym.make(specs[scenario_hash])
+            steps = steps_of.get(int(episode["episode_id"]), rows.iloc[:0]).sort_values("step")
+            episodes.append(refly_episode(envs[scenario_hash], episode, steps))
+        for env in envs.values():
             env.close()
         _check_one_action_box(plan, [scenarios[h] for h in specs])
         flown.append((plan, episodes, specs))
