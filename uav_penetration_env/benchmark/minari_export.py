@@ -14,7 +14,9 @@ sweep of procedural scenarios becomes one dataset. Its id is
 ``uav-penetration/<set>-<policy>-v<version>`` (lower case, other characters than letters,
 digits, ``_`` and ``-`` replaced by ``-``; ``-<hash8>`` appended when the selection holds several
 configurations of one policy name); ``--dataset-id`` names a selection that makes one dataset.
-Episodes are ordered by scenario name, seed and store episode id.
+Episodes are ordered by scenario name, seed and store episode id. The dataset's env spec is the
+first episode's scenario's; a set of several scenarios records each one's ``gym.make`` kwargs in
+the metadata, and must share one action box (a dataset has one action space).
 
 DECISION (api.md §4.10, what is recorded): observations, rewards, terminations, truncations and
 infos are those the env returns when the stored actions are flown again from the stored seed, not
