@@ -61,7 +61,10 @@ def test_each_dataset_loads_with_minari_and_replays_to_the_stored_totals(store, 
         assert dataset.total_steps == int(episodes.loc[episodes["policy"] == policy, "steps"].sum())
         meta = dataset.storage.metadata["uav_penetration"]
         assert meta["policy"]["name"] == policy and meta["scenario_set"] == "tiny"
-        assert meta["replay"]["max_return_error"] == 0.0 and meta["replay"]["max_state_error"] == 0.0
+        # Same machine, same code: the track is bit for bit the stored one; the return differs from
+        # -total_cost (ΣJ + Σpenalty, summed apart) at most by the rounding of one addition per step.
+        assert meta["replay"]["max_state_error"] == 0.0
+        assert meta["replay"]["max_return_error"] <= 1e-12 * (1 + episodes["total_cost"].abs().max())
         assert env.unwrapped.scenario.hash in meta["scenarios"]
         assert dataset.observation_space == env.observation_space
         high = env.unwrapped.model.limits.action_high
