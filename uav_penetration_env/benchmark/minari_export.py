@@ -31,11 +31,11 @@ DECISION (api.md §4.10, replay tolerance): every re-flown episode must match th
 number of steps, the end flag on the last step only, each state within ``atol + rtol * |value|``
 of the stored row and the return within that of ``-total_cost`` (``total_J + total_penalty``),
 with ``rtol = atol = 1e-9``. The env is deterministic, so on the machine and version that wrote
-the store the states are bit for bit the stored ones and the return differs only by the rounding of
-summing J and the penalty apart (about 1e-15 relative); the tolerance admits only the last-bit differences of
-another compiler or CPU (the compiled model agrees with the numpy oracle to about 1e-15
-relative), twelve orders of magnitude below any cost difference a leaderboard reports. An episode
-outside it is refused with its id, and nothing is written.
+the store the states are bit for bit the stored ones and the return differs only by the rounding
+of summing J and the penalty apart (about 1e-15 relative); the tolerance admits only the last-bit
+differences of another compiler or CPU (the compiled model agrees with the numpy oracle to about
+1e-15 relative), six orders of magnitude below the four significant digits a leaderboard prints.
+An episode outside it is refused with its id, and nothing is written.
 """
 
 from __future__ import annotations
