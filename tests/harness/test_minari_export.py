@@ -133,7 +133,10 @@ def test_the_command_prints_ids_and_writes_nothing_else(store, tmp_path, capsys)
     "flags, message",
     [
         (["--policy", "greedi"], "--policy: 'greedi' has no finished episode in the store"),
-        (["--scenarios", "paper"], "--scenarios: 'paper' is neither a stored scenario nor a scenario set"),
+        (
+            ["--scenarios", "paper"],
+            "--scenarios: 'paper' is neither a stored scenario, a scenario set nor a pattern",
+        ),
         (
             ["--dataset-id", "tiny-greedy"],
             "--dataset-id: got 'tiny-greedy', expected Minari's NAMESPACE/NAME-vN",
@@ -208,6 +211,9 @@ def test_the_layout_groups_by_configuration_and_scenario_set(store):
     # Procedural scenarios of one family make one dataset.
     family = episodes.assign(scenario=[f"random-{i}" for i in range(len(episodes))])
     assert [len(p.episodes) for p in plan_datasets(family, policies=["greedy"], scenarios=["random"])] == [2]
+    # A pattern picks by name: random-0 and random-2 are the even rows, one of each policy.
+    chosen = plan_datasets(family, scenarios=["random-[02]"])
+    assert sorted(s for p in chosen for s in p.episodes["scenario"]) == ["random-0", "random-2"]
     with pytest.raises(MinariExportError, match="no finished episode"):
         plan_datasets(episodes.assign(error="Boom"))
 
@@ -238,3 +244,48 @@ def test_a_set_of_several_scenarios_is_one_dataset_with_each_scenarios_env(tmp_p
         rewards = [env.step(action)[1] for action in episode.actions]
         assert np.array_equal(rewards, episode.rewards)
         assert float(np.sum(rewards)) == pytest.approx(-extra["total_cost"], rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.crossmachine
+def test_the_published_planner_episodes_replay_to_their_committed_totals(tmp_path, monkeypatch):
+    """leaderboard v2's rows (flown on other machines): ihpso and greedy on the paper scenario and
+    ihpso on five held-out scenarios (one seed each), imported into a store, exported and loaded back."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    stem = Path(__file__).resolve().parents[2] / "leaderboards" / "rows" / "leaderboard"
+    episodes = pd.read_parquet(f"{stem}-episodes.parquet")
+    paper = episodes["scenario"].eq("paper-2022-sec5") & episodes["policy"].isin(["ihpso", "greedy"])
+    held_out = episodes["scenario"].isin([f"random-1000{i}" for i in range(5)]) & episodes["policy"].eq(
+        "ihpso"
+    )
+    chosen = episodes[paper | held_out]
+    ids = chosen["episode_id"].tolist()
+    rows = tmp_path / "rows"
+    tables = {
+        "episodes": chosen,
+        "steps": pd.read_parquet(f"{stem}-steps.parquet", filters=[("episode_id", "in", ids)]),
+        "runs": pd.read_parquet(f"{stem}-runs.parquet").query("run_id in @chosen.run_id"),
+        "scenarios": pd.read_parquet(f"{stem}-scenarios.parquet").query(
+            "scenario_hash in @chosen.scenario_hash"
+        ),
+        "policies": pd.read_parquet(f"{stem}-policies.parquet").query("policy_hash in @chosen.policy_hash"),
+    }
+    for name, table in tables.items():
+        table.to_parquet(f"{rows}-{name}.parquet", index=False)
+    store = tmp_path / "published.sqlite"
+    assert cli.main(["import", "--rows", str(rows), "--store", str(store)]) == 0
+    out = tmp_path / "d"
+    assert cli.main(["export", "--minari", "--store", str(store), "--out", str(out)]) == 0
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(out))
+    totals = chosen.set_index("episode_id")["total_cost"]
+    expected = {"paper-2022-sec5-greedy-v0": 20, "paper-2022-sec5-ihpso-v0": 20, "random-ihpso-v0": 5}
+    assert sorted(minari.list_local_datasets()) == sorted(f"uav-penetration/{n}" for n in expected)
+    for name, count in expected.items():
+        dataset = minari.load_dataset(f"uav-penetration/{name}")
+        assert dataset.total_episodes == count
+        for episode, extra in zip(dataset.iterate_episodes(), episode_metadata(dataset), strict=True):
+            total = totals.loc[extra["store_episode_id"]]  # the committed total, not the imported store's
+            assert float(np.sum(episode.rewards)) == pytest.approx(-total, rel=1e-9, abs=1e-9)

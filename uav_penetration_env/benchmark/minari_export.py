@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import fnmatch
 import json
 import os
 import re
@@ -146,7 +147,8 @@ def plan_datasets(
     Args:
         episodes: the store's episode rows (:meth:`ResultsStore.episodes`); error rows are left out.
         policies: policy names to export (default: all).
-        scenarios: scenario names or scenario-set labels to export (default: all).
+        scenarios: scenario names, scenario-set labels or shell patterns of names
+            (``random-100*``) to export (default: all).
         dataset_id: the id of the one dataset the selection makes (default: one id per dataset).
         version: the ``-vN`` of the default ids.
 
@@ -171,14 +173,20 @@ def plan_datasets(
         finished = finished[finished["policy"].isin(list(policies))]
     sets = finished["scenario"].map(scenario_set)
     if scenarios:
-        known = sorted(set(finished["scenario"]) | set(sets))
+        keep = pd.Series(False, index=finished.index)
         for name in scenarios:
-            if name not in known:
+            chosen = (finished["scenario"] == name) | (sets == name)
+            chosen |= finished["scenario"].map(
+                lambda scenario, name=name: fnmatch.fnmatchcase(scenario, name)
+            )
+            if not chosen.any():
+                known = sorted(set(finished["scenario"]) | set(sets))
+                shown = ", ".join(known[:8]) + (", ..." if len(known) > 8 else "")
                 raise MinariExportError(
-                    f"--scenarios: {name!r} is neither a stored scenario nor a scenario set — "
-                    f"{did_you_mean(name, known)}stored: {', '.join(known) or 'none'}"
+                    f"--scenarios: {name!r} is neither a stored scenario, a scenario set nor a pattern of "
+                    f"stored scenarios — {did_you_mean(name, known)}stored: {shown or 'none'}"
                 )
-        keep = finished["scenario"].isin(list(scenarios)) | sets.isin(list(scenarios))
+            keep |= chosen
         finished, sets = finished[keep], sets[keep]
     if finished.empty:
         raise MinariExportError(

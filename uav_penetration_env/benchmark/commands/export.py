@@ -65,7 +65,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--scenarios",
         nargs="+",
         metavar="NAME",
-        help="only these stored scenarios or scenario sets (random-17 is in the set random; default: all)",
+        help="only these stored scenarios, scenario sets (random-17 is in the set random) or name patterns "
+        "('random-100*'); default: all",
     )
     minari.add_argument(
         "--dataset-id",
