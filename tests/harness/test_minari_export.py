@@ -143,6 +143,10 @@ def test_the_command_prints_ids_and_writes_nothing_else(store, tmp_path, capsys)
         ),
         (["--dataset-id", "ab/cd-v0"], "--dataset-id: the selection makes 2 datasets"),
         (["--format", "csv"], "--format: writes tables; expected no --format with --minari"),
+        (
+            ["--dataset-id", "ab/cd-v0", "--dataset-version", "1"],
+            "--dataset-version: versions the default ids",
+        ),
     ],
 )
 def test_bad_selections_are_one_line(store, tmp_path, capsys, flags, message):

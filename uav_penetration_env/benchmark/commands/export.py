@@ -76,7 +76,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     minari.add_argument(
         "--dataset-version",
         type=int_at_least(0),
-        default=0,
         metavar="N",
         help="the -vN of the default dataset ids (default: 0)",
     )
@@ -95,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         return _export_minari(args)
     if args.format is None:
         raise CLIError("--format: expected csv or parquet (or --minari for Minari datasets)")
-    for flag in ("policy", "scenarios", "dataset_id"):
+    for flag in ("policy", "scenarios", "dataset_id", "dataset_version"):
         if getattr(args, flag) is not None:
             raise CLIError(
                 f"--{flag.replace('_', '-')}: selects the episodes of --minari; expected it with --minari"
@@ -166,6 +165,10 @@ def _export_minari(args: argparse.Namespace) -> int:
     for flag in ("format", "tracks"):
         if getattr(args, flag):
             raise CLIError(f"--{flag}: writes tables; expected no --{flag} with --minari")
+    if args.dataset_id is not None and args.dataset_version is not None:
+        raise CLIError(
+            "--dataset-version: versions the default ids; expected it without --dataset-id (whose -vN is the version)"
+        )
     MINARI.check("export --minari")  # one line naming the extra, before the store is read
     store_path = existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_name(f"{store_path.stem}-minari")
@@ -177,7 +180,7 @@ def _export_minari(args: argparse.Namespace) -> int:
                 policies=args.policy,
                 scenarios=args.scenarios,
                 dataset_id=args.dataset_id,
-                version=args.dataset_version,
+                version=args.dataset_version or 0,
             )
             written = write_datasets(store, plans, out)
         except MinariExportError as error:
