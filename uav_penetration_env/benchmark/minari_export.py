@@ -227,7 +227,7 @@ def check_dataset_id(dataset_id: str) -> None:
     )
     if not re.fullmatch(pattern, dataset_id):
         raise MinariExportError(
-            f"--dataset-id: got {dataset_id!r}, expected Minari's NAMESPACE/NAME-vN, e.g. {NAMESPACE}/paper-ihpso-v0"
+            f"--dataset-id: got {dataset_id!r}, expected Minari's NAMESPACE/NAME-vN, e.g. {NAMESPACE}/paper-2022-sec5-ihpso-v0"
         )
 
 
