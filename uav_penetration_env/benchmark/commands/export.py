@@ -8,6 +8,10 @@ rebuilds (:mod:`~..restore`).
 With ``--tracks``: every episode's track points from step 0 (state, action, cost terms, detection,
 altitude above terrain) as ``<stem>-tracks.<format>``, and ``<stem>-tracks.geojson`` (one
 LineString per episode; longitude/latitude for DEM scenarios), :mod:`~..track_export`.
+
+With ``--minari``: the stored episodes re-flown through the env and written as Farama Minari
+datasets under a local root (``--out DIR``, default ``<store stem>-minari/``), one per policy
+configuration and scenario set (:mod:`~..minari_export`, api.md §4.10; the ``offline`` extra).
 """
 
 from __future__ import annotations
@@ -17,28 +21,63 @@ from pathlib import Path
 
 from uav_penetration_env.atomic import atomic_path
 from uav_penetration_env.benchmark.commands.common import (
+    CLIError,
     Command,
     add_store_argument,
     check_writable_folder,
     existing_store,
+    int_at_least,
     path_argument,
 )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``uav-bench export``."""
-    parser.add_argument("--format", choices=["csv", "parquet"], required=True)
+    parser.add_argument(
+        "--format", choices=["csv", "parquet"], help="the tables' format (required unless --minari)"
+    )
     add_store_argument(parser)
     parser.add_argument(
         "--out",
         type=path_argument,
         help="output stem, e.g. rows/paper (default: the store path without suffix); a folder (DIR/) "
-        "holds files named after the store",
+        "holds files named after the store; with --minari the datasets' root folder (default: STORE-minari/)",
     )
     parser.add_argument(
         "--tracks",
         action="store_true",
         help="write the track points of every episode (from step 0) and a GeoJSON file instead",
+    )
+    minari = parser.add_argument_group("Minari datasets (--minari; the offline extra)")
+    minari.add_argument(
+        "--minari",
+        action="store_true",
+        help="write the stored episodes, re-flown through the env and checked against the store, as Minari "
+        "datasets: one per policy configuration and scenario set (api.md §4.10)",
+    )
+    minari.add_argument(
+        "--policy",
+        action="append",
+        metavar="NAME",
+        help="only this policy's episodes (repeatable; default: all)",
+    )
+    minari.add_argument(
+        "--scenarios",
+        nargs="+",
+        metavar="NAME",
+        help="only these stored scenarios, scenario sets (random-17 is in the set random) or name patterns "
+        "('random-100*'); default: all",
+    )
+    minari.add_argument(
+        "--dataset-id",
+        metavar="NAMESPACE/NAME-vN",
+        help="the id of the one dataset the selection makes (default: uav-penetration/SET-POLICY-vN)",
+    )
+    minari.add_argument(
+        "--dataset-version",
+        type=int_at_least(0),
+        metavar="N",
+        help="the -vN of the default dataset ids (default: 0)",
     )
 
 
@@ -51,6 +90,15 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.rows import row_path, write_table
     from uav_penetration_env.benchmark.store import ResultsStore
 
+    if args.minari:
+        return _export_minari(args)
+    if args.format is None:
+        raise CLIError("--format: expected csv or parquet (or --minari for Minari datasets)")
+    for flag in ("policy", "scenarios", "dataset_id", "dataset_version"):
+        if getattr(args, flag) is not None:
+            raise CLIError(
+                f"--{flag.replace('_', '-')}: selects the episodes of --minari; expected it with --minari"
+            )
     store_path = existing_store(args.store)
     out = Path(args.out) if args.out else store_path.with_suffix("")
     if args.out and (args.out.endswith(("/", "\\")) or out.is_dir()):
@@ -104,9 +152,48 @@ def _export_tracks(store, out: Path, extension: str) -> int:
     return 0
 
 
+def _export_minari(args: argparse.Namespace) -> int:
+    """``--minari``: the planned datasets, re-flown and checked, under the local root; print their ids and folders."""
+    from uav_penetration_env.benchmark.minari_export import (
+        MINARI,
+        MinariExportError,
+        plan_datasets,
+        write_datasets,
+    )
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    for flag in ("format", "tracks"):
+        if getattr(args, flag):
+            raise CLIError(f"--{flag}: writes tables; expected no --{flag} with --minari")
+    if args.dataset_id is not None and args.dataset_version is not None:
+        raise CLIError(
+            "--dataset-version: versions the default ids; expected it without --dataset-id (whose -vN is the version)"
+        )
+    MINARI.check("export --minari")  # one line naming the extra, before the store is read
+    store_path = existing_store(args.store)
+    out = Path(args.out) if args.out else store_path.with_name(f"{store_path.stem}-minari")
+    check_writable_folder(out, "--out")
+    with ResultsStore(store_path, create=False) as store:
+        try:
+            plans = plan_datasets(
+                store.episodes(),
+                policies=args.policy,
+                scenarios=args.scenarios,
+                dataset_id=args.dataset_id,
+                version=args.dataset_version or 0,
+            )
+            written = write_datasets(store, plans, out)
+        except MinariExportError as error:
+            raise CLIError(str(error)) from None
+    for plan, folder in zip(plans, written, strict=True):
+        print(f"{plan.dataset_id}: {len(plan.episodes)} episodes -> {folder}")
+    print(f"load with MINARI_DATASETS_PATH={out} and minari.load_dataset(ID)")
+    return 0
+
+
 COMMAND = Command(
     name="export",
-    help="write the store as tables (episodes, runs, window runs, steps, scenarios, policies), or the tracks (--tracks, also GeoJSON), as CSV or Parquet",
+    help="write the store as tables (episodes, runs, window runs, steps, scenarios, policies), or the tracks (--tracks, also GeoJSON), as CSV or Parquet; or its episodes as Minari datasets (--minari)",
     add_arguments=add_arguments,
     run=run,
 )
