@@ -41,7 +41,8 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
     add("--select", default=DEFAULTS.select, help="the policy is the round with the best mean validation cost on the "
         f"training scenarios (best) or the last round (last; default: {DEFAULTS.select})")
     add("--head", default=DEFAULTS.head, help="action: the network regresses the whole action; turn: it chooses one "
-        "of the lattice's five turns, flown with the lattice's speed and terrain-following pitch (docs/rl.md §4.8; "
+        "of the lattice's five turns, flown with the lattice's speed and terrain-following pitch (docs/rl.md §4.8); "
+        "turn-value: the turn head as a residual on the value-greedy rule (needs --features value; docs/rl.md §4.9; "
         f"default: {DEFAULTS.head})")
     add("--ignore", nargs="*", default=[], help="observation slots the network is blind to, e.g. position "
         "step_fraction (docs/rl.md §4.8; default: none)")

@@ -32,7 +32,7 @@ RESERVED_SEEDS: dict[str, range] = {
 DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
 LOSSES = ("mse", "mse-std")
 SELECTIONS = ("best", "last")
-HEADS = ("action", "turn")  # what the network's outputs mean (baselines.distill.heads)
+HEADS = ("action", "turn", "turn-value")  # what the network's outputs mean (baselines.distill.heads)
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,9 @@ class DistillConfig:
             or ``last`` (docs/rl.md §4.5); not part of the key, so a finished run can be re-selected.
         head: ``action`` (the network regresses the normalised action) or ``turn`` (it classifies
             the expert's turn into the lattice's five turns and flies the lattice's candidate
-            control for it; docs/rl.md §4.8).
+            control for it; docs/rl.md §4.8); ``turn-value``: the ``turn`` head whose logits add a
+            learned multiple of minus each turn's value input to the network's own, a residual on
+            the ``value-greedy`` rule (needs ``--features value``; docs/rl.md §4.9).
         ignore: observation slots the network is blind to (names of
             :data:`uav_penetration_env.observation.SLOTS`, e.g. ``position``, ``step_fraction``;
             docs/rl.md §4.8).
@@ -160,6 +162,8 @@ def _check_numbers(config: DistillConfig) -> None:
     if unknown:
         raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
     check_features(config.features)
+    if config.head == "turn-value" and "value" not in config.features:
+        raise ValueError("--head: got 'turn-value', which reads the value inputs; add --features value")
     if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
         raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
 

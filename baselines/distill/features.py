@@ -77,6 +77,22 @@ def learner_input(names: Sequence[str], model: PenetrationModel, observation: np
     return np.concatenate(parts).astype(np.float32)
 
 
+def value_prior(names: Sequence[str], inputs: np.ndarray) -> np.ndarray:
+    """(n, 5) minus each turn's value input (J one step ahead, relative to here) of (n, input_size) inputs.
+
+    The ``turn-value`` head's prior: the turn toward the lowest V ahead has the highest score,
+    the ``value-greedy`` rule's choice (docs/rl.md §4.9).
+
+    Raises:
+        ValueError: ``names`` without the ``value`` feature set.
+    """
+    if "value" not in names:
+        raise ValueError(f"features: got {list(names)!r}, expected 'value' among them for the value prior")
+    start = OBSERVATION_SIZE + sum(FEATURE_SETS[name][1] for name in names[: list(names).index("value")])
+    inputs = np.asarray(inputs, dtype=np.float64).reshape(-1, input_size(names))
+    return -inputs[:, start + 1 : start + 1 + len(VALUE_TURNS)]
+
+
 def prepare(names: Sequence[str], model: PenetrationModel) -> None:
     """Build (or load) what the feature sets read for ``model``, so the first decision is not slowed by it."""
     if "value" in names:

@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from baselines.distill.episodes import normalisers
-from baselines.distill.features import features_of, learner_input
+from baselines.distill.features import features_of, learner_input, value_prior
 from baselines.distill.network import forward, outputs
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -34,8 +35,23 @@ Learner = Callable[[PenetrationModel, np.ndarray, FloatArray], FloatArray]
 
 
 def head_of(arrays: Mapping[str, np.ndarray]) -> str:
-    """``turn`` for a network saved with its ``turns`` array, else ``action``."""
+    """``turn-value`` for a network with a value prior, ``turn`` with its ``turns`` array, else ``action``."""
+    if "prior_log_weight" in arrays:
+        return "turn-value"
     return "turn" if "turns" in arrays else "action"
+
+
+def turn_logits(arrays: Mapping[str, np.ndarray], inputs: np.ndarray) -> np.ndarray:
+    """(n, 5) a turn network's scores for (n, input) inputs: its outputs, plus the value prior for ``turn-value``.
+
+    DECISION (docs/rl.md §4.9): the ``turn-value`` head is a residual on the ``value-greedy``
+    rule: logits = MLP(x) + exp(w) * (-value input of each turn), w learned with the network, so
+    the fit starts from the rule's choice and learns where the expert departs from it.
+    """
+    logits = outputs(arrays, inputs)
+    if "prior_log_weight" in arrays:
+        logits = logits + math.exp(float(arrays["prior_log_weight"])) * value_prior(features_of(arrays), inputs)
+    return logits
 
 
 def turn_clearance(arrays: Mapping[str, np.ndarray]) -> float:
@@ -94,8 +110,8 @@ def network_action(
     neither exists here.
     """
     row = learner_input(features_of(arrays), model, observation, state).reshape(1, -1)
-    if head_of(arrays) == "turn":
-        logits = outputs(arrays, row)[0]
+    if head_of(arrays) != "action":
+        logits = turn_logits(arrays, row)[0]
         turn = float(arrays["turns"][int(np.argmax(logits))])
         return turn_action(model, np.asarray(state, dtype=np.float64), turn, turn_clearance(arrays))
     return from_unit(forward(arrays, row)[0])

@@ -20,7 +20,7 @@ import numpy as np
 
 from baselines.distill.config import DistillConfig, checked, ignored_slots
 from baselines.distill.episodes import FIELDS, fly_episode, fly_learner
-from baselines.distill.features import input_size
+from baselines.distill.features import input_size, value_prior
 from baselines.distill.files import RunFolder, load_npz, save_npz, sha256_file, write_json
 from baselines.distill.heads import TURNS, expert_clearance, learner_of, turn_classes
 from baselines.distill.network import fit, observation_scaling
@@ -139,13 +139,14 @@ def _fit_round(config: DistillConfig, folder: RunFolder, k: int, start: dict[str
     else:
         width = data["observations"].shape[1]
         scaling = observation_scaling(data["observations"], ignored_slots(config.ignore, width))
-    turn = config.head == "turn"
+    turn = config.head != "action"
     targets = turn_classes(data["actions"]) if turn else data["actions"]
+    prior = value_prior(config.features, data["observations"]) if config.head == "turn-value" else None
     tick = time.process_time()
     arrays, loss = fit(
         data["observations"], targets, start=start, scaling=scaling, hidden=config.hidden,
         epochs=config.epochs, batch_size=config.batch_size, learning_rate=config.learning_rate,
-        seed=(config.seed, k), loss=config.loss, classes=len(TURNS) if turn else 0,
+        seed=(config.seed, k), loss=config.loss, classes=len(TURNS) if turn else 0, prior=prior,
     )  # fmt: skip
     if turn:
         arrays["turns"] = np.asarray(TURNS, dtype=np.float32)

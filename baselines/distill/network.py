@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 Arrays = dict[str, np.ndarray]
+PRIOR_LOG_WEIGHT = float(np.log(10.0))  # the value prior's first weight: 1 J of V ahead is 10 logits
 
 
 def layer_count(arrays: Mapping[str, np.ndarray]) -> int:
@@ -123,6 +124,7 @@ def fit(
     seed: Sequence[int],
     loss: str = "mse",
     classes: int = 0,
+    prior: np.ndarray | None = None,
 ) -> tuple[Arrays, float]:
     """Fit the MLP to (observation, normalised expert action) pairs by MSE; returns arrays and final loss.
 
@@ -139,6 +141,9 @@ def fit(
 
     ``classes`` > 0: ``actions`` are class indices (n,) and the network's ``classes`` outputs are
     logits fitted by cross-entropy (the ``turn`` head, docs/rl.md §4.8); ``loss`` is then unused.
+    ``prior`` (n, classes), with ``classes``: a fixed score per class added to the logits with a
+    learned weight exp(w) (the ``turn-value`` head, docs/rl.md §4.9; w starts at log 10, or at
+    ``start["prior_log_weight"]``), saved as ``prior_log_weight``.
     """
     torch = _torch()
     generator = torch.Generator().manual_seed(int(np.random.SeedSequence(list(seed)).generate_state(1)[0]))
@@ -149,8 +154,14 @@ def fit(
     mean, scale = scaling
     x = torch.from_numpy(((observations - mean) / scale).astype(np.float32))
     if classes:
+        log_weight = None
+        if prior is not None:
+            initial = float(start["prior_log_weight"]) if start is not None and "prior_log_weight" in start else PRIOR_LOG_WEIGHT
+            log_weight = torch.nn.Parameter(torch.tensor(initial, dtype=torch.float32))
         return _fit_classes(torch, net, x, torch.from_numpy(np.asarray(actions, dtype=np.int64)), generator,
-                            epochs, batch_size, learning_rate, mean, scale)  # fmt: skip
+                            epochs, batch_size, learning_rate, mean, scale,
+                            None if prior is None else torch.from_numpy(np.asarray(prior, dtype=np.float32)),
+                            log_weight)  # fmt: skip
     y = torch.from_numpy(np.asarray(actions, dtype=np.float32))
     if start is not None and "action_scale" in start:
         action_scale = np.asarray(start["action_scale"], dtype=np.float32)
@@ -175,18 +186,31 @@ def fit(
 
 def _fit_classes(
     torch: Any, net: Any, x: Any, y: Any, generator: Any, epochs: int, batch_size: int, learning_rate: float,
-    mean: np.ndarray, scale: np.ndarray,
+    mean: np.ndarray, scale: np.ndarray, prior: Any = None, log_weight: Any = None,
 ) -> tuple[Arrays, float]:
-    """Cross-entropy on class indices ``y``, with the minibatches and Adam of the regression fit."""
-    optimiser = torch.optim.Adam(net.parameters(), lr=learning_rate)
+    """Cross-entropy on class indices ``y``, with the minibatches and Adam of the regression fit.
+
+    With ``prior`` (n, classes) and ``log_weight`` (a scalar parameter): logits = net(x) + exp(w) * prior.
+    """
+    parameters = [*net.parameters(), *([log_weight] if log_weight is not None else [])]
+    optimiser = torch.optim.Adam(parameters, lr=learning_rate)
     criterion = torch.nn.CrossEntropyLoss()
+
+    def logits(rows: Any) -> Any:
+        out = net(x[rows])
+        return out if prior is None else out + torch.exp(log_weight) * prior[rows]
+
+    everything = torch.arange(len(x))
     for _ in range(epochs):
         order = torch.randperm(len(x), generator=generator)
         for begin in range(0, len(x), batch_size):
             batch = order[begin : begin + batch_size]
             optimiser.zero_grad()
-            criterion(net(x[batch]), y[batch]).backward()
+            criterion(logits(batch), y[batch]).backward()
             optimiser.step()
     with torch.no_grad():
-        final = float(criterion(net(x), y))
-    return _to_arrays(net, mean, scale), final
+        final = float(criterion(logits(everything), y))
+    arrays = _to_arrays(net, mean, scale)
+    if log_weight is not None:
+        arrays["prior_log_weight"] = np.asarray(float(log_weight.detach()), dtype=np.float32)
+    return arrays, final

@@ -232,7 +232,7 @@ class ShieldedDistillPolicy(DistillPolicy):
         (``lattice-cN``) falls back to the greedy floor's rule at that same clearance, so the
         shield's steps change the route, not the height the whole flight is planned at.
         """
-        if head_of(self.arrays) == "turn" and "clearance_m" in self.arrays:
+        if head_of(self.arrays) != "action" and "clearance_m" in self.arrays:
             return turn_clearance(self.arrays)
         return GREEDY_CLEARANCE_M
 

@@ -468,3 +468,46 @@ def test_a_turn_network_flies_its_lattice_experts_clearance(tmp_path):
     _, info = env.reset(seed=0)
     low, high = (turn_action(env.model, info["state"], 0.0, c)[2] for c in (40.0, 100.0))
     assert low <= high  # a lower clearance never pitches up more
+
+
+def test_a_turn_value_network_with_no_opinion_of_its_own_flies_the_value_greedy_rule():
+    from baselines.distill.features import input_size, value_features, value_prior
+    from baselines.distill.heads import TURNS, head_of, network_action
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    width = input_size(("value",))
+    arrays = {
+        "obs_mean": np.zeros(width, np.float32),
+        "obs_scale": np.ones(width, np.float32),
+        "W0": np.zeros((len(TURNS), width), np.float32),  # the MLP says nothing: only the prior scores
+        "b0": np.zeros(len(TURNS), np.float32),
+        "turns": np.asarray(TURNS, np.float32),
+        "features": np.asarray(["value"]),
+        "prior_log_weight": np.asarray(np.log(10.0), np.float32),
+    }
+    assert head_of(arrays) == "turn-value"
+    env = UAVPenetrationEnv(tiny_scenario())
+    rule = make_policy("value-greedy")
+    observation, info = env.reset(seed=0)
+    rule.reset(env.model, 0)
+    done = False
+    while not done:
+        state = np.asarray(info["state"], dtype=np.float64)
+        row = np.concatenate([observation, value_features(env.model, state)]).astype(np.float32)
+        np.testing.assert_array_equal(value_prior(("value",), row)[0], -row[OBSERVATION_SIZE + 1 :].astype(np.float64))
+        action = network_action(arrays, env.model, observation, state, None)
+        np.testing.assert_array_equal(action, rule.act(observation, info))
+        observation, _, terminated, truncated, info = env.step(action)
+        done = terminated or truncated
+    assert info["reached_goal"]
+
+
+def test_the_turn_value_head_learns_its_prior_weight_and_needs_the_value_inputs(tmp_path):
+    config = tiny_config(tmp_path / "tv", expert=TurnExpert(), head="turn-value", features=("value",), rounds=1, epochs=20)
+    result = run_distill(config)
+    arrays = load_npz(result.folder.policy)
+    assert arrays["prior_log_weight"].shape == () and np.isfinite(arrays["prior_log_weight"])
+    assert float(arrays["prior_log_weight"]) != pytest.approx(np.log(10.0), abs=1e-6)  # Adam moved it
+    assert make_policy(f"distill:{result.folder.out}").config()["head"] == "turn-value"
+    with pytest.raises(ValueError, match=r"^--head: got 'turn-value', which reads the value inputs; add --features value"):
+        run_distill(tiny_config(tmp_path / "never", head="turn-value"))

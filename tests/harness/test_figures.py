@@ -281,6 +281,11 @@ def test_families_group_the_policy_names():
     assert figures.policy_family("cmaes") == "reference optimisers (MPC)"
     assert figures.policy_family("random") == "floors"
     assert figures.policy_family("sb3:ppo-paper") == "RL agents"
+    assert figures.policy_family("distill-shield:c40-value-s0") == "imitation (distilled)"
+    assert figures.policy_family("distill:turn-s0") == "imitation (distilled)"
+    for classical in ("lattice", "lattice-c40", "value-greedy", "value-greedy-c40"):
+        assert figures.policy_family(classical) == "classical planners"
+    assert figures.policy_family("lattice-cx") == "reference optimisers (MPC)"  # not a clearance variant
 
 
 def test_every_policy_has_a_unique_colour_and_line_style_and_legends_lie_outside(many_store):

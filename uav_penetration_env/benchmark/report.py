@@ -668,14 +668,16 @@ def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, t
     return figure
 
 
-# plotly's 3-D lines know six dash names only: one per family (the second style of a large family
-# is drawn long-dashed).
+# plotly's 3-D lines know six dash names (and dash lists): one per family (the second style of a
+# large family is drawn long-dashed).
 _PLOTLY_DASH = {
     "paper planners (MPC)": "solid",
     "reference optimisers (MPC)": "dash",
     "IHPSO ablations (MPC)": "dashdot",
     "floors": "dot",
+    "classical planners": "longdash",
     "RL agents": "longdashdot",
+    "imitation (distilled)": "2px,4px,8px,4px",  # plotly takes a dash list beyond its six names
 }
 
 

@@ -91,7 +91,9 @@ FAMILY_LINESTYLES: dict[str, tuple[Any, ...]] = {
     "reference optimisers (MPC)": ((0, (5, 2)), (0, (2, 1, 2, 4))),
     "IHPSO ablations (MPC)": ((0, (3, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2, 1, 2, 1, 2, 1, 2))),
     "floors": ((0, (1, 1.5)), (0, (1, 4))),
+    "classical planners": ((0, (10, 3)), (0, (4, 1, 1, 1))),
     "RL agents": ((0, (6, 2, 1.5, 2)), (0, (12, 2, 1.5, 2))),
+    "imitation (distilled)": ((0, (2, 2, 6, 2)), (0, (1, 2, 1, 2, 6, 2))),
 }
 
 
