@@ -58,9 +58,9 @@ class NormalisedActions(gym.ActionWrapper, gym.utils.RecordConstructorArgs):
         ones = np.ones(box.shape, dtype=box.dtype)
         policy_space, _, self._to_physical = rescale_box(box, -ones, ones)
         self.action_space = policy_space
+        self._dtype = box.dtype
 
     def action(self, action: Any) -> np.ndarray:
         """Map a ``(3,)`` action in [-1, 1] (clipped there first) to the physical box."""
-        box = self.action_space
-        clipped = np.clip(np.asarray(action, dtype=box.dtype), box.low, box.high)
+        clipped = np.clip(np.asarray(action, dtype=self._dtype), -1.0, 1.0)
         return np.asarray(self._to_physical(clipped))
