@@ -323,6 +323,9 @@ def _load_without_sidecar(files: ModelFiles, statistics_option: str | None) -> S
         files = dataclasses.replace(files, vecnormalize=statistics)
     trained_on = f"an rl_zoo3 run on {env_id}" if env_id is not None else "an unknown env"
     seen = f"observation statistics {statistics}" if statistics is not None else "raw observations"
+    if statistics_option is None and env_id is not None and files.model.stem != env_id:
+        # rl_zoo3 rewrites ENV/vecnormalize.pkl at the end of training (docs/rl.md §5.3).
+        seen += f" (the zoo's statistics at the end of training, those of {env_id}.zip)"
     warnings.warn(
         f"{files.model}: no sidecar {files.sidecar.name}; scored as a {header.algorithm} model from "
         f"{trained_on} with {seen}; unchecked: its physics profile, physical action bounds, training "
