@@ -1,8 +1,8 @@
 """rl-baselines3-zoo interop: the action wrapper its hyper-parameter files name (docs/rl.md §5).
 
-``baselines/hyperparams/zoo/ppo.yml`` and ``sac.yml`` are hyper-parameter files in
+``baselines/hyperparams/zoo/ppo.yml``, ``sac.yml`` and ``td3.yml`` are hyper-parameter files in
 rl-baselines3-zoo's format, keyed by the four env ids, with the settings of the project's own
-``ppo.yaml`` and ``sac.yaml``. They name :class:`NormalisedActions` as ``env_wrapper``, so
+``ppo.yaml``, ``sac.yaml`` and ``td3.yaml``. They name :class:`NormalisedActions` as ``env_wrapper``, so
 ``python -m rl_zoo3.train --algo ppo --env UAVPenetration-v0 --gym-packages uav_penetration_env
 --conf-file baselines/hyperparams/zoo/ppo.yml`` trains in the action space the project's agents
 use. The zoo saves the model as ``LOG/ALGO/ENV_1/ENV.zip`` and the observation statistics as

@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
@@ -17,6 +18,7 @@ from conftest import RL_EXTRA, tiny_scenario
 pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
 
 from sb3_helpers import baselines_plugins  # noqa: F401 (a fixture)
+from stable_baselines3.common.noise import ActionNoise
 
 from baselines import load_policy
 from baselines.hyperparameters import algorithm_kwargs, normalize_kwargs, resolve_hyperparams
@@ -42,12 +44,26 @@ def zoo_reading(algo: str, env_id: str, log_folder: Path):
         config=str(ZOO_HYPERPARAMS_DIR / f"{algo}.yml"),
         verbose=0,
     )
-    hyperparams, _ = manager.read_hyperparameters()
+    hyperparams, saved = manager.read_hyperparameters()
     processed, env_wrapper, _, vec_env_wrapper = manager._preprocess_hyperparams(hyperparams)
+    # The exploration noise is built from the training env's action space, here the wrapped box.
+    box = SimpleNamespace(action_space=gym.spaces.Box(-1.0, 1.0, (3,), np.float32))
+    processed = manager._preprocess_action_noise(processed, saved, box)
     return manager, processed, env_wrapper, vec_env_wrapper
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def same_value(got, expected) -> bool:
+    """A zoo value equals the project's: schedules by their value, noise objects by their mean and std."""
+    if isinstance(expected, ActionNoise):
+        return type(got) is type(expected) and all(
+            np.array_equal(getattr(got, name), getattr(expected, name)) for name in ("_mu", "_sigma")
+        )
+    if callable(got) and not isinstance(expected, type) and not callable(expected):
+        return got(1.0) == expected and got(0.0) == expected  # a constant schedule of the progress
+    return got == expected
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
 def test_the_zoo_reads_the_shipped_file_as_the_projects_hyperparameters(algo, tmp_path):
     params, _ = resolve_hyperparams(algo)
     expected = algorithm_kwargs(params, action_dim=3)
@@ -57,10 +73,8 @@ def test_the_zoo_reads_the_shipped_file_as_the_projects_hyperparameters(algo, tm
         assert processed.pop("policy") == params["policy"]
         assert set(processed) == set(expected), env_id
         for key, value in expected.items():
-            got = processed[key]
             # The zoo turns constant learning rates and clip ranges into schedules of the progress.
-            got = got(1.0) if callable(got) and not isinstance(value, type) else got
-            assert got == value, (env_id, key)
+            assert same_value(processed[key], value), (env_id, key, processed[key], value)
         # VecNormalize: the project's keywords; the zoo adds gamma, which only reward normalisation reads.
         assert manager.normalize is True
         zoo_normalize = dict(manager.normalize_kwargs)
