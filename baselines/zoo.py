@@ -4,7 +4,7 @@
 rl-baselines3-zoo's format, keyed by the four env ids, with the settings of the project's own
 ``ppo.yaml``, ``sac.yaml`` and ``td3.yaml``. They name :class:`NormalisedActions` as ``env_wrapper``, so
 ``python -m rl_zoo3.train --algo ppo --env UAVPenetration-v0 --gym-packages uav_penetration_env
---conf-file baselines/hyperparams/zoo/ppo.yml`` trains in the action space the project's agents
+--conf-file baselines/hyperparams/zoo/ppo.yml --num-threads 1`` trains in the action space the project's agents
 use. The zoo saves the model as ``LOG/ALGO/ENV_1/ENV.zip`` and the observation statistics as
 ``LOG/ALGO/ENV_1/ENV/vecnormalize.pkl``; ``uav-bench run --policies sb3:LOG/ALGO/ENV_1/ENV.zip``
 finds them there (:func:`baselines.policy.load_policy`).

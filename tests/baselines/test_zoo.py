@@ -224,6 +224,7 @@ def test_rl_zoo3_trains_on_the_shipped_file_and_uav_bench_scores_the_model(tmp_p
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "UAVPenetration-v0",
         "--gym-packages", "uav_penetration_env", "--conf-file", str(ZOO_HYPERPARAMS_DIR / "ppo.yml"),
         "-n", "256", "--seed", "0", "-f", str(tmp_path / "logs"), "--eval-freq", "128", "--eval-episodes", "2",
+        "--num-threads", "1",
         "--hyperparams", "n_envs:2", "n_steps:64", "batch_size:64", "n_epochs:2",
         "--env-kwargs", f"scenario:{str(scenario)!r}",
     ]  # fmt: skip
