@@ -80,7 +80,7 @@ def split_spec(argument: str) -> tuple[str, str | None]:
     key, equals, value = option.partition("=")
     if key != STATISTICS_OPTION or not equals or not value:
         raise ValueError(
-            f"sb3:{argument}: the option after '?' must be {STATISTICS_OPTION}=PATH.pkl or "
+            f"{path}: the option after '?' must be {STATISTICS_OPTION}=PATH.pkl or "
             f"{STATISTICS_OPTION}={NO_STATISTICS}, got {option!r}"
         )
     return path, value

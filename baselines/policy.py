@@ -299,7 +299,7 @@ def load_policy(path: str | Path) -> SB3Policy:
         return _load_without_sidecar(files, statistics_option)
     if statistics_option is not None:
         raise ValueError(
-            f"sb3:{path}: ?{STATISTICS_OPTION}= is for models without a sidecar; {files.sidecar} names "
+            f"{files.model}: ?{STATISTICS_OPTION}= is for models without a sidecar; {files.sidecar} names "
             "this model's observation statistics"
         )
     sidecar = read_sidecar(files.sidecar)
