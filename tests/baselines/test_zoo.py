@@ -183,12 +183,14 @@ def test_the_statistics_option_names_the_file_or_none(foreign_ppo, tmp_path):
     assert named.config()["vecnormalize_sha256"] == sha256(statistics)
     assert raw.config()["vecnormalize_sha256"] is None and policy_hash(raw) != policy_hash(named)
     assert sb3_label(f"{elsewhere}?vecnormalize=none") == "sb3:agent"
-    with pytest.raises(ValueError, match=r"the option after '\?' must be vecnormalize=PATH\.pkl or vecnormalize=none, got 'stats=x'"):  # fmt: skip
+    with pytest.raises(ValueError, match=r"agent\.zip: the option after '\?' must be vecnormalize=PATH\.pkl or vecnormalize=none, got 'stats=x'"):  # fmt: skip
         load_policy(f"{elsewhere}?stats=x")
     with pytest.raises(FileNotFoundError, match=r"nope\.pkl: no such observation statistics file"):
         load_policy(f"{elsewhere}?vecnormalize={tmp_path / 'nope.pkl'}")
     (tmp_path / "agent.json").write_text("{}")  # a sidecar names its own statistics
-    with pytest.raises(ValueError, match=r"\?vecnormalize= is for models without a sidecar"):
+    with pytest.raises(
+        ValueError, match=r"agent\.zip: \?vecnormalize= is for models without a sidecar; .*agent\.json names"
+    ):
         load_policy(f"{elsewhere}?vecnormalize=none")
 
 
