@@ -31,14 +31,14 @@ NO_STATISTICS = "none"
 ZOO_STATISTICS = (
     "vecnormalize.pkl"  # rl_zoo3: LOG/ALGO/ENV_1/ENV/vecnormalize.pkl beside LOG/ALGO/ENV_1/ENV.zip
 )
-# The Stable-Baselines3 modules of the policy classes, and the algorithms they belong to.
+# The Stable-Baselines3 modules of the policy classes, and the family of algorithms sharing them.
 _POLICY_MODULES = {
-    "stable_baselines3.common.policies": ("ppo", "a2c"),
-    "stable_baselines3.ppo.policies": ("ppo", "a2c"),
-    "stable_baselines3.a2c.policies": ("ppo", "a2c"),
-    "stable_baselines3.sac.policies": ("sac",),
-    "stable_baselines3.td3.policies": ("td3", "ddpg"),
-    "stable_baselines3.ddpg.policies": ("td3", "ddpg"),
+    "stable_baselines3.common.policies": "ppo/a2c",
+    "stable_baselines3.ppo.policies": "ppo/a2c",
+    "stable_baselines3.a2c.policies": "ppo/a2c",
+    "stable_baselines3.sac.policies": "sac",
+    "stable_baselines3.td3.policies": "td3/ddpg",
+    "stable_baselines3.ddpg.policies": "td3/ddpg",
 }
 
 
@@ -90,7 +90,7 @@ def read_model_header(path: Path) -> ModelHeader:
     """The algorithm, spaces and timesteps recorded in a Stable-Baselines3 ``.zip`` (no torch).
 
     PPO and A2C share their policy class; PPO's data has ``clip_range``. TD3 and DDPG share theirs;
-    DDPG is TD3 with ``policy_delay`` 1 and no target-policy noise.
+    DDPG is TD3 with ``policy_delay`` 1 and ``target_noise_clip`` 0 (no target-policy smoothing).
 
     Raises:
         ValueError: not a Stable-Baselines3 zip, or a policy of an algorithm outside
@@ -115,19 +115,19 @@ def read_model_header(path: Path) -> ModelHeader:
             f"{path}: not a Stable-Baselines3 model (its 'data' entry with the policy class and spaces "
             f"could not be read: {type(error).__name__}: {error})"
         ) from None
-    candidates = _POLICY_MODULES.get(module)
-    if candidates is None:
+    family = _POLICY_MODULES.get(module)
+    if family is None:
         raise ValueError(
             f"{path}: its policy class comes from {module!r}; sb3: scores models of "
             f"stable_baselines3's PPO, A2C, SAC, TD3 and DDPG"
         )
-    if candidates[0] == "ppo":
+    if family == "ppo/a2c":
         algorithm = "ppo" if "clip_range" in data else "a2c"
-    elif candidates[0] == "td3":
-        ddpg = data.get("policy_delay") == 1 and data.get("target_policy_noise") == 0
+    elif family == "td3/ddpg":
+        ddpg = data.get("policy_delay") == 1 and data.get("target_noise_clip") == 0
         algorithm = "ddpg" if ddpg else "td3"
     else:
-        algorithm = candidates[0]
+        algorithm = family
     return ModelHeader(algorithm, observation_space, action_space, int(data.get("num_timesteps", 0)))
 
 

@@ -247,3 +247,18 @@ def test_rl_zoo3_trains_on_the_shipped_file_and_uav_bench_scores_the_model(tmp_p
     agent = rows[rows["policy"] == "sb3:UAVPenetration-v0"]
     assert len(agent) == 2 and (agent["error"] == "").all()
     assert (agent["train_timesteps"] == 256).all()
+
+
+@pytest.mark.parametrize("name", ["PPO", "A2C", "SAC", "TD3", "DDPG"])
+def test_the_algorithm_is_read_from_the_zip(name, tmp_path):
+    import stable_baselines3
+
+    from baselines.foreign import read_model_header
+
+    cls = getattr(stable_baselines3, name)
+    off_policy = {"buffer_size": 100, "learning_starts": 10} if name in ("SAC", "TD3", "DDPG") else {}
+    env = NormalisedActions(UAVPenetrationEnv(scenario=tiny_scenario()))
+    cls("MlpPolicy", env, device="cpu", **off_policy).save(tmp_path / "model.zip")
+    header = read_model_header(tmp_path / "model.zip")
+    assert header.algorithm == name.lower() and header.num_timesteps == 0
+    assert header.action_space == env.action_space and header.observation_space == env.observation_space
