@@ -1,6 +1,7 @@
 """What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
 
-- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` and
+- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` (a model
+  without a sidecar, e.g. rl-baselines3-zoo's, takes ``?vecnormalize=STATS.pkl``, docs/rl.md §5) and
   the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
   ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill:RUN_FOLDER`` (a planner imitated by
   an MLP, :mod:`baselines.distill`); ``distill-safe`` -> :data:`SAFE_DISTILL_POLICY_KIND`, the same
@@ -38,9 +39,18 @@ def later(module: str, name: str) -> Callable[..., Any]:
     return call
 
 
-add_train_arguments, train_command = later("baselines.cli", "add_train_arguments"), later("baselines.cli", "train_command")
-add_curve_arguments, curves_command = later("baselines.curves", "add_curve_arguments"), later("baselines.curves", "curves_command")
-add_tune_arguments, tune_command = later("baselines.tune", "add_tune_arguments"), later("baselines.tune", "tune_command")
+add_train_arguments, train_command = (
+    later("baselines.cli", "add_train_arguments"),
+    later("baselines.cli", "train_command"),
+)
+add_curve_arguments, curves_command = (
+    later("baselines.curves", "add_curve_arguments"),
+    later("baselines.curves", "curves_command"),
+)
+add_tune_arguments, tune_command = (
+    later("baselines.tune", "add_tune_arguments"),
+    later("baselines.tune", "tune_command"),
+)
 load_hybrid = later("baselines.hybrid", "load_hybrid")
 load_policy, sb3_label = later("baselines.policy", "load_policy"), later("baselines.policy", "sb3_label")
 add_distill_arguments = later("baselines.distill.cli", "add_distill_arguments")
@@ -59,7 +69,12 @@ RL_EXTRA = Needs(
 
 
 SB3_POLICY_KIND = PolicyKind(
-    prefix="sb3", load=load_policy, usage="sb3:PATH.zip", label=sb3_label, needs=RL_EXTRA, hybrid=load_hybrid
+    prefix="sb3",
+    load=load_policy,
+    usage="sb3:PATH.zip[?vecnormalize=STATS.pkl]",
+    label=sb3_label,
+    needs=RL_EXTRA,
+    hybrid=load_hybrid,
 )
 # A distilled network flies with NumPy alone (docs/rl.md §4): loading it needs no extra.
 DISTILL_POLICY_KIND = PolicyKind(
@@ -67,7 +82,10 @@ DISTILL_POLICY_KIND = PolicyKind(
 )
 # The same network behind the safety layer that limits its pitch toward the terrain (docs/rl.md §4.7).
 SAFE_DISTILL_POLICY_KIND = PolicyKind(
-    prefix="distill-safe", load=load_safe_distill_policy, usage="distill-safe:RUN_FOLDER", label=safe_distill_label
+    prefix="distill-safe",
+    load=load_safe_distill_policy,
+    usage="distill-safe:RUN_FOLDER",
+    label=safe_distill_label,
 )
 # The same network behind a verified fallback to the greedy floor (docs/rl.md §4.8).
 SHIELDED_DISTILL_POLICY_KIND = PolicyKind(

@@ -1,7 +1,10 @@
 """A trained SB3 agent as a harness Policy (``reset(model, seed)``, ``act(observation, info)``; api.md).
 
 ``load_policy("leaderboards/rl/models/ppo-paper-zoo-s0.zip")`` reads the model's sidecar and hashes its
-files, but loads nothing heavy: the evaluator pickles policies into worker processes, so the SB3
+files; a model trained outside the project has no sidecar, and what its ``.zip`` records is read
+instead, with its observation statistics from ``?vecnormalize=PATH`` or where the project and
+rl-baselines3-zoo save them (:mod:`baselines.foreign`, docs/rl.md §5.2). Either way nothing heavy
+is loaded: the evaluator pickles policies into worker processes, so the SB3
 model (and torch) are loaded lazily in the process that acts, once per process and model file.
 Loading runs pickle-based code from the model and statistics files (SB3's and VecNormalize's
 formats): load only models you trust.
@@ -9,17 +12,34 @@ formats): load only models you trust.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import pickle
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from gymnasium.wrappers.utils import rescale_box
 
-from baselines.artifacts import ModelFiles, read_sidecar, sha256_file, verify_artifacts
+from baselines.artifacts import (
+    ModelFiles,
+    UnverifiedArtifactWarning,
+    read_sidecar,
+    sha256_file,
+    verify_artifacts,
+)
+from baselines.foreign import (
+    STATISTICS_OPTION,
+    ModelHeader,
+    check_spaces,
+    find_statistics,
+    read_model_header,
+    split_spec,
+    zoo_env_id,
+)
 from baselines.install import RL_INSTALL
-from uav_penetration_env.env import action_space
+from uav_penetration_env.env import action_space, observation_space
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
 
@@ -38,32 +58,44 @@ class SB3Policy:
     loaded on first use in each process (with torch on one thread there).
 
     Args:
-        files: the model's files.
-        sidecar: its parsed ``.json`` sidecar.
+        files: the model's files (``files.vecnormalize``: its observation statistics, wherever they are).
+        sidecar: its parsed ``.json`` sidecar; ``None`` for a model trained outside the project.
         model_sha256: SHA-256 of the ``.zip`` bytes.
         vecnormalize_sha256: SHA-256 of the ``.vecnormalize.pkl`` bytes (``None``: not normalised).
-        sidecar_sha256: SHA-256 of the ``.json`` bytes.
+        sidecar_sha256: SHA-256 of the ``.json`` bytes (``None`` without a sidecar).
+        header: what the ``.zip`` records (:func:`baselines.foreign.read_model_header`); required
+            without a sidecar, where it gives the algorithm and timesteps.
     """
 
     def __init__(
         self,
         files: ModelFiles,
-        sidecar: dict[str, Any],
+        sidecar: dict[str, Any] | None,
         model_sha256: str,
         vecnormalize_sha256: str | None,
-        sidecar_sha256: str,
+        sidecar_sha256: str | None,
+        header: ModelHeader | None = None,
     ) -> None:
+        if sidecar is not None:
+            algorithm, timesteps = str(sidecar["algorithm"]), int(sidecar["timesteps_done"])
+        elif header is not None:
+            algorithm, timesteps = header.algorithm, header.num_timesteps
+        else:
+            raise ValueError("SB3Policy: a model without a sidecar needs its header (read_model_header)")
         self.files = files
         self.sidecar = sidecar
         self.model_sha256 = model_sha256
         self.vecnormalize_sha256 = vecnormalize_sha256
         self.sidecar_sha256 = sidecar_sha256
+        self.header = header
+        self.algorithm = algorithm
+        self.train_timesteps = timesteps
         self._agent: Any = None
         self._normalizer: Any = None
         self._to_physical: Any = None
 
     def __repr__(self) -> str:
-        return f"SB3Policy({str(self.files.model)!r}, algorithm={self.sidecar['algorithm']!r})"
+        return f"SB3Policy({str(self.files.model)!r}, algorithm={self.algorithm!r})"
 
     def __getstate__(self) -> dict[str, Any]:
         # Torch modules stay out of the pickle: workers load the model themselves (and cache it).
@@ -77,10 +109,12 @@ class SB3Policy:
         """Everything that determines behaviour (the store key): file hashes, not paths.
 
         A retrained model has new bytes, hence a new key; a moved or renamed file keeps its key.
+        A model without a sidecar has ``sidecar_sha256`` ``None``; its key is the hashes of the
+        ``.zip`` and of the statistics it was given.
         """
         return {
             "kind": "sb3",
-            "algorithm": self.sidecar["algorithm"],
+            "algorithm": self.algorithm,
             "deterministic": True,
             "model_sha256": self.model_sha256,
             "vecnormalize_sha256": self.vecnormalize_sha256,
@@ -89,9 +123,14 @@ class SB3Policy:
 
     @property
     def metadata(self) -> dict[str, Any]:
-        """Training budget copied into every episode row (``train_timesteps``, ``train_seconds``)."""
+        """Training budget copied into every episode row (``train_timesteps``, ``train_seconds``).
+
+        Without a sidecar only ``train_timesteps`` is known (the ``.zip``'s ``num_timesteps``).
+        """
+        if self.sidecar is None:
+            return {"train_timesteps": self.train_timesteps}
         return {
-            "train_timesteps": int(self.sidecar["timesteps_done"]),
+            "train_timesteps": self.train_timesteps,
             "train_seconds": float(self.sidecar["wall_seconds"]),
         }
 
@@ -130,8 +169,14 @@ class SB3Policy:
     # --- checks and loading -------------------------------------------------------------------------
 
     def check_compatible(self, model: PenetrationModel) -> None:
-        """Raise ``ValueError`` naming every difference between the sidecar and ``model``'s env."""
+        """Raise ``ValueError`` naming every difference between the sidecar and ``model``'s env.
+
+        Without a sidecar only the spaces were checked (by :func:`load_policy`); nothing here
+        depends on the env then.
+        """
         sidecar, path = self.sidecar, self.files.sidecar
+        if sidecar is None:
+            return
         problems = []
         shape = tuple(sidecar["observation_space"]["shape"])
         if shape != (OBSERVATION_SIZE,):
@@ -178,7 +223,7 @@ class SB3Policy:
         # from more.
         torch.set_num_threads(1)
         data = _read_verified(self.files.model, self.model_sha256)
-        agent = algorithm_class(self.sidecar["algorithm"]).load(
+        agent = algorithm_class(self.algorithm).load(
             io.BytesIO(data), device="cpu", custom_objects=_INFERENCE_OBJECTS
         )
         normalizer = None
@@ -202,29 +247,61 @@ def _read_verified(path: Path, sha256: str) -> bytes:
 
 
 def sb3_label(path: str | Path) -> str:
-    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
-    return f"sb3:{Path(path).stem}"
+    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``).
+
+    An option (``?vecnormalize=...``) is not part of the name.
+    """
+    return f"sb3:{Path(split_spec(str(path))[0]).stem}"
+
+
+class NoSidecarWarning(UnverifiedArtifactWarning):
+    """A model without a ``.json`` sidecar is scored: the checks the sidecar allows could not run."""
 
 
 def load_policy(path: str | Path) -> SB3Policy:
     """A harness Policy for the model saved at ``path`` (``.zip``; the suffix may be omitted).
 
+    ``path`` may end in ``?vecnormalize=STATS.pkl`` or ``?vecnormalize=none``, for a model without
+    a sidecar (``sb3:logs/ppo/UAVPenetration-v0_1/best_model.zip?vecnormalize=...``).
+
+    DECISION (docs/rl.md §5.2, models without a sidecar): a ``.zip`` with no ``.json`` beside it
+    (saved by SB3 itself or by rl-baselines3-zoo) is scored, with a :class:`NoSidecarWarning`,
+    rather than refused: the algorithm, the spaces and the timesteps come from the ``.zip``, the
+    observation statistics from the option or the project's and the zoo's file names
+    (:func:`baselines.foreign.find_statistics`), and the spaces must be the env's observation box
+    and ``Box(-1, 1, (3,))`` (refused in one line otherwise). What only a sidecar records cannot be
+    checked: the physics profile, the physical action bounds, the training scenarios and
+    hyper-parameters, and the hashes of the files as they were at training. The store key is the
+    SHA-256 of the ``.zip`` and of the statistics, so it is as stable as a sidecar model's.
+
     Raises:
-        FileNotFoundError: no model file, no sidecar, or no observation statistics though the
-            sidecar says the model uses them (each naming the path).
+        FileNotFoundError: no model file; a sidecar that says the model uses observation
+            statistics that are not there; without a sidecar, no statistics found (each naming
+            the path).
         ValueError: a corrupt sidecar; a model file, observation statistics or hyper-parameters
-            whose SHA-256 differs from the one the sidecar records (naming the file); or a sidecar
-            for another observation shape.
+            whose SHA-256 differs from the one the sidecar records (naming the file); a sidecar
+            for another observation shape; ``?vecnormalize=`` given to a model with a sidecar; a
+            ``.zip`` without a sidecar that is not an SB3 model of a known algorithm, or whose
+            spaces are not the env's.
 
     Warns:
         UnverifiedArtifactWarning: a sidecar written before it recorded every file's hash
             (why: :func:`baselines.artifacts.verify_artifacts`, api.md §5).
+        NoSidecarWarning: a model without a sidecar (one line naming what could not be checked).
 
     The ``.zip`` and ``.vecnormalize.pkl`` are pickles: load models from trusted sources only.
     """
-    files = ModelFiles.of(path)
+    model_path, statistics_option = split_spec(str(path))
+    files = ModelFiles.of(model_path)
     if not files.model.is_file():
         raise FileNotFoundError(f"{files.model}: no such SB3 model file")
+    if not files.sidecar.exists():
+        return _load_without_sidecar(files, statistics_option)
+    if statistics_option is not None:
+        raise ValueError(
+            f"{files.model}: ?{STATISTICS_OPTION}= is for models without a sidecar; {files.sidecar} names "
+            "this model's observation statistics"
+        )
     sidecar = read_sidecar(files.sidecar)
     model_sha256, vecnormalize_sha256 = verify_artifacts(files, sidecar)
     shape = tuple(sidecar["observation_space"].get("shape", ()))
@@ -234,3 +311,33 @@ def load_policy(path: str | Path) -> SB3Policy:
             f"this env's are ({OBSERVATION_SIZE},)"
         )
     return SB3Policy(files, sidecar, model_sha256, vecnormalize_sha256, sha256_file(files.sidecar))
+
+
+def _load_without_sidecar(files: ModelFiles, statistics_option: str | None) -> SB3Policy:
+    """A model trained outside the project: header, spaces and statistics (:func:`load_policy`)."""
+    header = read_model_header(files.model)
+    check_spaces(files.model, header, observation_space())
+    statistics = find_statistics(files, statistics_option)
+    env_id = zoo_env_id(files)
+    if statistics is not None:
+        files = dataclasses.replace(files, vecnormalize=statistics)
+    trained_on = f"an rl_zoo3 run on {env_id}" if env_id is not None else "an unknown env"
+    seen = f"observation statistics {statistics}" if statistics is not None else "raw observations"
+    if statistics_option is None and env_id is not None and files.model.stem != env_id:
+        # rl_zoo3 rewrites ENV/vecnormalize.pkl at the end of training (docs/rl.md §5.3).
+        seen += f" (the zoo's statistics at the end of training, those of {env_id}.zip)"
+    warnings.warn(
+        f"{files.model}: no sidecar {files.sidecar.name}; scored as a {header.algorithm} model from "
+        f"{trained_on} with {seen}; unchecked: its physics profile, physical action bounds, training "
+        "scenarios and hyper-parameters",
+        NoSidecarWarning,
+        stacklevel=3,
+    )
+    return SB3Policy(
+        files,
+        None,
+        sha256_file(files.model),
+        sha256_file(statistics) if statistics is not None else None,
+        None,
+        header=header,
+    )

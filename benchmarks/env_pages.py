@@ -2,7 +2,8 @@
 
 Each registered id's page opens with a block this script writes between two markers: a frame of
 the env, then its specification (entry points, registered keyword arguments, ``max_episode_steps``,
-the observation and action spaces as the env builds them, the reward and the episode end as the env
+the observation and action spaces as the env builds them, the normalised action space agents
+train in (``baselines.zoo.NormalisedActions``), the reward and the episode end as the env
 class's docstring states them, the render modes and the constructor's arguments with their
 defaults and meanings). The prose around the block is written by hand; the block follows the code,
 so a changed docstring, space or registration shows up as a stale page.
@@ -101,10 +102,13 @@ def spec_block(env_id: str) -> str:
     module, _, name = spec.entry_point.partition(":")
     cls = getattr(__import__(module, fromlist=[name]), name)
     summary, body, labelled, args = docstring_parts(cls)
+    from baselines.zoo import NormalisedActions  # gymnasium and numpy only: no extra needed
+
     env = gym.make(env_id)
     try:
         observation_space = env.unwrapped.observation_space
         action_space = env.unwrapped.action_space
+        normalised_space = NormalisedActions(env).action_space
     finally:
         env.close()
     kwargs = ", ".join(f"{k}={v!r}" for k, v in spec.kwargs.items())
@@ -119,6 +123,14 @@ def spec_block(env_id: str) -> str:
         ("max_episode_steps", code(spec.max_episode_steps)),
         ("observation space", f"{code(observation_space)}: {labelled.get('Observation', '')}"),
         ("action space", f"{code(action_space)}: {labelled.get('Action', '')}"),
+        (
+            "normalised actions",
+            f"`baselines.zoo.NormalisedActions(env)` gives {code(normalised_space)}: an action is clipped to "
+            "[-1, 1] and mapped affinely onto the action space above, as "
+            "`gymnasium.wrappers.RescaleAction(env, -1, 1)` maps it. Agents act in this space: "
+            "`uav-bench train` (its SB3 adapter maps the same way) and rl-baselines3-zoo with the files "
+            "`baselines/hyperparams/zoo/*.yml`, which name it as `env_wrapper` ([rl.md](../rl.md) §5)",
+        ),
         ("reward", labelled.get("Reward", "")),
         ("episode end", labelled.get("Episode end", "")),
         ("render modes", f"{modes} at {cls.metadata['render_fps']} fps"),
@@ -186,9 +198,13 @@ def frame_png(env_id: str) -> bytes:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python benchmarks/env_pages.py", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python benchmarks/env_pages.py", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("--docs", type=Path, default=ROOT / "docs", help="the docs folder")
-    parser.add_argument("--check", action="store_true", help="compare instead of writing; exit 1 on a difference")
+    parser.add_argument(
+        "--check", action="store_true", help="compare instead of writing; exit 1 on a difference"
+    )
     parser.add_argument("--ids", nargs="+", help="only these ids (default: every registered id)")
     args = parser.parse_args(argv)
     from uav_penetration_env import ENV_IDS

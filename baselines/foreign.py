@@ -1,0 +1,225 @@
+"""A model trained outside the project (no ``.json`` sidecar): what its files say (docs/rl.md §5.2).
+
+A ``.zip`` saved by Stable-Baselines3 itself (``model.save``), by rl-baselines3-zoo or by any
+other tool has no sidecar, so :func:`baselines.policy.load_policy` reads what can be read from
+the files: the algorithm, the observation and action spaces and the timesteps trained come from
+the ``data`` JSON inside the ``.zip`` (:func:`read_model_header`); the observation statistics
+from the ``?vecnormalize=`` option or the places the project and the zoo save them
+(:func:`find_statistics`); the env id from the zoo's log layout. No torch here: the evaluator's
+parent process reads headers without it (the spaces are unpickled with gymnasium alone).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import pickle
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from baselines.artifacts import ModelFiles
+from uav_penetration_env import ENV_IDS
+
+STATISTICS_OPTION = "vecnormalize"
+# ``?vecnormalize=none``: the model was trained on raw observations.
+NO_STATISTICS = "none"
+ZOO_STATISTICS = (
+    "vecnormalize.pkl"  # rl_zoo3: LOG/ALGO/ENV_1/ENV/vecnormalize.pkl beside LOG/ALGO/ENV_1/ENV.zip
+)
+# The Stable-Baselines3 modules of the policy classes, and the family of algorithms sharing them.
+_POLICY_MODULES = {
+    "stable_baselines3.common.policies": "ppo/a2c",
+    "stable_baselines3.ppo.policies": "ppo/a2c",
+    "stable_baselines3.a2c.policies": "ppo/a2c",
+    "stable_baselines3.sac.policies": "sac",
+    "stable_baselines3.td3.policies": "td3/ddpg",
+    "stable_baselines3.ddpg.policies": "td3/ddpg",
+}
+
+
+@dataclass(frozen=True)
+class ModelHeader:
+    """What a Stable-Baselines3 ``.zip`` records about itself (its ``data`` JSON).
+
+    Attributes:
+        algorithm: ``ppo``, ``a2c``, ``sac``, ``td3`` or ``ddpg`` (keys of
+            :data:`baselines.hyperparameters.KNOWN_ALGORITHMS`).
+        observation_space: the space the policy was trained on.
+        action_space: the space the policy acts in.
+        num_timesteps: environment steps trained.
+    """
+
+    algorithm: str
+    observation_space: spaces.Space[Any]
+    action_space: spaces.Space[Any]
+    num_timesteps: int
+
+
+def split_spec(argument: str) -> tuple[str, str | None]:
+    """``PATH.zip`` and the value of ``?vecnormalize=VALUE`` (``None`` when not given).
+
+    DECISION (docs/rl.md §5.2, the option syntax): the statistics of a model without a sidecar are
+    given inside the policy name, ``sb3:PATH.zip?vecnormalize=STATS.pkl``, a URL-like query after
+    the ``PREFIX:ARGUMENT`` every plug-in kind uses, rather than by a new ``uav-bench run`` flag:
+    each policy of one ``--policies`` list can have its own statistics, the hybrid
+    ``PLANNER+sb3:PATH.zip?vecnormalize=...`` takes them the same way, and the harness, which
+    knows nothing of SB3, needs no change. A ``?`` in the model's path itself is therefore read as
+    the option's start.
+
+    Raises:
+        ValueError: an option other than ``vecnormalize``, or one without a value.
+    """
+    path, mark, option = argument.partition("?")
+    if not mark:
+        return argument, None
+    key, equals, value = option.partition("=")
+    if key != STATISTICS_OPTION or not equals or not value:
+        raise ValueError(
+            f"{path}: the option after '?' must be {STATISTICS_OPTION}=PATH.pkl or "
+            f"{STATISTICS_OPTION}={NO_STATISTICS}, got {option!r}"
+        )
+    return path, value
+
+
+def read_model_header(path: Path) -> ModelHeader:
+    """The algorithm, spaces and timesteps recorded in a Stable-Baselines3 ``.zip`` (no torch).
+
+    PPO and A2C share their policy class; PPO's data has ``clip_range``. TD3 and DDPG share theirs;
+    DDPG is TD3 with ``policy_delay`` 1 and ``target_noise_clip`` 0 (no target-policy smoothing).
+
+    Raises:
+        ValueError: not a Stable-Baselines3 zip, or a policy of an algorithm outside
+            ``stable_baselines3`` (e.g. ``sb3_contrib``), naming the file.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        policy = data["policy_class"]
+        module = str(policy["__module__"])
+        observation_space = _space(data["observation_space"])
+        action_space = _space(data["action_space"])
+    except (
+        zipfile.BadZipFile,
+        KeyError,
+        TypeError,
+        ValueError,
+        pickle.UnpicklingError,
+        AttributeError,
+    ) as error:
+        raise ValueError(
+            f"{path}: not a Stable-Baselines3 model (its 'data' entry with the policy class and spaces "
+            f"could not be read: {type(error).__name__}: {error})"
+        ) from None
+    family = _POLICY_MODULES.get(module)
+    if family is None:
+        raise ValueError(
+            f"{path}: its policy class comes from {module!r}; sb3: scores models of "
+            f"stable_baselines3's PPO, A2C, SAC, TD3 and DDPG"
+        )
+    if family == "ppo/a2c":
+        algorithm = "ppo" if "clip_range" in data else "a2c"
+    elif family == "td3/ddpg":
+        ddpg = data.get("policy_delay") == 1 and data.get("target_noise_clip") == 0
+        algorithm = "ddpg" if ddpg else "td3"
+    else:
+        algorithm = family
+    return ModelHeader(algorithm, observation_space, action_space, int(data.get("num_timesteps", 0)))
+
+
+def _space(entry: dict[str, Any]) -> spaces.Space[Any]:
+    space = pickle.loads(base64.b64decode(entry[":serialized:"].encode()))
+    if not isinstance(space, spaces.Space):
+        raise TypeError(f"the serialized space is a {type(space).__name__}")
+    return space
+
+
+def check_spaces(path: Path, header: ModelHeader, observation: spaces.Box) -> None:
+    """Refuse, in one line, a model whose spaces are not the env's observation box and ``Box(-1, 1, (3,))``.
+
+    Args:
+        path: the model (named in the message).
+        header: what its zip records.
+        observation: the env's observation box (:func:`uav_penetration_env.env.observation_space`).
+
+    Raises:
+        ValueError: naming each space that differs and the expected one.
+    """
+    problems = []
+    trained = header.observation_space
+    if not (
+        isinstance(trained, spaces.Box)
+        and trained.shape == observation.shape
+        and np.array_equal(trained.low, observation.low)
+        and np.array_equal(trained.high, observation.high)
+    ):
+        problems.append(f"observation space {trained} (the env's is {observation})")
+    acts = header.action_space
+    if not (
+        isinstance(acts, spaces.Box)
+        and acts.shape == (3,)
+        and np.array_equal(acts.low, -np.ones(3))
+        and np.array_equal(acts.high, np.ones(3))
+    ):
+        problems.append(
+            f"action space {acts} (expected Box(-1.0, 1.0, (3,)), the physical box normalised by "
+            "baselines.zoo.NormalisedActions or RescaleAction(env, -1, 1))"
+        )
+    if problems:
+        raise ValueError(
+            f"sb3 model {path} does not fit this env: it was trained with " + "; ".join(problems)
+        )
+
+
+def zoo_env_id(files: ModelFiles) -> str | None:
+    """The env id of an rl-baselines3-zoo log folder holding the model, else ``None``.
+
+    The zoo saves ``ENV_1/ENV.zip`` (and ``ENV_1/best_model.zip``) with ``ENV_1/ENV/`` beside it;
+    the id is the registered UAV id whose folder is there (or the model's stem, if it is one).
+    """
+    if files.model.stem in ENV_IDS:
+        return files.model.stem
+    found = [env_id for env_id in ENV_IDS if (files.model.parent / env_id / ZOO_STATISTICS).is_file()]
+    return found[0] if len(found) == 1 else None
+
+
+def find_statistics(files: ModelFiles, option: str | None) -> Path | None:
+    """The observation statistics of a model without a sidecar.
+
+    DECISION (docs/rl.md §5.2, statistics of a foreign model): ``?vecnormalize=PATH`` names the file,
+    ``?vecnormalize=none`` says the model saw raw observations; without the option the project's
+    name ``DIR/NAME.vecnormalize.pkl`` and then the zoo's ``DIR/ENV/vecnormalize.pkl`` (ENV a
+    registered UAV id) are tried, and finding neither is an error rather than a guess: a model
+    trained on normalised observations, fed raw ones, flies but scores as a different agent.
+
+    Returns:
+        The statistics file, or ``None`` for ``?vecnormalize=none``.
+
+    Raises:
+        FileNotFoundError: the named file does not exist, or none is found (naming where it looked
+            and how to give one).
+    """
+    if option == NO_STATISTICS:
+        return None
+    if option is not None:
+        named = Path(option)
+        if not named.is_file():
+            raise FileNotFoundError(f"{named}: no such observation statistics file (?{STATISTICS_OPTION}=)")
+        return named
+    tried = [files.vecnormalize]
+    env_id = zoo_env_id(files)
+    if env_id is not None:
+        tried.append(files.model.parent / env_id / ZOO_STATISTICS)
+    for candidate in tried:
+        if candidate.is_file():
+            return candidate
+    raise FileNotFoundError(
+        f"{files.model}: no sidecar {files.sidecar.name} and no observation statistics at "
+        f"{' or '.join(str(p) for p in tried)}; give them as sb3:{files.model}?{STATISTICS_OPTION}=PATH.pkl "
+        f"(rl_zoo3 writes LOG/ALGO/ENV_1/ENV/vecnormalize.pkl), or ?{STATISTICS_OPTION}={NO_STATISTICS} "
+        "for a model trained without VecNormalize"
+    )
