@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 
-from baselines.distill.features import check_features
 from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
 from uav_penetration_env.observation import OBSERVATION_SIZE, SLOTS
 from uav_penetration_env.scenario import Scenario
@@ -161,6 +160,8 @@ def _check_numbers(config: DistillConfig) -> None:
     unknown = [name for name in config.ignore if name not in SLOTS]
     if unknown:
         raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
+    from baselines.distill.features import check_features  # here: the features read the compiled value function
+
     check_features(config.features)
     if config.head == "turn-value" and "value" not in config.features:
         raise ValueError("--head: got 'turn-value', which reads the value inputs; add --features value")
