@@ -222,15 +222,18 @@ class ShieldedDistillPolicy(DistillPolicy):
             "fallback": "greedy",
         }
         if self._fallback_clearance() != GREEDY_CLEARANCE_M:  # keyed only where it differs (older keys unchanged)
-            shield["fallback_clearance_m"] = self._fallback_clearance()
+            shield["homing_clearance_m"] = self._fallback_clearance()
         return {**super().config(), "shield": shield}
 
     def _fallback_clearance(self) -> float:
-        """The greedy fallback's clearance: a turn network's own flight clearance, else the floor's 100 m.
+        """The greedy homing's clearance: a turn network's own flight clearance, else the floor's 100 m.
 
         DECISION (docs/rl.md §4.9): a network that flies its expert's lower clearance
-        (``lattice-cN``) falls back to the greedy floor's rule at that same clearance, so the
-        shield's steps change the route, not the height the whole flight is planned at.
+        (``lattice-cN``) homes on the goal with the greedy floor's rule at that same clearance, so
+        the last steps are not flown at the floor's height; a failure ahead, the hold after it and
+        the spent budget fall back to the floor itself at 100 m, no less safe than the floor (at
+        40 m, a failure ahead at the start of held-out members 10001 and 10032, steep rising
+        terrain, was flown into by the fallback too).
         """
         if head_of(self.arrays) != "action" and "clearance_m" in self.arrays:
             return turn_clearance(self.arrays)

@@ -106,14 +106,16 @@ def shielded_action(
     """The network's action, or the greedy floor's; returns it and why (KEPT, FAILS_AHEAD, ..., HOMING).
 
     ``held_until``: the greedy floor flies every step before it (the hold after an override).
-    ``clearance_m``: the height above the terrain the greedy floor's fallback aims at (the
-    network's own flight clearance; the floor's 100 m by default).
+    ``clearance_m``: the height above the terrain the greedy floor aims at when homing (the
+    network's own flight clearance; the floor's 100 m by default). Every other fallback (a
+    failure ahead, the hold after it, the spent budget) is the floor itself at its 100 m: a
+    fallback for a failure must be no less safe than the floor.
     """
     state = np.asarray(state, dtype=np.float64)
     if step >= step_budget:
-        return greedy_action(model, state, clearance_m), OVER_BUDGET
+        return greedy_action(model, state), OVER_BUDGET
     if step < held_until:
-        return greedy_action(model, state, clearance_m), HOLDING
+        return greedy_action(model, state), HOLDING
     if straight_steps(model, state) < shield.homing:
         return greedy_action(model, state, clearance_m), HOMING
 
@@ -122,5 +124,5 @@ def shielded_action(
 
     proposed = act(observation, state)
     if rollout_fails(model, act, observation, state, step, proposed, shield.horizon):
-        return greedy_action(model, state, clearance_m), FAILS_AHEAD
+        return greedy_action(model, state), FAILS_AHEAD
     return proposed, KEPT
