@@ -548,6 +548,18 @@ class PenetrationModel:
             flags,
             threads=self.threads,
         )
+        return self._step_result(next_states, k_next, per_radar, visible, scalars, flags)
+
+    @staticmethod
+    def _step_result(
+        next_states: np.ndarray,
+        k_next: np.ndarray,
+        per_radar: np.ndarray,
+        visible: np.ndarray,
+        scalars: np.ndarray,
+        flags: np.ndarray,
+    ) -> StepResult:
+        """The :class:`StepResult` of the transition kernels' outputs (views of ``scalars`` and ``flags``)."""
         before, after = scalars[:, kernels.S_GOAL_BEFORE], scalars[:, kernels.S_GOAL_AFTER]
         return StepResult(
             state=next_states,
@@ -800,10 +812,57 @@ class PenetrationModel:
             visible,
             TERRAIN_AHEAD_M,
             TERRAIN_ACROSS_M,
+            np.empty((batch, kernels.observe_scratch_width(self.radar_slots))),
             out,
             threads=self.threads,
         )
         return out
+
+    # --- the native vector env's hot path -------------------------------------------------------------
+
+    def _step_observe_rows(
+        self, states: np.ndarray, controls: np.ndarray, step_index: np.ndarray, index: np.ndarray, rows: np.ndarray
+    ) -> tuple[StepResult, np.ndarray]:
+        """:meth:`step` then :meth:`observe` of the rows ``rows`` of full-size arrays, in one compiled pass.
+
+        The native vector env's hot path (:func:`kernels.step_observe_batch`), on arguments the env
+        holds: ``states`` (N, 6) float64, ``controls`` (N, 3) float64 already clipped to the action
+        box, ``step_index`` (N,) int64 k before the step, ``index`` (N,) int64 pool indices,
+        ``rows`` (B,) int64. The same numbers, row for row, as ``step`` on those rows followed by
+        ``observe(result.state, result.step_index, result)``.
+
+        Returns:
+            A :class:`StepResult` and (N, 67) float32 observations, both N rows: the rows not in
+            ``rows`` hold ``states`` and k + 1 in ``state`` / ``step_index`` and unset values
+            elsewhere, for the caller to fill.
+
+        Raises:
+            ValueError: a row in ``rows`` at k >= K_max (no transition from the end of an episode).
+        """
+        n = states.shape[0]
+        if len(rows) and int(step_index[rows].max()) >= self.max_steps:
+            raise ValueError(
+                f"step_index: got {int(step_index[rows].max())}, expected integers in "
+                f"[0, {self.max_steps - 1}] (K_max = {self.max_steps})"
+            )
+        slots = self.radar_slots
+        k_next = step_index + 1
+        next_states = states.copy()
+        per_radar = np.empty((n, slots))
+        visible = np.empty((n, slots))
+        scalars = np.empty((n, kernels.N_SCALARS))
+        flags = np.empty((n, kernels.N_FLAGS), dtype=np.bool_)
+        obs = np.empty((n, OBSERVATION_SIZE), dtype=np.float32)
+        kernels.run_kernel(
+            kernels.step_observe_batch,
+            kernels.step_observe_rows,
+            len(rows),
+            self.arrays, rows, states, controls, k_next, index, k_next / float(self.max_steps),
+            TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, next_states, per_radar, visible, scalars, flags,
+            np.empty((n, kernels.observe_scratch_width(slots))), obs,
+            threads=self.threads,
+        )  # fmt: skip
+        return self._step_result(next_states, k_next, per_radar, visible, scalars, flags), obs
 
     # --- a single env's hot path ------------------------------------------------------------------------
 

@@ -79,16 +79,19 @@ def _vector_info(
     if rows is not None and num_envs is None:
         raise TypeError("_vector_info: rows given without num_envs")
     out: dict[str, Any] = {}
-    for key, value in info.items():
-        if rows is None or num_envs is None:
+    if rows is None or num_envs is None:
+        # The masks as rows of one block: each its own writable array, allocated in one call.
+        size = len(next(iter(info.values()))) if info else 0
+        for mask, (key, value) in zip(np.ones((len(info), size), dtype=bool), info.items(), strict=True):
             out[key] = value
-            out[f"_{key}"] = np.ones(len(value), dtype=bool)
-        else:
-            full = np.zeros((num_envs, *value.shape[1:]), dtype=value.dtype)
-            full[rows] = value
-            mask = np.zeros(num_envs, dtype=bool)
-            mask[rows] = True
-            out[key], out[f"_{key}"] = full, mask
+            out[f"_{key}"] = mask
+        return out
+    for key, value in info.items():
+        full = np.zeros((num_envs, *value.shape[1:]), dtype=value.dtype)
+        full[rows] = value
+        mask = np.zeros(num_envs, dtype=bool)
+        mask[rows] = True
+        out[key], out[f"_{key}"] = full, mask
     return out
 
 
@@ -339,17 +342,19 @@ class UAVPenetrationVectorEnv(VectorEnv):
         if len(resetting):
             self._reset_rows(resetting, [None] * len(resetting))
         index = None if self.model.pool_size == 1 else self._index
-        result = self.model.step(
-            self._states[stepping],
-            controls[stepping],
-            self._steps[stepping],
-            None if index is None else index[stepping],
+        # One compiled pass steps and observes the stepping rows in place in full-size arrays; the
+        # rows reset this step (NEXT_STEP) are then filled with their reset result and observation.
+        full, obs = self.model._step_observe_rows(
+            self._states, controls, self._steps, self._index.astype(np.int64), stepping.astype(np.int64)
         )
-        self._states[stepping] = result.state
-        self._steps[stepping] = result.step_index
-        rewards[stepping] = result.reward
-        terminated[stepping] = result.terminated
-        truncated[stepping] = result.truncated
+        if len(resetting):
+            self._fill_reset_rows(full, obs, resetting)
+        self._states[:] = full.state
+        self._steps[:] = full.step_index
+        reward = full.reward
+        rewards[stepping] = reward[stepping]
+        terminated[stepping] = full.terminated[stepping]
+        truncated[stepping] = full.truncated[stepping]
         if self.max_episode_steps is not None:  # TimeLimit's rule: elapsed >= limit truncates
             truncated[stepping] |= self._steps[stepping] >= self.max_episode_steps
         done = terminated | truncated
@@ -357,8 +362,6 @@ class UAVPenetrationVectorEnv(VectorEnv):
             for i in stepping:
                 self._tracks[i].append(self._states[i].copy())
 
-        full = self._full_result(stepping, result, resetting)
-        obs = self.model.observe(self._states, self._steps, full, index)
         info = _vector_info(batched_info(full))
 
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
@@ -385,20 +388,18 @@ class UAVPenetrationVectorEnv(VectorEnv):
             self._autoreset = done
         return obs, rewards, terminated, truncated, info
 
-    def _full_result(self, stepping: np.ndarray, result: StepResult, resetting: np.ndarray) -> StepResult:
-        """Merge the stepped rows with the rows that were reset this step (NEXT_STEP mode)."""
-        if not len(resetting):
-            return result
-        n = self.num_envs
-        index = None if self.model.pool_size == 1 else self._index
-        fresh = self.model.reset_result(self._states[resetting], None if index is None else index[resetting])
-        merged = {}
+    def _fill_reset_rows(self, full: StepResult, obs: np.ndarray, resetting: np.ndarray) -> None:
+        """Write the reset result and observation of the rows reset this step (NEXT_STEP) into ``full`` / ``obs``.
+
+        ``full`` holds every row; those reset read as :meth:`PenetrationModel.reset_result` of their
+        new state, observed with its per-radar arrays, as a reset reports them.
+        """
+        index = None if self.model.pool_size == 1 else self._index[resetting]
+        states = self._states[resetting]
+        fresh = self.model.reset_result(states, index)
+        obs[resetting] = self.model.observe(states, 0, fresh, index)
         for name in StepResult.__dataclass_fields__:
-            a, b = getattr(result, name), getattr(fresh, name)
-            out = np.zeros((n, *a.shape[1:]), dtype=a.dtype)
-            out[stepping], out[resetting] = a, b
-            merged[name] = out
-        return StepResult(**merged)
+            getattr(full, name)[resetting] = getattr(fresh, name)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per sub-env (``rgb_array``)."""
