@@ -17,12 +17,20 @@ prints microseconds per row of:
 Each figure is the best of ``--repeats`` windows (a busy machine slows some windows, not the
 code). ``--load N`` starts N busy processes (one core each) for the whole run.
 
-Usage: ``python benchmarks/bench_vector_breakdown.py [--envs 256] [--load 2] [--repeats 5]``
+``--compare TREE`` (a checkout of another commit, e.g. ``git archive REV | tar -x -C TREE``) then
+measures the vector env's and the single env's step in fresh processes of that tree and of this
+one, alternating, idle and beside ``--load`` busy processes (2 if not given), and prints both
+trees' rates, their ratios, and this tree's speed-up: before and after in one run.
+
+Usage: ``python benchmarks/bench_vector_breakdown.py [--envs 256] [--load 2] [--repeats 5]
+[--compare TREE [--rounds 3]]``
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import subprocess
 import sys
 import time
@@ -34,7 +42,7 @@ from numba import njit
 
 import uav_penetration_env  # noqa: F401  (registers the ids)
 from uav_penetration_env import kernels
-from uav_penetration_env.env import batched_info
+from uav_penetration_env.env import batched_info, validate_action
 from uav_penetration_env.kernels import (
     P_DT,
     fuel_burned,
@@ -50,6 +58,39 @@ from uav_penetration_env.observation import TERRAIN_ACROSS_M, TERRAIN_AHEAD_M
 from uav_penetration_env.vector_env import _vector_info
 
 BUSY = "while True:\n    pass\n"
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# The two steps timed in a fresh process of one tree (self-contained: the other tree has no helpers).
+RATES = """
+import json, time
+import gymnasium as gym, numba, numpy as np
+import uav_penetration_env
+numba.set_num_threads(1)
+n, steps, windows = {n}, {steps}, {windows}
+envs = gym.make_vec("UAVPenetration-v0", num_envs=n, vectorization_mode="vector_entry_point")
+env = gym.make("UAVPenetration-v0")
+high = envs.single_action_space.high.astype(np.float64)
+rng = np.random.default_rng(0)
+actions = rng.uniform(-high, high, size=(steps, n, 3)) * [0.2, 0.3, 0.05]
+single_actions = rng.uniform(-high, high, size=(2000, 3)) * [0.2, 0.3, 0.05]
+envs.reset(seed=0)
+envs.step(actions[0])
+env.reset(seed=0)
+env.step(single_actions[0])
+vector = single = float("inf")
+for _ in range(windows):  # alternating windows, the best of each kept
+    start = time.perf_counter()
+    for action in actions:
+        envs.step(action)
+    vector = min(vector, (time.perf_counter() - start) / steps)
+    start = time.perf_counter()
+    for action in single_actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    single = min(single, (time.perf_counter() - start) / len(single_actions))
+print(json.dumps({{"vector_us": vector * 1e6, "single_us": single * 1e6}}))
+"""
 
 
 @njit
@@ -177,7 +218,11 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--load", type=int, default=0, help="busy processes during the run (default 0)")
     parser.add_argument("--repeats", type=int, default=5, help="timing windows, the best kept (default 5)")
     parser.add_argument("--steps", type=int, default=100, help="vector-env steps per window (default 100)")
+    parser.add_argument("--compare", metavar="TREE", help="another checkout to measure against, in one run")
+    parser.add_argument("--rounds", type=int, default=3, help="fresh processes per tree and condition (default 3)")
     args = parser.parse_args(argv)
+    if args.compare:
+        return compare(args)
     workers = [subprocess.Popen([sys.executable, "-c", BUSY]) for _ in range(args.load)]
     try:
         time.sleep(0.5 if workers else 0.0)
@@ -186,6 +231,56 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         for worker in workers:
             worker.kill()
             worker.wait()
+
+
+def tree_rates(tree: str, args: argparse.Namespace) -> dict[str, float]:
+    """The vector env's and the single env's step [us] in a fresh process importing the package of ``tree``."""
+    code = RATES.format(n=args.envs, steps=args.steps, windows=args.repeats)
+    env = {**os.environ, "PYTHONPATH": tree}
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, cwd=tree, capture_output=True, text=True, check=True
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def compare(args: argparse.Namespace) -> dict[str, float]:
+    """Both trees' rates idle and loaded, alternating fresh processes; the best of ``--rounds`` each."""
+    trees = {"before": os.path.abspath(args.compare), "after": ROOT}
+    load = args.load or 2
+    out: dict[str, float] = {}
+    print(f"{args.envs} envs; before = {trees['before']}, after = {trees['after']}; cores: {os.cpu_count()}")
+    for loaded in (False, True):
+        workers = [subprocess.Popen([sys.executable, "-c", BUSY]) for _ in range(load if loaded else 0)]
+        try:
+            time.sleep(0.5 if workers else 0.0)
+            best: dict[str, dict[str, float]] = {}
+            for _ in range(args.rounds):
+                for name, tree in trees.items():
+                    rates = tree_rates(tree, args)
+                    kept = best.setdefault(name, rates)
+                    for key, value in rates.items():
+                        kept[key] = min(kept[key], value)
+        finally:
+            for worker in workers:
+                worker.kill()
+                worker.wait()
+        label = f"with {load} busy processes" if loaded else "idle"
+        print(f"== {label} ==")
+        for name, rates in best.items():
+            vector, single = rates["vector_us"], rates["single_us"]
+            ratio = single * args.envs / vector
+            print(
+                f"  {name:<7} vector env {args.envs}: {vector:8.1f} us a step ({vector / args.envs:.3f} us a row,"
+                f" {args.envs / vector * 1e6:,.0f} env-steps/s); single env {single:6.2f} us"
+                f" ({1e6 / single:,.0f} steps/s); ratio x{ratio:.1f}"
+            )
+            out[f"{label}, {name}, ratio"] = ratio
+            out[f"{label}, {name}, vector_us"] = vector
+            out[f"{label}, {name}, single_us"] = single
+        speedup = best["before"]["vector_us"] / best["after"]["vector_us"]
+        print(f"  the vector env's step: x{speedup:.2f} faster after")
+        out[f"{label}, speed-up"] = speedup
+    return out
 
 
 def measure(args: argparse.Namespace) -> dict[str, float]:
@@ -256,17 +351,32 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
             out_states, per_radar, visible, scalars, flags, scratch, obs,
         )
     )  # fmt: skip
+    none = np.zeros(0, dtype=np.int64)
     rows["model._step_observe_rows (the vector env's call)"] = per_row(
-        lambda: model._step_observe_rows(states, controls, steps, index, every)
+        lambda: model._step_observe_rows(states, controls, steps, index, every, none)
     )
-    model_step = per_row(lambda: model.step(states, controls, steps))
-    model_observe = per_row(lambda: model.observe(next_states, k_next, result))
-    rows["model.step (checks, output arrays, StepResult)"] = model_step
-    rows["model.observe (checks, output array)"] = model_observe
+    rows["model.step (checks, output arrays, StepResult)"] = per_row(lambda: model.step(states, controls, steps))
+    rows["model.observe (checks, output array)"] = per_row(lambda: model.observe(next_states, k_next, result))
     rows["info: batched_info + vector layout"] = per_row(lambda: _vector_info(batched_info(result)))
+    rows["action check and clip (validate_action)"] = per_row(
+        lambda: validate_action(actions[0], high, shape=(n, 3))
+    )
+    # Autoresets: the share of rows that finish per step in this workload, and their cost.
+    envs.reset(seed=0)
+    done_rows = sum(int(np.sum(t | u)) for _, _, t, u, _ in (envs.step(a) for a in actions))
+    share = max(1, round(done_rows / len(actions)))  # rows reset per step, on average
+    some = np.arange(0, n, max(1, n // share), dtype=np.int64)[:share]
+    rest = np.setdiff1d(every, some)
+    rows[f"reset draws of {share} rows (_reset_rows), per row of the batch"] = per_row(
+        lambda: vector._reset_rows(some, [None] * len(some))
+    )
+    rows[f"_step_observe_rows with {share} rows reset, per row of the batch"] = per_row(
+        lambda: model._step_observe_rows(states, controls, steps, index, rest, some)
+    )
     vector_us = vector_step_us(envs, actions, windows)
     rows["vector env step, whole"] = vector_us / n
     print(f"paper scenario, {n} envs, 1 compiled thread, best of {windows} windows; per row:")
+    print(f"  (this workload's episodes end after {n * len(actions) / max(done_rows, 1):.1f} steps on average)")
     for name, value in rows.items():
         print(f"  {name:<58}{value:8.3f} us")
     wrapped = single_step_us(gym.make("UAVPenetration-v0"), 2000, windows)

@@ -843,16 +843,50 @@ def rollout_batch(arrays, state, controls, step, discount, terminal, p, total):
         total[b] = cost
 
 
+@njit(inline="always", cache=True)
+def state_threats_row(arrays, b, states, index, per_radar, visible):
+    """Row ``b``'s state-only threats: per-radar threat and visibility into their rows; returns (Th_e, P_d, z_agl)."""
+    s = states[b]
+    p = index[b]
+    agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
+    terrain = terrain_threat(arrays, p, s[0], s[1], agl)
+    detection = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
+    return terrain, detection, agl
+
+
 @njit(cache=True)
 def threats_batch(arrays, states, index, terrain, per_radar, visible, detection, altitude_agl):
     """State-only threats of a batch: Th_e (B,), per-radar threat and visibility (B, M), P_d (B,), z_agl (B,)."""
     for b in range(states.shape[0]):
-        s = states[b]
-        p = index[b]
-        agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
-        altitude_agl[b] = agl
-        terrain[b] = terrain_threat(arrays, p, s[0], s[1], agl)
-        detection[b] = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
+        terrain[b], detection[b], altitude_agl[b] = state_threats_row(arrays, b, states, index, per_radar, visible)
+
+
+@njit(cache=True)
+def reset_observe_rows(
+    arrays, rows, states, index, step_fraction, ahead, across, per_radar, visible, scalars, flags, scratch, obs
+):  # fmt: skip
+    """The rows ``rows`` of full-size arrays as a reset reports them, observed: the vector env's autoresets.
+
+    Each row gets the state-only quantities of :func:`threats_batch` (``scalars``' ``S_TERRAIN``,
+    ``S_RADAR`` fused by :func:`fuse`, ``S_DETECTION``, ``S_ALTITUDE_AGL``; ``per_radar`` and
+    ``visible``), 0 in the transition's columns (J, penalty, the third term, the normalised terms,
+    fuel), no event flag, and its observation (:func:`observe_row` with those per-radar arrays and
+    ``step_fraction``). ``S_GOAL_BEFORE`` / ``S_GOAL_AFTER`` are left for the caller (numpy's
+    ``hypot``, as ``PenetrationModel.goal_distance``). Shapes as in :func:`step_observe_batch`.
+    """
+    fusion = arrays.options[O_FUSION]
+    for i in range(rows.shape[0]):
+        b = rows[i]
+        terrain, detection, agl = state_threats_row(arrays, b, states, index, per_radar, visible)
+        for column in (S_J, S_PENALTY, S_THIRD, S_TERRAIN_N, S_RADAR_N, S_THIRD_N, S_FUEL):
+            scalars[b, column] = 0.0
+        scalars[b, S_TERRAIN] = terrain
+        scalars[b, S_RADAR] = fuse(per_radar[b], fusion)
+        scalars[b, S_DETECTION] = detection
+        scalars[b, S_ALTITUDE_AGL] = agl
+        for f in range(N_FLAGS):
+            flags[b, f] = False
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, obs)
 
 
 @njit(cache=True)

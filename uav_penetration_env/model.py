@@ -821,20 +821,28 @@ class PenetrationModel:
     # --- the native vector env's hot path -------------------------------------------------------------
 
     def _step_observe_rows(
-        self, states: np.ndarray, controls: np.ndarray, step_index: np.ndarray, index: np.ndarray, rows: np.ndarray
+        self,
+        states: np.ndarray,
+        controls: np.ndarray,
+        step_index: np.ndarray,
+        index: np.ndarray,
+        rows: np.ndarray,
+        reset_rows: np.ndarray,
     ) -> tuple[StepResult, np.ndarray]:
-        """:meth:`step` then :meth:`observe` of the rows ``rows`` of full-size arrays, in one compiled pass.
+        """One vector-env step in place in full-size arrays: ``rows`` step, ``reset_rows`` were just reset.
 
-        The native vector env's hot path (:func:`kernels.step_observe_batch`), on arguments the env
-        holds: ``states`` (N, 6) float64, ``controls`` (N, 3) float64 already clipped to the action
-        box, ``step_index`` (N,) int64 k before the step, ``index`` (N,) int64 pool indices,
-        ``rows`` (B,) int64. The same numbers, row for row, as ``step`` on those rows followed by
-        ``observe(result.state, result.step_index, result)``.
+        The native vector env's hot path, on arguments the env holds: ``states`` (N, 6) float64,
+        ``controls`` (N, 3) float64 already clipped to the action box, ``step_index`` (N,) int64 k
+        before the step, ``index`` (N,) int64 pool indices, ``rows`` and ``reset_rows`` (int64)
+        disjoint, together every row. The rows of ``rows`` are flown and observed in one compiled
+        pass (:func:`kernels.step_observe_batch`): the same numbers, row for row, as ``step`` on
+        them followed by ``observe(result.state, result.step_index, result)``. The rows of
+        ``reset_rows`` (their states the reset states) read as :meth:`reset_result` at k = 0 and
+        its observation (:func:`kernels.reset_observe_rows`), as the vector env reports an
+        autoreset.
 
         Returns:
-            A :class:`StepResult` and (N, 67) float32 observations, both N rows: the rows not in
-            ``rows`` hold ``states`` and k + 1 in ``state`` / ``step_index`` and unset values
-            elsewhere, for the caller to fill.
+            A :class:`StepResult` and (N, 67) float32 observations, both N rows.
 
         Raises:
             ValueError: a row in ``rows`` at k >= K_max (no transition from the end of an episode).
@@ -853,15 +861,27 @@ class PenetrationModel:
         scalars = np.empty((n, kernels.N_SCALARS))
         flags = np.empty((n, kernels.N_FLAGS), dtype=np.bool_)
         obs = np.empty((n, OBSERVATION_SIZE), dtype=np.float32)
+        scratch = np.empty((n, kernels.observe_scratch_width(slots)))
+        fraction = k_next / float(self.max_steps)
         kernels.run_kernel(
             kernels.step_observe_batch,
             kernels.step_observe_rows,
             len(rows),
-            self.arrays, rows, states, controls, k_next, index, k_next / float(self.max_steps),
+            self.arrays, rows, states, controls, k_next, index, fraction,
             TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, next_states, per_radar, visible, scalars, flags,
-            np.empty((n, kernels.observe_scratch_width(slots))), obs,
+            scratch, obs,
             threads=self.threads,
         )  # fmt: skip
+        if len(reset_rows):
+            k_next[reset_rows] = 0
+            fraction[reset_rows] = 0 / float(self.max_steps)
+            kernels.reset_observe_rows(
+                self.arrays, reset_rows, states, index, fraction, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M,
+                per_radar, visible, scalars, flags, scratch, obs,
+            )  # fmt: skip
+            distance = self.goal_distance(states[reset_rows], None if self.pool_size == 1 else index[reset_rows])
+            scalars[reset_rows, kernels.S_GOAL_BEFORE] = distance
+            scalars[reset_rows, kernels.S_GOAL_AFTER] = distance  # progress 0 as at a reset
         return self._step_result(next_states, k_next, per_radar, visible, scalars, flags), obs
 
     # --- a single env's hot path ------------------------------------------------------------------------

@@ -299,17 +299,18 @@ class UAVPenetrationVectorEnv(VectorEnv):
         return obs, _vector_info(info, rows, n)
 
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        rows_list = np.asarray(rows).tolist()  # Python ints: the loops below index lists with them
         chosen = []
-        for i, s in zip(rows, seeds, strict=True):
+        for i, s in zip(rows_list, seeds, strict=True):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], self._sub_seeds[i] = seeding.np_random(s)
             chosen.append(self._sources[i].choose(s, self._rngs[i]))
         self._load(chosen)
         position = {k: j for j, k in enumerate(self._model_keys)}
-        for i, scenario in zip(rows, chosen, strict=True):
+        for i, scenario in zip(rows_list, chosen, strict=True):
             self._scenarios[i] = scenario
-            self._index[i] = position[scenario.hash]
-        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows], self._index[rows])
+        self._index[rows] = [position[scenario.hash] for scenario in chosen]
+        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows_list], self._index[rows])
         self._steps[rows] = 0
         self._autoreset[rows] = False
         if self.render_mode is not None:
@@ -341,14 +342,16 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         if len(resetting):
             self._reset_rows(resetting, [None] * len(resetting))
-        index = None if self.model.pool_size == 1 else self._index
-        # One compiled pass steps and observes the stepping rows in place in full-size arrays; the
-        # rows reset this step (NEXT_STEP) are then filled with their reset result and observation.
+        # Two compiled calls write every row's result and observation in place: one flies and
+        # observes the stepping rows, one reports the rows reset this step (NEXT_STEP) as a reset.
         full, obs = self.model._step_observe_rows(
-            self._states, controls, self._steps, self._index.astype(np.int64), stepping.astype(np.int64)
+            self._states,
+            controls,
+            self._steps,
+            self._index.astype(np.int64),
+            stepping.astype(np.int64),
+            resetting.astype(np.int64),
         )
-        if len(resetting):
-            self._fill_reset_rows(full, obs, resetting)
         self._states[:] = full.state
         self._steps[:] = full.step_index
         reward = full.reward
@@ -387,19 +390,6 @@ class UAVPenetrationVectorEnv(VectorEnv):
         else:
             self._autoreset = done
         return obs, rewards, terminated, truncated, info
-
-    def _fill_reset_rows(self, full: StepResult, obs: np.ndarray, resetting: np.ndarray) -> None:
-        """Write the reset result and observation of the rows reset this step (NEXT_STEP) into ``full`` / ``obs``.
-
-        ``full`` holds every row; those reset read as :meth:`PenetrationModel.reset_result` of their
-        new state, observed with its per-radar arrays, as a reset reports them.
-        """
-        index = None if self.model.pool_size == 1 else self._index[resetting]
-        states = self._states[resetting]
-        fresh = self.model.reset_result(states, index)
-        obs[resetting] = self.model.observe(states, 0, fresh, index)
-        for name in StepResult.__dataclass_fields__:
-            getattr(full, name)[resetting] = getattr(fresh, name)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per sub-env (``rgb_array``)."""
