@@ -219,7 +219,9 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--repeats", type=int, default=5, help="timing windows, the best kept (default 5)")
     parser.add_argument("--steps", type=int, default=100, help="vector-env steps per window (default 100)")
     parser.add_argument("--compare", metavar="TREE", help="another checkout to measure against, in one run")
-    parser.add_argument("--rounds", type=int, default=3, help="fresh processes per tree and condition (default 3)")
+    parser.add_argument(
+        "--rounds", type=int, default=3, help="fresh processes per tree and condition (default 3)"
+    )
     args = parser.parse_args(argv)
     if args.compare:
         return compare(args)
@@ -355,7 +357,9 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     rows["model._step_observe_rows (the vector env's call)"] = per_row(
         lambda: model._step_observe_rows(states, controls, steps, index, every, none)
     )
-    rows["model.step (checks, output arrays, StepResult)"] = per_row(lambda: model.step(states, controls, steps))
+    rows["model.step (checks, output arrays, StepResult)"] = per_row(
+        lambda: model.step(states, controls, steps)
+    )
     rows["model.observe (checks, output array)"] = per_row(lambda: model.observe(next_states, k_next, result))
     rows["info: batched_info + vector layout"] = per_row(lambda: _vector_info(batched_info(result)))
     rows["action check and clip (validate_action)"] = per_row(
@@ -376,7 +380,9 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     vector_us = vector_step_us(envs, actions, windows)
     rows["vector env step, whole"] = vector_us / n
     print(f"paper scenario, {n} envs, 1 compiled thread, best of {windows} windows; per row:")
-    print(f"  (this workload's episodes end after {n * len(actions) / max(done_rows, 1):.1f} steps on average)")
+    print(
+        f"  (this workload's episodes end after {n * len(actions) / max(done_rows, 1):.1f} steps on average)"
+    )
     for name, value in rows.items():
         print(f"  {name:<58}{value:8.3f} us")
     wrapped = single_step_us(gym.make("UAVPenetration-v0"), 2000, windows)

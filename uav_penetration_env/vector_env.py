@@ -40,7 +40,7 @@ from uav_penetration_env.env import (
     validate_action,
 )
 from uav_penetration_env.kinematics import UAVLimits
-from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.scenario import Scenario
 
 
