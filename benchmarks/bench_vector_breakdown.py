@@ -93,7 +93,7 @@ print(json.dumps({{"vector_us": vector * 1e6, "single_us": single * 1e6}}))
 """
 
 
-@njit(cache=True)
+@njit
 def _kinematics(arrays, states, controls):
     total = 0.0
     for b in range(states.shape[0]):
@@ -105,7 +105,7 @@ def _kinematics(arrays, states, controls):
     return total
 
 
-@njit(cache=True)
+@njit
 def _segment(arrays, index, states, next_states):
     total = 0.0
     for b in range(states.shape[0]):
@@ -114,7 +114,7 @@ def _segment(arrays, index, states, next_states):
     return total
 
 
-@njit(cache=True)
+@njit
 def _terrain_threat(arrays, index, next_states):
     total = 0.0
     for b in range(next_states.shape[0]):
@@ -123,7 +123,7 @@ def _terrain_threat(arrays, index, next_states):
     return total
 
 
-@njit(cache=True)
+@njit
 def _radars(arrays, index, next_states, per_radar, visible):
     total = 0.0
     for b in range(next_states.shape[0]):
@@ -132,7 +132,7 @@ def _radars(arrays, index, next_states, per_radar, visible):
     return total
 
 
-@njit(cache=True)
+@njit
 def _floors(arrays, index, next_states):
     """The masking part of the radars alone: one floor lookup per radar."""
     total = 0.0
@@ -144,7 +144,7 @@ def _floors(arrays, index, next_states):
     return total
 
 
-@njit(cache=True)
+@njit
 def _fuel_and_fusion(arrays, next_states, per_radar):
     total = 0.0
     for b in range(next_states.shape[0]):
@@ -155,7 +155,7 @@ def _fuel_and_fusion(arrays, next_states, per_radar):
     return total
 
 
-@njit(cache=True)
+@njit
 def _terrain_patch(arrays, index, next_states, ahead, across):
     """The observation's 5 x 5 terrain samples ahead of each row."""
     total = 0.0
