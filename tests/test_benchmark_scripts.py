@@ -41,6 +41,26 @@ def test_bench_contention_measures_each_figure_idle_and_loaded(capsys):
     assert "x" in capsys.readouterr().out
 
 
+def test_bench_vector_breakdown_prints_each_component_and_the_ratio(capsys):
+    rows = load("bench_vector_breakdown").main(["--envs", "16", "--repeats", "1", "--steps", "5"])
+    out = capsys.readouterr().out
+    for part in ("kinematics", "radars (", "terrain patch", "fused step + observe", "reset draws", "ratio x"):
+        assert part in out
+    assert all(value > 0 for value in rows.values())
+    # The whole step costs more than the compiled pass it makes.
+    assert rows["vector env step, whole"] > rows["fused step + observe kernel (the vector env's)"]
+
+
+@pytest.mark.slow
+def test_bench_vector_breakdown_compares_two_trees_idle_and_loaded(capsys):
+    root = str(BENCHMARKS.parent)
+    quick = ["--rounds", "1", "--envs", "16", "--repeats", "1", "--steps", "5", "--load", "1"]
+    results = load("bench_vector_breakdown").main(["--compare", root, *quick])
+    assert {"idle, speed-up", "with 1 busy processes, speed-up"} <= set(results)
+    assert all(value > 0 for value in results.values())
+    assert "faster after" in capsys.readouterr().out
+
+
 @pytest.mark.slow
 def test_bench_harness_full_settings_run():
     results = load("bench_harness").main(["--steps", "3", "--max-evals", "2000", "--sweep-max-evals", "1000"])

@@ -843,16 +843,50 @@ def rollout_batch(arrays, state, controls, step, discount, terminal, p, total):
         total[b] = cost
 
 
+@njit(inline="always", cache=True)
+def state_threats_row(arrays, b, states, index, per_radar, visible):
+    """Row ``b``'s state-only threats: per-radar threat and visibility into their rows; returns (Th_e, P_d, z_agl)."""
+    s = states[b]
+    p = index[b]
+    agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
+    terrain = terrain_threat(arrays, p, s[0], s[1], agl)
+    detection = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
+    return terrain, detection, agl
+
+
 @njit(cache=True)
 def threats_batch(arrays, states, index, terrain, per_radar, visible, detection, altitude_agl):
     """State-only threats of a batch: Th_e (B,), per-radar threat and visibility (B, M), P_d (B,), z_agl (B,)."""
     for b in range(states.shape[0]):
-        s = states[b]
-        p = index[b]
-        agl = s[2] - grid_value(arrays.terrain, p, s[0], s[1], arrays.params)
-        altitude_agl[b] = agl
-        terrain[b] = terrain_threat(arrays, p, s[0], s[1], agl)
-        detection[b] = radar_threats(arrays, p, s[0], s[1], s[2], s[4], s[5], per_radar[b], visible[b])
+        terrain[b], detection[b], altitude_agl[b] = state_threats_row(arrays, b, states, index, per_radar, visible)
+
+
+@njit(cache=True)
+def reset_observe_rows(
+    arrays, rows, states, index, step_fraction, ahead, across, per_radar, visible, scalars, flags, scratch, obs
+):  # fmt: skip
+    """The rows ``rows`` of full-size arrays as a reset reports them, observed: the vector env's autoresets.
+
+    Each row gets the state-only quantities of :func:`threats_batch` (``scalars``' ``S_TERRAIN``,
+    ``S_RADAR`` fused by :func:`fuse`, ``S_DETECTION``, ``S_ALTITUDE_AGL``; ``per_radar`` and
+    ``visible``), 0 in the transition's columns (J, penalty, the third term, the normalised terms,
+    fuel), no event flag, and its observation (:func:`observe_row` with those per-radar arrays and
+    ``step_fraction``). ``S_GOAL_BEFORE`` / ``S_GOAL_AFTER`` are left for the caller (numpy's
+    ``hypot``, as ``PenetrationModel.goal_distance``). Shapes as in :func:`step_observe_batch`.
+    """
+    fusion = arrays.options[O_FUSION]
+    for i in range(rows.shape[0]):
+        b = rows[i]
+        terrain, detection, agl = state_threats_row(arrays, b, states, index, per_radar, visible)
+        for column in (S_J, S_PENALTY, S_THIRD, S_TERRAIN_N, S_RADAR_N, S_THIRD_N, S_FUEL):
+            scalars[b, column] = 0.0
+        scalars[b, S_TERRAIN] = terrain
+        scalars[b, S_RADAR] = fuse(per_radar[b], fusion)
+        scalars[b, S_DETECTION] = detection
+        scalars[b, S_ALTITUDE_AGL] = agl
+        for f in range(N_FLAGS):
+            flags[b, f] = False
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, obs)
 
 
 @njit(cache=True)
@@ -862,16 +896,27 @@ def heights_batch(arrays, x, y, index, out):
         out[n] = grid_value(arrays.terrain, index[n], x[n], y[n], arrays.params)
 
 
+def observe_scratch_width(radars: int) -> int:
+    """Columns of the float64 scratch :func:`observe_row` works in: the observation, then 2 per radar slot."""
+    return OBSERVATION_SIZE + 2 * radars
+
+
 @njit(inline="always", cache=True)
-def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out):
-    """Row ``b`` of :func:`observe_batch`."""
+def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out):
+    """Row ``b`` of :func:`observe_batch`; ``scratch[b]`` (:func:`observe_scratch_width` floats) is its work space.
+
+    The work space is handed in rather than allocated here: three small heap allocations per row
+    cost about a fifth of the row's observation.
+    """
     params = arrays.params
     ratio_detection = arrays.options[O_DETECTION] == 0
     radars = arrays.radar_xyz.shape[1]
     x_span = params[P_X_MAX] - params[P_X_MIN]
     y_span = params[P_Y_MAX] - params[P_Y_MIN]
     side = params[P_MAP_SIDE]
-    obs = np.zeros(OBSERVATION_SIZE)
+    work = scratch[b]
+    obs = work[:OBSERVATION_SIZE]
+    obs[:] = 0.0
     p = index[b]
     x = states[b, 0]
     y = states[b, 1]
@@ -904,8 +949,9 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
             height = grid_value(arrays.terrain, p, px, py, params)
             obs[TERRAIN + a * across.shape[0] + c] = (height - z) / 1000.0
     # The nearest radars (stable order by range; absent slots last), 7 features each.
-    taken = np.zeros(radars, dtype=np.bool_)
-    distance = np.empty(radars)
+    distance = work[OBSERVATION_SIZE : OBSERVATION_SIZE + radars]
+    taken = work[OBSERVATION_SIZE + radars : OBSERVATION_SIZE + 2 * radars]  # 1.0 once a slot is listed
+    taken[:] = 0.0
     for m in range(radars):
         ox = arrays.radar_xyz[p, m, 0] - x
         oy = arrays.radar_xyz[p, m, 1] - y
@@ -916,11 +962,11 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
         obs[base + RADAR_RANGE] = FAR_RANGE_RATIO
         best = -1
         for m in range(radars):
-            if not taken[m] and (best < 0 or distance[m] < distance[best]):
+            if taken[m] == 0.0 and (best < 0 or distance[m] < distance[best]):
                 best = m
         if best < 0:
             continue
-        taken[best] = True
+        taken[best] = 1.0
         if not arrays.radar_present[p, best] > 0:
             continue
         ox = arrays.radar_xyz[p, best, 0] - x
@@ -942,22 +988,84 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
 
 
 @njit(parallel=True, cache=True)
-def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+def observe_batch(arrays, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out):
     """The 67-slot observation of model.md §7a, clipped to +-10, into ``out`` (B, 67) float32.
 
     ``per_radar`` / ``visible`` (B, M) are the threat and visibility of each radar at the state;
-    ``step_fraction`` (B,) is k / K_max; ``ahead`` / ``across`` (5,) the terrain sample offsets [m].
-    Rows are spread over the threads.
+    ``step_fraction`` (B,) is k / K_max; ``ahead`` / ``across`` (5,) the terrain sample offsets [m];
+    ``scratch`` (B, :func:`observe_scratch_width`) float64 work space. Rows are spread over the threads.
     """
     for b in prange(states.shape[0]):
-        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out)
 
 
 @njit(cache=True)
-def observe_rows(arrays, states, step_fraction, index, per_radar, visible, ahead, across, out):
+def observe_rows(arrays, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out):
     """:func:`observe_batch` on the calling thread (small batches)."""
     for b in range(states.shape[0]):
-        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, out)
+        observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out)
+
+
+@njit(inline="always", cache=True)
+def step_observe_row(
+    arrays, b, states, controls, k_next, index, step_fraction, ahead, across,
+    next_states, per_radar, visible, scalars, flags, scratch, obs,
+):  # fmt: skip
+    """Row ``b`` of :func:`step_observe_batch`: :func:`transition_row` flying the controls, then :func:`observe_row`."""
+    transition_row(
+        arrays, b, states, controls, True, k_next, index, next_states, per_radar, visible, scalars, flags
+    )
+    observe_row(arrays, b, next_states, step_fraction, index, per_radar, visible, ahead, across, scratch, obs)
+
+
+@njit(parallel=True, cache=True)
+def step_observe_batch(
+    arrays, rows, states, controls, k_next, index, step_fraction, ahead, across,
+    next_states, per_radar, visible, scalars, flags, scratch, obs,
+):  # fmt: skip
+    """The vector env's step of the rows ``rows`` in one pass: fly, score, observe (rows over the threads).
+
+    The numbers of :func:`transition_batch` followed by :func:`observe_batch` on the new states
+    with the transition's per-radar arrays, computed row by row in one kernel (one call, each
+    row's data touched once). Every array but ``rows`` is full size (N rows); only the rows listed
+    are read and written.
+
+    Args:
+        arrays: the :class:`ModelArrays`.
+        rows: (B,) the rows to step (int64).
+        states: (N, 6) states before the step.
+        controls: (N, 3) controls (clipped to the action box).
+        k_next: (N,) step index after the transition (int64).
+        index: (N,) pool index of each row (int64).
+        step_fraction: (N,) k_next / K_max.
+        ahead: (5,) the observation's terrain sample offsets ahead [m].
+        across: (5,) the offsets across, positive to the left [m].
+        next_states: (N, 6) out: the next states.
+        per_radar: (N, M) out: per-radar threat.
+        visible: (N, M) out: visibility.
+        scalars: (N, N_SCALARS) out.
+        flags: (N, N_FLAGS) out (bool).
+        scratch: (N, :func:`observe_scratch_width`) float64 work space.
+        obs: (N, 67) float32 out: the observations of the new states.
+    """
+    for i in prange(rows.shape[0]):
+        step_observe_row(
+            arrays, rows[i], states, controls, k_next, index, step_fraction, ahead, across,
+            next_states, per_radar, visible, scalars, flags, scratch, obs,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def step_observe_rows(
+    arrays, rows, states, controls, k_next, index, step_fraction, ahead, across,
+    next_states, per_radar, visible, scalars, flags, scratch, obs,
+):  # fmt: skip
+    """:func:`step_observe_batch` on the calling thread."""
+    for i in range(rows.shape[0]):
+        step_observe_row(
+            arrays, rows[i], states, controls, k_next, index, step_fraction, ahead, across,
+            next_states, per_radar, visible, scalars, flags, scratch, obs,
+        )  # fmt: skip
 
 
 @njit(cache=True)
@@ -1005,9 +1113,11 @@ def env_step_one(
     )
     fraction = np.empty(1)
     fraction[0] = k_next[0] / float(arrays.options[O_MAX_STEPS])
+    scratch = np.empty((1, OBSERVATION_SIZE + 2 * arrays.radar_xyz.shape[1]))
     observe_row(
-        arrays, 0, next_states, fraction, index, per_radar, visible, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, obs
-    )
+        arrays, 0, next_states, fraction, index, per_radar, visible, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M,
+        scratch, obs,
+    )  # fmt: skip
     return True
 
 
@@ -1029,7 +1139,9 @@ def env_reset_one(arrays, states, step_index, index, per_radar, visible, obs):
     threats_batch(arrays, states, index, terrain, per_radar, visible, detection, altitude_agl)
     fraction = np.empty(1)
     fraction[0] = step_index / float(arrays.options[O_MAX_STEPS])
+    scratch = np.empty((1, OBSERVATION_SIZE + 2 * arrays.radar_xyz.shape[1]))
     observe_row(
-        arrays, 0, states, fraction, index, per_radar, visible, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, obs
-    )
+        arrays, 0, states, fraction, index, per_radar, visible, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M,
+        scratch, obs,
+    )  # fmt: skip
     return terrain[0], fuse(per_radar[0], arrays.options[O_FUSION]), detection[0], altitude_agl[0]

@@ -548,6 +548,18 @@ class PenetrationModel:
             flags,
             threads=self.threads,
         )
+        return self._step_result(next_states, k_next, per_radar, visible, scalars, flags)
+
+    @staticmethod
+    def _step_result(
+        next_states: np.ndarray,
+        k_next: np.ndarray,
+        per_radar: np.ndarray,
+        visible: np.ndarray,
+        scalars: np.ndarray,
+        flags: np.ndarray,
+    ) -> StepResult:
+        """The :class:`StepResult` of the transition kernels' outputs (views of ``scalars`` and ``flags``)."""
         before, after = scalars[:, kernels.S_GOAL_BEFORE], scalars[:, kernels.S_GOAL_AFTER]
         return StepResult(
             state=next_states,
@@ -800,10 +812,77 @@ class PenetrationModel:
             visible,
             TERRAIN_AHEAD_M,
             TERRAIN_ACROSS_M,
+            np.empty((batch, kernels.observe_scratch_width(self.radar_slots))),
             out,
             threads=self.threads,
         )
         return out
+
+    # --- the native vector env's hot path -------------------------------------------------------------
+
+    def _step_observe_rows(
+        self,
+        states: np.ndarray,
+        controls: np.ndarray,
+        step_index: np.ndarray,
+        index: np.ndarray,
+        rows: np.ndarray,
+        reset_rows: np.ndarray,
+    ) -> tuple[StepResult, np.ndarray]:
+        """One vector-env step in place in full-size arrays: ``rows`` step, ``reset_rows`` were just reset.
+
+        The native vector env's hot path, on arguments the env holds: ``states`` (N, 6) float64,
+        ``controls`` (N, 3) float64 already clipped to the action box, ``step_index`` (N,) int64 k
+        before the step, ``index`` (N,) int64 pool indices, ``rows`` and ``reset_rows`` (int64)
+        disjoint, together every row. The rows of ``rows`` are flown and observed in one compiled
+        pass (:func:`kernels.step_observe_batch`): the same numbers, row for row, as ``step`` on
+        them followed by ``observe(result.state, result.step_index, result)``. The rows of
+        ``reset_rows`` (their states the reset states) read as :meth:`reset_result` at k = 0 and
+        its observation (:func:`kernels.reset_observe_rows`), as the vector env reports an
+        autoreset.
+
+        Returns:
+            A :class:`StepResult` and (N, 67) float32 observations, both N rows.
+
+        Raises:
+            ValueError: a row in ``rows`` at k >= K_max (no transition from the end of an episode).
+        """
+        n = states.shape[0]
+        if len(rows) and int(step_index[rows].max()) >= self.max_steps:
+            raise ValueError(
+                f"step_index: got {int(step_index[rows].max())}, expected integers in "
+                f"[0, {self.max_steps - 1}] (K_max = {self.max_steps})"
+            )
+        slots = self.radar_slots
+        k_next = step_index + 1
+        next_states = states.copy()
+        per_radar = np.empty((n, slots))
+        visible = np.empty((n, slots))
+        scalars = np.empty((n, kernels.N_SCALARS))
+        flags = np.empty((n, kernels.N_FLAGS), dtype=np.bool_)
+        obs = np.empty((n, OBSERVATION_SIZE), dtype=np.float32)
+        scratch = np.empty((n, kernels.observe_scratch_width(slots)))
+        fraction = k_next / float(self.max_steps)
+        kernels.run_kernel(
+            kernels.step_observe_batch,
+            kernels.step_observe_rows,
+            len(rows),
+            self.arrays, rows, states, controls, k_next, index, fraction,
+            TERRAIN_AHEAD_M, TERRAIN_ACROSS_M, next_states, per_radar, visible, scalars, flags,
+            scratch, obs,
+            threads=self.threads,
+        )  # fmt: skip
+        if len(reset_rows):
+            k_next[reset_rows] = 0
+            fraction[reset_rows] = 0 / float(self.max_steps)
+            kernels.reset_observe_rows(
+                self.arrays, reset_rows, states, index, fraction, TERRAIN_AHEAD_M, TERRAIN_ACROSS_M,
+                per_radar, visible, scalars, flags, scratch, obs,
+            )  # fmt: skip
+            distance = self.goal_distance(states[reset_rows], None if self.pool_size == 1 else index[reset_rows])
+            scalars[reset_rows, kernels.S_GOAL_BEFORE] = distance
+            scalars[reset_rows, kernels.S_GOAL_AFTER] = distance  # progress 0 as at a reset
+        return self._step_result(next_states, k_next, per_radar, visible, scalars, flags), obs
 
     # --- a single env's hot path ------------------------------------------------------------------------
 

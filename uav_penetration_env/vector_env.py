@@ -40,7 +40,7 @@ from uav_penetration_env.env import (
     validate_action,
 )
 from uav_penetration_env.kinematics import UAVLimits
-from uav_penetration_env.model import PenetrationModel, StepResult
+from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.scenario import Scenario
 
 
@@ -79,16 +79,19 @@ def _vector_info(
     if rows is not None and num_envs is None:
         raise TypeError("_vector_info: rows given without num_envs")
     out: dict[str, Any] = {}
-    for key, value in info.items():
-        if rows is None or num_envs is None:
+    if rows is None or num_envs is None:
+        # The masks as rows of one block: each its own writable array, allocated in one call.
+        size = len(next(iter(info.values()))) if info else 0
+        for mask, (key, value) in zip(np.ones((len(info), size), dtype=bool), info.items(), strict=True):
             out[key] = value
-            out[f"_{key}"] = np.ones(len(value), dtype=bool)
-        else:
-            full = np.zeros((num_envs, *value.shape[1:]), dtype=value.dtype)
-            full[rows] = value
-            mask = np.zeros(num_envs, dtype=bool)
-            mask[rows] = True
-            out[key], out[f"_{key}"] = full, mask
+            out[f"_{key}"] = mask
+        return out
+    for key, value in info.items():
+        full = np.zeros((num_envs, *value.shape[1:]), dtype=value.dtype)
+        full[rows] = value
+        mask = np.zeros(num_envs, dtype=bool)
+        mask[rows] = True
+        out[key], out[f"_{key}"] = full, mask
     return out
 
 
@@ -296,17 +299,18 @@ class UAVPenetrationVectorEnv(VectorEnv):
         return obs, _vector_info(info, rows, n)
 
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        rows_list = np.asarray(rows).tolist()  # Python ints: the loops below index lists with them
         chosen = []
-        for i, s in zip(rows, seeds, strict=True):
+        for i, s in zip(rows_list, seeds, strict=True):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], self._sub_seeds[i] = seeding.np_random(s)
             chosen.append(self._sources[i].choose(s, self._rngs[i]))
         self._load(chosen)
         position = {k: j for j, k in enumerate(self._model_keys)}
-        for i, scenario in zip(rows, chosen, strict=True):
+        for i, scenario in zip(rows_list, chosen, strict=True):
             self._scenarios[i] = scenario
-            self._index[i] = position[scenario.hash]
-        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows], self._index[rows])
+        self._index[rows] = [position[scenario.hash] for scenario in chosen]
+        self._states[rows] = self.model.initial_states([self._rngs[i] for i in rows_list], self._index[rows])
         self._steps[rows] = 0
         self._autoreset[rows] = False
         if self.render_mode is not None:
@@ -338,18 +342,22 @@ class UAVPenetrationVectorEnv(VectorEnv):
 
         if len(resetting):
             self._reset_rows(resetting, [None] * len(resetting))
-        index = None if self.model.pool_size == 1 else self._index
-        result = self.model.step(
-            self._states[stepping],
-            controls[stepping],
-            self._steps[stepping],
-            None if index is None else index[stepping],
+        # Two compiled calls write every row's result and observation in place: one flies and
+        # observes the stepping rows, one reports the rows reset this step (NEXT_STEP) as a reset.
+        full, obs = self.model._step_observe_rows(
+            self._states,
+            controls,
+            self._steps,
+            self._index.astype(np.int64),
+            stepping.astype(np.int64),
+            resetting.astype(np.int64),
         )
-        self._states[stepping] = result.state
-        self._steps[stepping] = result.step_index
-        rewards[stepping] = result.reward
-        terminated[stepping] = result.terminated
-        truncated[stepping] = result.truncated
+        self._states[:] = full.state
+        self._steps[:] = full.step_index
+        reward = full.reward
+        rewards[stepping] = reward[stepping]
+        terminated[stepping] = full.terminated[stepping]
+        truncated[stepping] = full.truncated[stepping]
         if self.max_episode_steps is not None:  # TimeLimit's rule: elapsed >= limit truncates
             truncated[stepping] |= self._steps[stepping] >= self.max_episode_steps
         done = terminated | truncated
@@ -357,8 +365,6 @@ class UAVPenetrationVectorEnv(VectorEnv):
             for i in stepping:
                 self._tracks[i].append(self._states[i].copy())
 
-        full = self._full_result(stepping, result, resetting)
-        obs = self.model.observe(self._states, self._steps, full, index)
         info = _vector_info(batched_info(full))
 
         if self.autoreset_mode == AutoresetMode.SAME_STEP and done.any():
@@ -384,21 +390,6 @@ class UAVPenetrationVectorEnv(VectorEnv):
         else:
             self._autoreset = done
         return obs, rewards, terminated, truncated, info
-
-    def _full_result(self, stepping: np.ndarray, result: StepResult, resetting: np.ndarray) -> StepResult:
-        """Merge the stepped rows with the rows that were reset this step (NEXT_STEP mode)."""
-        if not len(resetting):
-            return result
-        n = self.num_envs
-        index = None if self.model.pool_size == 1 else self._index
-        fresh = self.model.reset_result(self._states[resetting], None if index is None else index[resetting])
-        merged = {}
-        for name in StepResult.__dataclass_fields__:
-            a, b = getattr(result, name), getattr(fresh, name)
-            out = np.zeros((n, *a.shape[1:]), dtype=a.dtype)
-            out[stepping], out[resetting] = a, b
-            merged[name] = out
-        return StepResult(**merged)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per sub-env (``rgb_array``)."""

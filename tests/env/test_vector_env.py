@@ -12,16 +12,30 @@ import uav_penetration_env  # noqa: F401  (registers the ids)
 from uav_penetration_env.env import UAVPenetrationEnv, UAVPenetrationRandomEnv
 from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv, UAVPenetrationVectorEnv
 
+# Every info entry (api.md): the native env fills the rows it autoresets itself (NEXT_STEP), so each
+# entry of those rows is compared, not only the ones a learner reads.
 COMPARED_INFO = (
     "J",
     "penalty",
+    "terrain_threat",
+    "radar_threat",
+    "third_term",
+    "fuel_kg",
+    "progress",
+    "terrain_threat_n",
+    "radar_threat_n",
+    "third_term_n",
     "radar_threat_per_radar",
-    "state",
-    "step",
+    "detection_prob",
+    "detected",
+    "position",
+    "altitude_agl",
+    "distance_to_goal",
     "reached_goal",
     "collided",
     "out_of_area",
-    "detection_prob",
+    "step",
+    "state",
 )
 
 
