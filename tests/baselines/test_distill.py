@@ -511,3 +511,21 @@ def test_the_turn_value_head_learns_its_prior_weight_and_needs_the_value_inputs(
     assert make_policy(f"distill:{result.folder.out}").config()["head"] == "turn-value"
     with pytest.raises(ValueError, match=r"^--head: got 'turn-value', which reads the value inputs; add --features value"):
         run_distill(tiny_config(tmp_path / "never", head="turn-value"))
+
+
+@pytest.mark.parametrize("run", ["c40-value-s1", "c40-value64-s0"])
+def test_the_published_distilled_planners_load_and_fly(run):
+    from pathlib import Path
+
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    folder = Path(__file__).resolve().parents[2] / "leaderboards" / "distill" / run
+    policy = make_policy(f"distill-shield:{folder}")  # the sidecar's SHA-256 check passes
+    config = policy.config()
+    assert config["features"] == ["value"] and config["head"] == "turn"
+    assert config["shield"]["homing_clearance_m"] == 40.0
+    env = UAVPenetrationEnv(tiny_scenario())  # the benchmark profile it was trained under
+    observation, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    action = policy.act(observation, info)
+    assert np.all(np.isfinite(action)) and policy.last_record["shield"] in (0, 1, 2, 3, 4)

@@ -668,8 +668,8 @@ def tracks_figure(yaml_text: str, episodes: pd.DataFrame, steps: pd.DataFrame, t
     return figure
 
 
-# plotly's 3-D lines know six dash names (and dash lists): one per family (the second style of a
-# large family is drawn long-dashed).
+# plotly's 3-D lines know six dash names only: one per family, the two learned families sharing
+# one (the second style of a large family is drawn long-dashed).
 _PLOTLY_DASH = {
     "paper planners (MPC)": "solid",
     "reference optimisers (MPC)": "dash",
@@ -677,7 +677,7 @@ _PLOTLY_DASH = {
     "floors": "dot",
     "classical planners": "longdash",
     "RL agents": "longdashdot",
-    "imitation (distilled)": "2px,4px,8px,4px",  # plotly takes a dash list beyond its six names
+    "imitation (distilled)": "longdashdot",  # shared with the RL agents: both learned planners
 }
 
 
