@@ -331,3 +331,25 @@ def test_terminal_cost_table_refuses_a_malformed_part(tmp_path, capsys):
     with pytest.raises(SystemExit):
         module.main(["--part", "no-equals-sign", "--out", str(tmp_path)])
     assert "expected NAME=PATH" in capsys.readouterr().err
+
+
+def test_rl_noise_corridor_without_noise_is_the_greedy_floor(capsys):
+    from conftest import tiny_scenario
+
+    from uav_penetration_env.benchmark.policies import GreedyPolicy
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    module = load("rl_noise_corridor")
+    env = UAVPenetrationEnv(tiny_scenario())
+    cost, crashed = module.noisy_episode(env, 100.0, 0.0, None)
+    policy = GreedyPolicy()
+    observation, info = env.reset(seed=0)
+    policy.reset(env.model, 0)
+    total, done = 0.0, False
+    while not done:  # the floor flown directly: the same episode, the same cost
+        observation, reward, terminated, truncated, info = env.step(policy.act(observation, info))
+        total -= reward
+        done = terminated or truncated
+    assert cost == total and not crashed
+    module.main(["--scenario", "paper", "--stds", "0.37", "--clearances", "100", "--episodes", "2"])
+    assert "0.37" in capsys.readouterr().out
