@@ -160,7 +160,8 @@ def _check_numbers(config: DistillConfig) -> None:
     unknown = [name for name in config.ignore if name not in SLOTS]
     if unknown:
         raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
-    from baselines.distill.features import check_features  # here: the features read the compiled value function
+    # Imported here: the feature sets read the compiled value function, which the CLI parser must not load.
+    from baselines.distill.features import check_features
 
     check_features(config.features)
     if config.head == "turn-value" and "value" not in config.features:

@@ -223,6 +223,7 @@ class ShieldedDistillPolicy(DistillPolicy):
         }
         if self._fallback_clearance() != GREEDY_CLEARANCE_M:  # keyed only where it differs (older keys unchanged)
             shield["homing_clearance_m"] = self._fallback_clearance()
+            shield["homing_checked"] = True  # the low homing rule's own rollout, falling back to 100 m
         return {**super().config(), "shield": shield}
 
     def _fallback_clearance(self) -> float:
@@ -233,7 +234,9 @@ class ShieldedDistillPolicy(DistillPolicy):
         the last steps are not flown at the floor's height; a failure ahead, the hold after it and
         the spent budget fall back to the floor itself at 100 m, no less safe than the floor (at
         40 m, a failure ahead at the start of held-out members 10001 and 10032, steep rising
-        terrain, was flown into by the fallback too).
+        terrain, was flown into by the fallback too); the low homing step is checked by its own
+        5-step rollout and handed to the floor at 100 m when that fails (at 40 m the homing
+        collided on the DEM member `dem-topobathy`'s rough terrain at step 22).
         """
         if head_of(self.arrays) != "action" and "clearance_m" in self.arrays:
             return turn_clearance(self.arrays)

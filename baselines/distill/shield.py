@@ -27,6 +27,7 @@ from uav_penetration_env.benchmark.policies import greedy_action
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
+FLOOR_CLEARANCE_M = 100.0  # greedy_action's default: the floor's own clearance
 # Why a step was overridden, as counted in ``last_record["shield"]``.
 KEPT, FAILS_AHEAD, OVER_BUDGET, HOLDING, HOMING = 0, 1, 2, 3, 4
 
@@ -91,6 +92,27 @@ def rollout_fails(
     return False
 
 
+def _homing_action(
+    model: PenetrationModel, observation: np.ndarray, state: FloatArray, step: int, shield: Shield, clearance_m: float
+) -> FloatArray:
+    """The greedy floor's homing step at ``clearance_m``, or at the floor's own 100 m if that one's rollout fails.
+
+    The homing rule is checked as the network is: ``shield.horizon`` steps of the greedy rule at
+    ``clearance_m`` flown with the model; a collision or an exit ahead (rough terrain that a low
+    target cannot follow, the DEM member's coast) hands the step to the floor itself.
+    """
+    low = greedy_action(model, state, clearance_m)
+    if clearance_m == FLOOR_CLEARANCE_M:
+        return low
+
+    def follow(_: np.ndarray, at: FloatArray) -> FloatArray:
+        return greedy_action(model, np.asarray(at, dtype=np.float64), clearance_m)
+
+    if rollout_fails(model, follow, observation, state, step, low, shield.horizon):
+        return greedy_action(model, state)
+    return low
+
+
 def shielded_action(
     arrays: Mapping[str, np.ndarray],
     model: PenetrationModel,
@@ -107,7 +129,8 @@ def shielded_action(
 
     ``held_until``: the greedy floor flies every step before it (the hold after an override).
     ``clearance_m``: the height above the terrain the greedy floor aims at when homing (the
-    network's own flight clearance; the floor's 100 m by default). Every other fallback (a
+    network's own flight clearance; the floor's 100 m by default), itself checked by a rollout
+    (:func:`_homing_action`). Every other fallback (a
     failure ahead, the hold after it, the spent budget) is the floor itself at its 100 m: a
     fallback for a failure must be no less safe than the floor.
     """
@@ -117,7 +140,7 @@ def shielded_action(
     if step < held_until:
         return greedy_action(model, state), HOLDING
     if straight_steps(model, state) < shield.homing:
-        return greedy_action(model, state, clearance_m), HOMING
+        return _homing_action(model, observation, state, step, shield, clearance_m), HOMING
 
     def act(obs: np.ndarray, at: FloatArray) -> FloatArray:
         return network_action(arrays, model, obs, at, from_unit)

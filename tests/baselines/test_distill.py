@@ -361,6 +361,16 @@ def test_the_shield_falls_back_to_greedy_when_the_rollout_fails_or_the_budget_is
     near = Shield(homing=1e9)
     action, why = shielded_action(straight, model, from_unit, observation, info["state"], 0, near, 40.0)
     assert why == HOMING and np.array_equal(action, greedy_action(model, np.asarray(info["state"])))
+    # Homing at a network's own lower clearance is checked by its own rollout: a target under the
+    # collision floor (10 m < 30 m) collides, so the floor's 100 m homes instead; a safe one is kept.
+    state = np.asarray(info["state"], dtype=np.float64)
+    for clearance in (10.0, 60.0):
+        rule = greedy_action(model, state, clearance)
+        fails = rollout_fails(model, lambda o, s, c=clearance: greedy_action(model, s, c), observation, state, 0, rule, 5)
+        action, why = shielded_action(straight, model, from_unit, observation, state, 0, near, 40.0, -1, clearance)
+        expected = greedy_action(model, state) if fails else rule
+        assert why == HOMING and np.array_equal(action, expected)
+        assert fails == (clearance == 10.0)
     with pytest.raises(ValueError, match=r"^shield horizon: got 0, expected an integer >= 1$"):
         Shield(horizon=0)
 
