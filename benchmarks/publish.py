@@ -729,11 +729,14 @@ def seed_from(stems: Sequence[Path] = SEED_ROWS, pub: Publication | None = None)
     store, log = REPO / pub.layout.store, REPO / pub.root / "compute.jsonl"
     refuse_existing(store, log)
     with tempfile.TemporaryDirectory() as folder:
+        from uav_penetration_env.benchmark.rows import read_table
+
         counts = merge_rows([REPO / s for s in stems], Path(folder) / "seed")
+        top = int(read_table(Path(folder) / "seed", "runs").run_id.max())  # the seed rows' last run id
         status = import_rows(Path(folder) / "seed", store)
     if status == 0:
         atomic_write_text(REPO / pub.root / "seeded.json", json.dumps(
-            {"seeds": [s.as_posix() for s in stems], "seed_run_id": counts.get("runs", 0)}, indent=1))  # fmt: skip
+            {"seeds": [s.as_posix() for s in stems], "seed_run_id": top}, indent=1))  # fmt: skip
         print(f"{store.relative_to(REPO)}: seeded with {counts['episodes']} episodes of {len(stems)} exports")
     return status
 
@@ -896,48 +899,62 @@ def planned_items(argv: Sequence[str]) -> list[tuple[str, str, int]]:
 
 
 def evidence() -> tuple[
-    dict[tuple[str, str], float], dict[tuple[str, str], float], set[tuple[str, str, int]]
+    dict[tuple[str, str], float], dict[tuple[str, str], float], set[tuple[str, str, int]], float
 ]:
-    """Mean seconds per (policy, group) of episodes and per (optimizer, group) of window runs, and the seed rows' keys.
+    """Mean seconds per (policy, group) of episodes and per (optimizer, group) of window runs, the seed rows' keys, and v2's speed ratio.
 
-    DECISION (docs/publishing.md §5.4, the estimate): the seed rows (the `value` default) speak first
-    for a name they hold; v2's rows (the `distance` default) for the rest, their MPC names also
-    standing for ``NAME-ctg-distance``. A name with no evidence is estimated as the greedy floor (0 s)
-    and marked, so the printed hours are a lower bound there.
+    DECISION (docs/publishing.md §5.4, the estimate): the seed rows (flown at 4256938, the code v3
+    runs) speak first for a name they hold. v2's rows speak for the rest, scaled by the speed
+    ratio ``r``: the seed rows' seconds over v2's on the same episodes, v2's MPC planners (the
+    ``distance`` default then) against ``NAME-ctg-distance`` in each scenario group, which fly
+    the same steps (ihpso on dem-topobathy: 117.8 steps in both), so ``r`` measures the code and
+    the machine, not the work. A name with no evidence counts 0 s and is listed (a lower bound).
     """
-    import pandas as pd
-
     from uav_penetration_env.benchmark.rows import read_table
 
     seconds: dict[tuple[str, str], float] = {}
+    counts: dict[tuple[str, str], int] = {}
     seeded: set[tuple[str, str, int]] = set()
     for stem in SEED_ROWS:
         e = read_table(REPO / stem, "episodes")
         seeded |= set(zip(e.policy, e.scenario, e.seed.astype(int), strict=True))
-        for (policy, group), mean in (
-            e.groupby([e.policy, e.scenario.map(scenario_group)]).episode_seconds.mean().items()
-        ):
-            seconds.setdefault((policy, group), float(mean))
+        grouped = e.groupby([e.policy, e.scenario.map(scenario_group)]).episode_seconds
+        for key, mean in grouped.mean().items():
+            seconds.setdefault(key, float(mean))
+        counts.update(grouped.size().items())
     v2 = read_table(REPO / WINDOW_EVIDENCE, "episodes")
+    v2_seconds = {
+        key: float(m)
+        for key, m in v2.groupby([v2.policy, v2.scenario.map(scenario_group)]).episode_seconds.mean().items()
+    }
     mpc = {*PAPER_PLANNERS, *REFERENCES, *IHPSO_VARIANTS}
-    for (policy, group), mean in (
-        v2.groupby([v2.policy, v2.scenario.map(scenario_group)]).episode_seconds.mean().items()
-    ):
-        seconds.setdefault((policy, group), float(mean))
+    matched = [
+        ((f"{p}-ctg-distance", g), (p, g))
+        for p, g in v2_seconds
+        if p in mpc and (f"{p}-ctg-distance", g) in seconds
+    ]
+    ratio = sum(counts[k] * seconds[k] for k, _ in matched) / sum(
+        counts[k] * v2_seconds[o] for k, o in matched
+    )
+    for (policy, group), mean in v2_seconds.items():
+        seconds.setdefault((policy, group), ratio * mean)
         if policy in mpc:
-            seconds.setdefault((f"{policy}-ctg-distance", group), float(mean))
+            seconds.setdefault((f"{policy}-ctg-distance", group), ratio * mean)
     w = read_table(REPO / WINDOW_EVIDENCE, "window_runs")
     windows = {
-        key: float(v)
+        key: ratio * float(v)
         for key, v in w.groupby([w.optimizer, w.scenario.map(scenario_group)]).seconds.mean().items()
     }
-    del pd
-    return seconds, windows, seeded
+    return seconds, windows, seeded, ratio
 
 
 def estimate(plan: Sequence[Part]) -> str:
-    """Per part: planned episodes and window runs, CPU hours, and what the seed rows cover (a Markdown table)."""
-    seconds, windows, seeded = evidence()
+    """Per part: planned episodes and window runs, their worker hours, and what the seed rows cover (a Markdown table).
+
+    Worker hours are the sum of the items' own wall seconds (:func:`compute_table`'s measure): CPU
+    hours where each worker has an idle core, so about half of it in wall time on 2 idle cores.
+    """
+    seconds, windows, seeded, ratio = evidence()
     missing: set[str] = set()
 
     def cost(kind: str, name: str, scenario: str) -> float:
@@ -949,7 +966,7 @@ def estimate(plan: Sequence[Part]) -> str:
         missing.add(name)
         return 0.0
 
-    lines = ["| part | episodes + window runs | CPU [h] | in the seed rows | CPU left after seeding [h] |",
+    lines = ["| part | episodes + window runs | worker [h] | in the seed rows | worker left after seeding [h] |",
              "|---|---:|---:|---:|---:|"]  # fmt: skip
     total = left_total = 0.0
     for part in plan:
@@ -967,6 +984,9 @@ def estimate(plan: Sequence[Part]) -> str:
         total, left_total = total + hours, left_total + left
         lines.append(f"| {part.name} | {int(n)} | {hours:.2f} | {int(covered)} | {left:.2f} |")
     lines.append(f"| total | | {total:.2f} | | {left_total:.2f} |")
+    lines.append(
+        f"\nv2's seconds scaled by r = {ratio:.3f} (the seed rows' seconds over v2's on the same episodes)"
+    )
     if missing:
         lines.append(f"\nno timing evidence (taken as 0 s, a lower bound): {', '.join(sorted(missing))}")
     return "\n".join(lines)
