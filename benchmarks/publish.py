@@ -716,8 +716,9 @@ def seed_from(stems: Sequence[Path] = SEED_ROWS, pub: Publication | None = None)
     """A new v3 store from earlier rows (``--seed-from``): the sweep then skips their episodes.
 
     DECISION (docs/publishing.md §5.3, seeding): the seed rows were flown with the policies v3 flies
-    (equal policy hashes: the store key) at clean commits, and keep their own runs and so their own
-    provenance commits. The stems are recorded in ``results/v3/seeded.json`` so that a checkpoint
+    (equal policy hashes: the store key) from a clean checkout of 4256938, and keep their own runs
+    and so their own provenance, which records the commit as ``unknown`` (a checkout without
+    ``.git``): never rewritten here, so the publication names it from the rows' README. The stems are recorded in ``results/v3/seeded.json`` so that a checkpoint
     names them instead of copying their rows (they are committed already).
 
     Raises:
@@ -1146,7 +1147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             print("tables rebuilt from the rows equal the store's (apart from the date line)")
     if args.dry_run and args.version == "v3":
         print(
-            "\nestimate (CPU hours from earlier rows' own episode and window-run seconds; docs/publishing.md §5.4):"
+            "\nestimate (worker hours from earlier rows' own episode and window-run seconds; docs/publishing.md §5.4):"
         )
         print(estimate(plan))
     return 0
