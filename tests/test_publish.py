@@ -427,3 +427,23 @@ def test_v3_only_flags_refuse_v2(capsys):
     with pytest.raises(SystemExit):
         publish.main(["--checkpoint"])
     assert "--checkpoint: only with --version v3" in capsys.readouterr().err
+
+
+def test_the_estimate_counts_each_command_by_its_seed_rule():
+    """Counted by hand: uavpen-v1 has 3 fixed members (5 seeds, 1 for a deterministic planner) and 60 procedural (1)."""
+    suite = publish.planned_items(["run", "--suite", "uavpen-v1", "--policies", "ihpso", "lattice"])
+    assert sum(p == "ihpso" for p, _, _ in suite) == 3 * 5 + 60 and sum(p == "lattice" for p, _, _ in suite) == 63
+    paper = publish.planned_items(["run", "--scenarios", "paper", "paper-w2", "--policies", "greedy", "--seeds", "20"])
+    assert len(paper) == 40 and {s for _, s, _ in paper} == {"paper-2022-sec5", "paper-2022-sec5-w2"}
+    windows = next(p for p in publish.parts_v3(unfinished=list) if p.name == "windows").commands[0]
+    assert len(publish.planned_items(windows)) == 15 * 10 * 20  # steps x optimizers x seeds
+    assert publish.evidence_name("ihpso+sb3:leaderboards/rl/models/ppo-paper-s0.zip") == "ihpso+sb3:ppo-paper-s0"
+
+
+def test_merged_rows_refuse_an_episode_twice(tmp_path):
+    from uav_penetration_env.benchmark import cli
+
+    tiny_store(tmp_path, tmp_path / "a.sqlite", "1")
+    assert cli.main(["export", "--format", "parquet", "--store", str(tmp_path / "a.sqlite"), "--out", str(tmp_path / "a")]) == 0
+    with pytest.raises(SystemExit, match=r"^episode greedy on .* seed 0 is in two of"):
+        publish.merge_rows([tmp_path / "a", tmp_path / "a"], tmp_path / "merged")
