@@ -200,7 +200,8 @@ def gap_section(tables: dict[str, pd.DataFrame]) -> list[str]:
             closest = members.idxmin()
             mark = partial(table, closest)
             cells.append(f"{closest}{mark} {percent(members[closest])}; median {percent(members.median())}")
-        rows.append(cells)
+        if any(cell != "-" for cell in cells[1:]):  # a family no table holds gets no row
+            rows.append(cells)
     return [
         header,
         "",

@@ -139,12 +139,36 @@ def parts(
     models: Path = MODELS, unfinished: Callable[[], list[str]] | None = None, rl_root: Path = RL_ROOT
 ) -> list[Part]:
     """The regeneration's parts, in order, with their commands (``unfinished``: the RL programme's open steps)."""
+    return publication_parts(Layout(STORE, OUT, ROWS, CHECK), models, unfinished, rl_root)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where one publication's commands write: its store, output folder, row stem and rebuild folder."""
+
+    store: Path
+    out: Path
+    rows: Path
+    check: Path
+
+
+def publication_parts(
+    layout: Layout,
+    models: Path = MODELS,
+    unfinished: Callable[[], list[str]] | None = None,
+    rl_root: Path = RL_ROOT,
+    beside: Sequence[str] = (),
+) -> list[Part]:
+    """The parts of a publication writing to ``layout`` (``beside``: policies added to the paper, suite and held-out parts)."""
+    STORE, OUT, ROWS, CHECK = layout.store, layout.out, layout.rows, layout.check
+    COMMON = ["--store", str(STORE), "--no-report", "--no-progress"]
     paper = Part("paper", [["run", "--scenarios", "paper", "paper-w2", "--policies", *PAPER_PLANNERS, *REFERENCES,
-                            *IHPSO_VARIANTS, *FLOORS, "--seeds", "20", "--max-evals", "10000", *COMMON]])  # fmt: skip
+                            *IHPSO_VARIANTS, *FLOORS, *beside, "--seeds", "20", "--max-evals", "10000", *COMMON]])  # fmt: skip
     windows = Part("windows", [["windows", "--store", str(STORE), "--from-policy", "greedy", "--scenario", "paper",
                                 "--steps", WINDOW_STEPS, "--optimizers", *WINDOW_OPTIMIZERS, "--seeds", "20"]])  # fmt: skip
     suite = Part(
-        "suite", [["run", "--suite", "uavpen-v1", "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS, *COMMON]]
+        "suite",
+        [["run", "--suite", "uavpen-v1", "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS, *beside, *COMMON]],
     )
     # The same windows study on the first procedural member of each difficulty (their greedy episodes
     # fly 47 steps, as the paper scenario's): does the reverse switch act more on other landscapes?
@@ -156,7 +180,7 @@ def parts(
     # The held-out set: the Random-regime agents' test set (docs/suite.md), with the planners and floors to
     # pair them with; the agents join in the agents part.
     held_out = Part("held-out", [["run", "--suite", HELD_OUT, "--policies", *PAPER_PLANNERS, "cmaes", *FLOORS,
-                                  *COMMON]])  # fmt: skip
+                                  *beside, *COMMON]])  # fmt: skip
     waiting = (unfinished or programme_unfinished)()
     agents = [f"sb3:{model.as_posix()}" for model in agent_models(models)]
     commands = []
@@ -194,7 +218,8 @@ def parts(
 
 
 def command_key(argv: Sequence[str]) -> str:
-    return shlex.join(["uav-bench", *argv])
+    """The command as logged and printed: ``uav-bench ...``, or ``python benchmarks/....py ...`` for a script."""
+    return shlex.join(["python", *argv] if argv and argv[0].endswith(".py") else ["uav-bench", *argv])
 
 
 def read_log(log: Path) -> list[dict]:
@@ -227,8 +252,8 @@ def current(attempts: list[dict], index: int) -> bool:
     part = attempts[index].get("part")
     if part not in DERIVED:
         return True
-    earlier = set(ORDER[: ORDER.index(part)])
-    return not any(a.get("part") in earlier for a in attempts[index + 1 :])
+    later = DERIVED[DERIVED.index(part) :]  # the derived parts are last in every publication's order
+    return not any(a.get("part") not in later for a in attempts[index + 1 :])
 
 
 def done_commands(attempts: list[dict]) -> set[str]:
@@ -279,7 +304,10 @@ def run_attempt(part: str, argv: list[str], log: Path) -> int:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     clock = time.perf_counter()
-    process = subprocess.Popen([*uav_bench(), *argv], cwd=REPO, env=child_environment())
+    program = (
+        [sys.executable] if argv[0].endswith(".py") else uav_bench()
+    )  # a script of this tree, or uav-bench
+    process = subprocess.Popen([*program, *argv], cwd=REPO, env=child_environment())
     try:
         status = process.wait()
     except KeyboardInterrupt:
@@ -344,8 +372,7 @@ def rebuild_checked(attempts: list[dict], commands: Sequence[str] = ()) -> bool:
     last = attempts[check]
     if not (last.get("command") == REBUILD_CHECK and last.get("status") == 0 and current(attempts, check)):
         return False
-    earlier = set(ORDER[: ORDER.index("tables")])
-    since = max((i for i, a in enumerate(attempts[:check]) if a.get("part") in earlier), default=-1)
+    since = max((i for i, a in enumerate(attempts[:check]) if a.get("part") != "tables"), default=-1)
     rebuilt = {
         a["command"]
         for a in attempts[since + 1 : check]
@@ -354,7 +381,7 @@ def rebuild_checked(attempts: list[dict], commands: Sequence[str] = ()) -> bool:
     return all(command in rebuilt for command in commands)
 
 
-def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
+def install(out: Path = OUT, target: Path = Path("leaderboards"), log: Path | None = None) -> list[Path]:
     """Replace the generated files of ``leaderboards/`` by those of ``out`` (``rl/`` is left alone).
 
     Removed first: v1's generated files at the top of ``leaderboards/`` (tables, figures, the page,
@@ -375,7 +402,7 @@ def install(out: Path = OUT, target: Path = Path("leaderboards")) -> list[Path]:
         destination.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(path, destination)
         copied.append(destination)
-    log = REPO / ROOT / "compute.jsonl"
+    log = REPO / ROOT / "compute.jsonl" if log is None else REPO / log
     if (
         log.is_file()
     ):  # the compute the README quotes, committed with the tables (benchmarks/headline.py reads it)
@@ -422,7 +449,10 @@ def worker_seconds(tables: Any) -> dict[str, tuple[int, float]]:
 
 
 def compute_table(
-    attempts: list[dict], rl_root: Path = RL_ROOT, worker: dict[str, tuple[int, float]] | None = None
+    attempts: list[dict],
+    rl_root: Path = RL_ROOT,
+    worker: dict[str, tuple[int, float]] | None = None,
+    order: Sequence[str] = ORDER,
 ) -> str:
     """Per part: attempts, logged wall and CPU time, and the worker time of its finished work; then the RL programme.
 
@@ -437,7 +467,7 @@ def compute_table(
     lines = ["| part | attempts | wall [h] | CPU [h] | episodes + window runs | worker [h] |",
              "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
     total_wall = total_cpu = total_worker = 0.0
-    for name in ORDER:
+    for name in order:
         rows = [a for a in attempts if a["part"] == name]
         done = [value for command, value in worker.items() if part_of.get(command) == name]
         if not rows and not done:
@@ -511,6 +541,458 @@ def from_published(root: Path = ROOT, published: Path = Path("leaderboards")) ->
     return status
 
 
+# Leaderboard v3 (docs/publishing.md §5): the v2 parts flown with the current MPC default (the
+# `value` terminal), the classical and learned planners beside them, and the terminal-cost part.
+V3_ROOT = Path("results/v3")
+V3 = Layout(V3_ROOT / "leaderboard.sqlite", V3_ROOT / "out", V3_ROOT / "out" / "rows" / "leaderboard",
+            V3_ROOT / "from-rows")  # fmt: skip
+CLASSICAL = ["lattice", "lattice-c40", "value-greedy-c40"]
+DISTILLED = Path("leaderboards/distill")  # the published distilled planners (docs/rl.md §4.9)
+LEARNED = [f"distill-shield:{DISTILLED.as_posix()}/c40-value-s1", f"distill:{DISTILLED.as_posix()}/c40-value-s1",
+           f"distill-shield:{DISTILLED.as_posix()}/c40-value64-s0"]  # fmt: skip
+MPC_PLANNERS = [*PAPER_PLANNERS, "cmaes"]
+CTG_FORMS = ("distance", "dubins")  # the priced forms beside the default `value` (model.md §7e.4)
+V3_ORDER = ("paper", "windows", "suite", "windows-suite", "held-out", "ctg-sensitivity", "agents", "best-known",
+            "tables")  # fmt: skip
+CTG_TABLE = "benchmarks/terminal_cost_table.py"
+CHECKPOINT = Path("leaderboards/v3-checkpoint")
+MANIFEST = "manifest.json"
+# Rows flown with the `value` default at clean commits, whose policy hashes equal v3's (docs/publishing.md §5.3).
+SEED_ROWS = (Path("leaderboards/ctg-sensitivity/suite-value-rows/suite-value-4256938"),
+             Path("leaderboards/ctg-sensitivity/suite-forms-rows/suite-forms-4256938"))  # fmt: skip
+
+
+def ctg_policies() -> list[str]:
+    """The seven MPC planners under each priced terminal form: ``ihpso-ctg-distance``, ``ihpso-ctg-dubins``, ..."""
+    return [f"{name}-ctg-{form}" for form in CTG_FORMS for name in MPC_PLANNERS]
+
+
+def parts_v3(
+    models: Path = MODELS, unfinished: Callable[[], list[str]] | None = None, rl_root: Path = RL_ROOT
+) -> list[Part]:
+    """Leaderboard v3's parts, in :data:`V3_ORDER` (docs/publishing.md §5.1).
+
+    The v2 parts on the v3 store with :data:`CLASSICAL` and :data:`LEARNED` beside the paper, suite and
+    held-out policies; then ``ctg-sensitivity``: the seven MPC planners under the ``distance`` and
+    ``dubins`` terminal forms on the paper scenario (20 seeds, 10 000 evaluations) and on the suite
+    (its seed rule); its table is written in the tables part from the exported rows (the bare names
+    are the ``value`` default, flown by the paper and suite parts).
+    """
+    v2 = publication_parts(V3, models, unfinished, rl_root, beside=[*CLASSICAL, *LEARNED])
+    common = ["--store", str(V3.store), "--no-report", "--no-progress"]
+    ctg = Part("ctg-sensitivity", [
+        ["run", "--scenarios", "paper", "--policies", *ctg_policies(), "--seeds", "20", "--max-evals", "10000",
+         *common],
+        ["run", "--suite", "uavpen-v1", "--policies", *ctg_policies(), *common],
+    ])  # fmt: skip
+    episodes = f"{V3.rows}-episodes.parquet"
+    table = [CTG_TABLE, "--part", f"paper={episodes}", "--within", "paper=paper-2022-sec5",
+             "--part", f"suite={episodes}", "--within", "suite=uavpen-v1", "--out", str(V3.out / "ctg-sensitivity")]  # fmt: skip
+    named = {part.name: part for part in v2}
+    tables = named["tables"]
+    export = next(i for i, c in enumerate(tables.commands) if c[0] == "export")
+    named["tables"] = Part("tables", [*tables.commands[: export + 1], table, *tables.commands[export + 1 :]])
+    named["ctg-sensitivity"] = ctg
+    return [named[name] for name in V3_ORDER]
+
+
+@dataclass(frozen=True)
+class Publication:
+    """One registered publication: its results folder, its paths, its parts' order and its plan."""
+
+    version: str
+    root: Path
+    layout: Layout
+    order: tuple[str, ...]
+    plan: Callable[[], list[Part]]
+
+
+def publications() -> dict[str, Publication]:
+    """The registered publications by version (v2's paths read at call time, so tests can move ``ROOT``)."""
+    return {
+        "v2": Publication("v2", ROOT, Layout(STORE, OUT, ROWS, CHECK), ORDER, parts),
+        "v3": Publication("v3", V3_ROOT, V3, V3_ORDER, parts_v3),
+    }
+
+
+ID_COLUMNS = {"runs": "run_id", "episodes": "episode_id", "window_runs": "window_run_id"}
+
+
+def merge_rows(stems: Sequence[Path], out: Path) -> dict[str, int]:
+    """Join several exports into one stem ``out`` that ``uav-bench import`` reads (rows per table returned).
+
+    DECISION (docs/publishing.md §5.3, merged rows): ``uav-bench import`` builds a new store from one
+    export. Exports of one store (checkpoint chunks) have disjoint ids and keep them; an export whose
+    ids collide with the rows before it (another store: the seed rows) has its run, episode and
+    window-run ids moved past them, its episodes' ``run_id``, its window runs' ``run_id`` and its
+    steps' ``episode_id`` with them. Scenarios and policies are keyed by hash and kept once.
+
+    Raises:
+        SystemExit: a stem without its episodes table, or an episode (policy hash, scenario hash, seed)
+            in two stems (one line naming them).
+    """
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.rows import EXPORT_TABLES, read_table, row_path, write_table
+
+    merged: dict[str, list[pd.DataFrame]] = {table: [] for table in EXPORT_TABLES}
+    top = {column: 0 for column in ID_COLUMNS.values()}
+    for stem in stems:
+        frames = {table: read_table(stem, table) for table in EXPORT_TABLES}
+        if frames["episodes"] is None or frames["runs"] is None:
+            raise SystemExit(
+                f"{stem}: no episodes or runs table; expected an export of uav-bench (--format parquet)"
+            )
+        shift = {}
+        for table, column in ID_COLUMNS.items():
+            frame = frames[table]
+            ids = frame[column] if frame is not None and not frame.empty else pd.Series(dtype="int64")
+            shift[column] = top[column] if len(ids) and int(ids.min()) <= top[column] else 0
+            if len(ids):
+                top[column] = int(ids.max()) + shift[column]
+        for table, frame in frames.items():
+            if frame is None or frame.empty:
+                continue
+            frame = frame.copy()
+            for column in ("run_id", "episode_id", "window_run_id"):
+                if column in frame.columns and frame[column].notna().all():
+                    frame[column] = frame[column].astype("int64") + shift[column]
+                elif column in frame.columns:  # a nullable reference: shift what is set
+                    frame[column] = frame[column].where(frame[column].isna(), frame[column] + shift[column])
+            merged[table].append(frame)
+    counts = {}
+    for table, frames in merged.items():
+        if not frames:
+            continue
+        frame = pd.concat(frames, ignore_index=True)
+        if table in ("scenarios", "policies"):
+            frame = frame.drop_duplicates({"scenarios": "scenario_hash", "policies": "policy_hash"}[table])
+        if table == "episodes":
+            twice = frame[frame.duplicated(["policy_hash", "scenario_hash", "seed"], keep=False)]
+            if not twice.empty:
+                row = twice.iloc[0]
+                raise SystemExit(f"episode {row.policy} on {row.scenario} seed {row.seed} is in two of "
+                                 f"{', '.join(map(str, stems))}; expected each episode once")  # fmt: skip
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_table(frame, row_path(out, table, "parquet"), "parquet")
+        counts[table] = len(frame)
+    return counts
+
+
+def bench(argv: Sequence[str]) -> int:
+    """One ``uav-bench`` command in this tree, as the parts' commands run (its exit status)."""
+    return subprocess.run([*uav_bench(), *argv], cwd=REPO, env=child_environment()).returncode
+
+
+def import_rows(stem: Path, store: Path) -> int:
+    """``uav-bench import --rows stem --store store`` in this tree (its exit status)."""
+    argv = ["import", "--rows", str(stem), "--store", str(store)]
+    print(f"[run] {command_key(argv)}", flush=True)
+    return bench(argv)
+
+
+def refuse_existing(*paths: Path) -> None:
+    for path in paths:
+        if path.exists():
+            raise FileExistsError(f"{path} exists; this only rebuilds a missing store and log")
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all (uav_penetration_env/atomic.py)."""
+    from uav_penetration_env.atomic import atomic_open
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_open(path) as handle:
+        handle.write(text)
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """The checkpoint's manifest: the seed stems, the chunks (name, last run id, episodes), or an empty one."""
+    path = REPO / folder / MANIFEST
+    return json.loads(path.read_text()) if path.is_file() else {"seeds": [], "seed_run_id": 0, "chunks": []}
+
+
+def seed_from(stems: Sequence[Path] = SEED_ROWS, pub: Publication | None = None) -> int:
+    """A new v3 store from earlier rows (``--seed-from``): the sweep then skips their episodes.
+
+    DECISION (docs/publishing.md §5.3, seeding): the seed rows were flown with the policies v3 flies
+    (equal policy hashes: the store key) from a clean checkout of 4256938, and keep their own runs
+    and so their own provenance, which records the commit as ``unknown`` (a checkout without
+    ``.git``): never rewritten here, so the publication names it from the rows' README. The stems are recorded in ``results/v3/seeded.json`` so that a checkpoint
+    names them instead of copying their rows (they are committed already).
+
+    Raises:
+        FileExistsError: the store or its log exists (seeding is the first step, never a merge).
+    """
+    import tempfile
+
+    pub = pub or publications()["v3"]
+    store, log = REPO / pub.layout.store, REPO / pub.root / "compute.jsonl"
+    refuse_existing(store, log)
+    with tempfile.TemporaryDirectory() as folder:
+        from uav_penetration_env.benchmark.rows import read_table
+
+        counts = merge_rows([REPO / s for s in stems], Path(folder) / "seed")
+        top = int(read_table(Path(folder) / "seed", "runs").run_id.max())  # the seed rows' last run id
+        status = import_rows(Path(folder) / "seed", store)
+    if status == 0:
+        atomic_write_text(REPO / pub.root / "seeded.json", json.dumps(
+            {"seeds": [s.as_posix() for s in stems], "seed_run_id": top}, indent=1))  # fmt: skip
+        print(f"{store.relative_to(REPO)}: seeded with {counts['episodes']} episodes of {len(stems)} exports")
+    return status
+
+
+def checkpoint(pub: Publication | None = None, folder: Path = CHECKPOINT) -> Path | None:
+    """Export the store's rows flown since the last checkpoint, and the compute log, into ``folder``.
+
+    DECISION (docs/publishing.md §5.2, incremental checkpoints): each checkpoint is a new chunk
+    (``chunk-NNN-*.parquet``: the runs after the last recorded run id, their episodes, steps and
+    window runs, every scenario and policy), so each episode's steps are committed once and a
+    session's commit stays small; the seed rows are named, not copied. The manifest is written last
+    (atomically): a chunk it does not name is ignored, so a cut checkpoint leaves the last one whole.
+
+    Returns:
+        The chunk's stem, or ``None`` when nothing was flown since (only the log is copied).
+    """
+    import tempfile
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.rows import EXPORT_TABLES, read_table, row_path, write_table
+
+    pub = pub or publications()["v3"]
+    store, log = REPO / pub.layout.store, REPO / pub.root / "compute.jsonl"
+    if not store.is_file():
+        raise FileNotFoundError(f"{store}: missing; nothing to checkpoint")
+    manifest = read_manifest(folder)
+    seeded = REPO / pub.root / "seeded.json"
+    if seeded.is_file() and not manifest["chunks"]:
+        manifest.update(json.loads(seeded.read_text()))
+    covered = max([manifest["seed_run_id"], *(c["run_id"] for c in manifest["chunks"])])
+    target = REPO / folder
+    target.mkdir(parents=True, exist_ok=True)
+    stem = None
+    with tempfile.TemporaryDirectory() as work:
+        argv = ["export", "--format", "parquet", "--store", str(store), "--out", f"{work}/all"]
+        if bench(argv) != 0:
+            raise SystemExit(f"{command_key(argv)}: failed; no checkpoint written")
+        frames = {table: read_table(f"{work}/all", table) for table in EXPORT_TABLES}
+        runs = frames["runs"]
+        new = runs[runs.run_id > covered]
+        if not new.empty:
+            keep = set(new.run_id)
+            episodes = frames["episodes"][frames["episodes"].run_id.isin(keep)]
+            chosen = {
+                "runs": new,
+                "episodes": episodes,
+                "scenarios": frames["scenarios"],
+                "policies": frames["policies"],
+            }
+            steps, windows = frames["steps"], frames["window_runs"]
+            chosen["steps"] = (
+                steps[steps.episode_id.isin(set(episodes.episode_id))] if steps is not None else None
+            )
+            chosen["window_runs"] = windows[windows.run_id.isin(keep)] if windows is not None else None
+            name = f"chunk-{len(manifest['chunks']) + 1:03d}"
+            for table, frame in chosen.items():
+                if frame is not None:
+                    write_table(frame if not frame.empty else pd.DataFrame(columns=frame.columns),
+                                row_path(target / name, table, "parquet"), "parquet")  # fmt: skip
+            manifest["chunks"].append({"name": name, "run_id": int(new.run_id.max()), "episodes": len(episodes),
+                                       "window_runs": 0 if chosen["window_runs"] is None else len(chosen["window_runs"])})  # fmt: skip
+            stem = Path(folder) / name
+    if log.is_file():
+        atomic_write_text(target / "compute.jsonl", log.read_text())
+    atomic_write_text(target / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+    return stem
+
+
+def resume(pub: Publication | None = None, folder: Path = CHECKPOINT) -> int:
+    """Rebuild a missing v3 store and log from the checkpoint (``--resume``): seeds and chunks, merged, imported.
+
+    Raises:
+        FileExistsError: the store or the log exists.
+        FileNotFoundError: no checkpoint manifest.
+    """
+    import tempfile
+
+    pub = pub or publications()["v3"]
+    store, log = REPO / pub.layout.store, REPO / pub.root / "compute.jsonl"
+    refuse_existing(store, log)
+    if not (REPO / folder / MANIFEST).is_file():
+        raise FileNotFoundError(f"{REPO / folder / MANIFEST}: missing; expected a checkpoint (--checkpoint)")
+    manifest = read_manifest(folder)
+    stems = [REPO / s for s in manifest["seeds"]] + [REPO / folder / c["name"] for c in manifest["chunks"]]
+    with tempfile.TemporaryDirectory() as work:
+        merge_rows(stems, Path(work) / "resume")
+        status = import_rows(Path(work) / "resume", store)
+    if status == 0:
+        if manifest["seeds"]:
+            atomic_write_text(REPO / pub.root / "seeded.json", json.dumps(
+                {"seeds": manifest["seeds"], "seed_run_id": manifest["seed_run_id"]}, indent=1))  # fmt: skip
+        saved = REPO / folder / "compute.jsonl"
+        atomic_write_text(log, saved.read_text() if saved.is_file() else "")
+        print(f"{store.relative_to(REPO)}: {len(stems)} exports; {len(read_log(log))} attempts in the log")
+    return status
+
+
+WINDOW_EVIDENCE = Path(
+    "leaderboards/rows/leaderboard"
+)  # v2's rows: the episodes' and window runs' own seconds
+
+
+def scenario_group(scenario: str) -> str:
+    """The estimate's scenario groups: ``paper`` (both weightings), ``dem``, ``procedural``."""
+    return "paper" if scenario.startswith("paper") else "dem" if scenario.startswith("dem") else "procedural"
+
+
+def evidence_name(policy: str) -> str:
+    """A command's policy name as the rows record it (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``)."""
+    head, sep, path = policy.rpartition("sb3:")
+    return f"{head}sb3:{Path(path).stem}" if sep else policy
+
+
+def flag_values(argv: Sequence[str], flag: str) -> list[str]:
+    if flag not in argv:
+        return []
+    values = []
+    for item in argv[argv.index(flag) + 1 :]:
+        if item.startswith("--"):
+            break
+        values.append(item)
+    return values
+
+
+SCENARIO_NAMES = {"paper": "paper-2022-sec5", "paper-w2": "paper-2022-sec5-w2"}
+
+
+def planned_items(argv: Sequence[str]) -> list[tuple[str, str, int]]:
+    """(policy or optimizer, scenario, seed) of every episode or window run a command plans.
+
+    A run's episodes: every ``--scenarios`` name by ``--seeds``, or a suite's members by its rule
+    (docs/suite.md §4; the classical and learned planners and the agents taken as deterministic);
+    a windows command's runs: its steps by optimizers by seeds, named by the optimizer.
+    """
+    from uav_penetration_env.suites import FIXED_MEMBER_SEEDS, load_suite
+    from uav_penetration_env.suites.schema import FIXED_GROUP
+
+    if not argv or argv[0] not in ("run", "windows"):
+        return []
+    seeds = list(range(int(flag_values(argv, "--seeds")[0]))) if "--seeds" in argv else None
+    if argv[0] == "windows":
+        scenario = SCENARIO_NAMES.get(flag_values(argv, "--scenario")[0], flag_values(argv, "--scenario")[0])
+        steps = flag_values(argv, "--steps")[0].split(",")
+        return [
+            (o, scenario, s) for o in flag_values(argv, "--optimizers") for _ in steps for s in seeds or [0]
+        ]
+    items = []
+    for policy in flag_values(argv, "--policies"):
+        deterministic = policy in CLASSICAL or policy.startswith(("distill", "sb3:"))
+        if "--suite" in argv:
+            for member in load_suite(flag_values(argv, "--suite")[0]).members:
+                fixed = member.group == FIXED_GROUP
+                rule = range(1 if deterministic or not fixed else FIXED_MEMBER_SEEDS)
+                items += [(policy, member.scenario, seed) for seed in rule]
+        else:
+            for name in flag_values(argv, "--scenarios"):
+                items += [(policy, SCENARIO_NAMES.get(name, name), seed) for seed in seeds or [0]]
+    return items
+
+
+def evidence() -> tuple[
+    dict[tuple[str, str], float], dict[tuple[str, str], float], set[tuple[str, str, int]], float
+]:
+    """Mean seconds per (policy, group) of episodes and per (optimizer, group) of window runs, the seed rows' keys, and v2's speed ratio.
+
+    DECISION (docs/publishing.md §5.4, the estimate): the seed rows (flown at 4256938, the code v3
+    runs) speak first for a name they hold. v2's rows speak for the rest, scaled by the speed
+    ratio ``r``: the seed rows' seconds over v2's on the same episodes, v2's MPC planners (the
+    ``distance`` default then) against ``NAME-ctg-distance`` in each scenario group, which fly
+    the same steps (ihpso on dem-topobathy: 117.8 steps in both), so ``r`` measures the code and
+    the machine, not the work. A name with no evidence counts 0 s and is listed (a lower bound).
+    """
+    from uav_penetration_env.benchmark.rows import read_table
+
+    seconds: dict[tuple[str, str], float] = {}
+    counts: dict[tuple[str, str], int] = {}
+    seeded: set[tuple[str, str, int]] = set()
+    for stem in SEED_ROWS:
+        e = read_table(REPO / stem, "episodes")
+        seeded |= set(zip(e.policy, e.scenario, e.seed.astype(int), strict=True))
+        grouped = e.groupby([e.policy, e.scenario.map(scenario_group)]).episode_seconds
+        for key, mean in grouped.mean().items():
+            seconds.setdefault(key, float(mean))
+        counts.update(grouped.size().items())
+    v2 = read_table(REPO / WINDOW_EVIDENCE, "episodes")
+    v2_seconds = {
+        key: float(m)
+        for key, m in v2.groupby([v2.policy, v2.scenario.map(scenario_group)]).episode_seconds.mean().items()
+    }
+    mpc = {*PAPER_PLANNERS, *REFERENCES, *IHPSO_VARIANTS}
+    matched = [
+        ((f"{p}-ctg-distance", g), (p, g))
+        for p, g in v2_seconds
+        if p in mpc and (f"{p}-ctg-distance", g) in seconds
+    ]
+    ratio = sum(counts[k] * seconds[k] for k, _ in matched) / sum(
+        counts[k] * v2_seconds[o] for k, o in matched
+    )
+    for (policy, group), mean in v2_seconds.items():
+        seconds.setdefault((policy, group), ratio * mean)
+        if policy in mpc:
+            seconds.setdefault((f"{policy}-ctg-distance", group), ratio * mean)
+    w = read_table(REPO / WINDOW_EVIDENCE, "window_runs")
+    windows = {
+        key: ratio * float(v)
+        for key, v in w.groupby([w.optimizer, w.scenario.map(scenario_group)]).seconds.mean().items()
+    }
+    return seconds, windows, seeded, ratio
+
+
+def estimate(plan: Sequence[Part]) -> str:
+    """Per part: planned episodes and window runs, their worker hours, and what the seed rows cover (a Markdown table).
+
+    Worker hours are the sum of the items' own wall seconds (:func:`compute_table`'s measure): CPU
+    hours where each worker has an idle core, so about half of it in wall time on 2 idle cores.
+    """
+    seconds, windows, seeded, ratio = evidence()
+    missing: set[str] = set()
+
+    def cost(kind: str, name: str, scenario: str) -> float:
+        group = scenario_group(scenario)
+        table = windows if kind == "windows" else seconds
+        for key in ((name, group), *((n, g) for (n, g) in table if n == name)):
+            if key in table:
+                return table[key]
+        missing.add(name)
+        return 0.0
+
+    lines = ["| part | episodes + window runs | worker [h] | in the seed rows | worker left after seeding [h] |",
+             "|---|---:|---:|---:|---:|"]  # fmt: skip
+    total = left_total = 0.0
+    for part in plan:
+        n = hours = covered = left = 0.0
+        for command in part.commands:
+            for name, scenario, seed in planned_items(command):
+                c = cost(command[0], evidence_name(name), scenario) / 3600
+                n, hours = n + 1, hours + c
+                if command[0] == "run" and (name, scenario, seed) in seeded:
+                    covered += 1
+                else:
+                    left += c
+        if not n:
+            continue
+        total, left_total = total + hours, left_total + left
+        lines.append(f"| {part.name} | {int(n)} | {hours:.2f} | {int(covered)} | {left:.2f} |")
+    lines.append(f"| total | | {total:.2f} | | {left_total:.2f} |")
+    lines.append(
+        f"\nv2's seconds scaled by r = {ratio:.3f} (the seed rows' seconds over v2's on the same episodes)"
+    )
+    if missing:
+        lines.append(f"\nno timing evidence (taken as 0 s, a lower bound): {', '.join(sorted(missing))}")
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python benchmarks/publish.py", description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", default=(), metavar="PART", help="run only these parts")
@@ -528,32 +1010,82 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--install",
         action="store_true",
-        help="replace leaderboards/'s generated files by results/v2/out's (after a passed rebuild check)",
+        help="replace leaderboards/'s generated files by results/VERSION/out's (after a passed rebuild check)",
     )
+    parser.add_argument("--version", choices=sorted(publications()), default="v2",
+                        help="the publication (default v2; v3: docs/publishing.md §5)")  # fmt: skip
+    parser.add_argument("--estimate", action="store_true",
+                        help="print the compute estimate per part from earlier rows; run nothing")  # fmt: skip
+    v3 = parser.add_argument_group("carrying v3 across sessions (docs/publishing.md §5.2-5.3)")
+    v3.add_argument("--checkpoint", action="store_true",
+                    help=f"export the rows flown since the last checkpoint and the log into {CHECKPOINT}/")  # fmt: skip
+    v3.add_argument("--resume", action="store_true",
+                    help="rebuild a missing results/v3 store and log from the checkpoint")  # fmt: skip
+    v3.add_argument("--seed-from", nargs="*", type=Path, metavar="STEM",
+                    help="start a new results/v3 store from earlier exports (default: the terminal-cost "
+                         "study's suite rows, whose policy hashes are v3's)")  # fmt: skip
     args = parser.parse_args(argv)
+    pub = publications()[args.version]
+    carry = [
+        flag for flag in ("checkpoint", "resume", "seed_from") if getattr(args, flag) not in (False, None)
+    ]
+    if carry and args.version != "v3":
+        parser.error(
+            f"--{carry[0].replace('_', '-')}: only with --version v3 (v2 carries on with --from-published)"
+        )
+    try:
+        if args.seed_from is not None:
+            return seed_from(args.seed_from or SEED_ROWS, pub)
+        if args.resume:
+            return resume(pub)
+        if args.checkpoint:
+            stem = checkpoint(pub)
+            print(
+                f"{CHECKPOINT}: {'new rows in ' + str(stem) if stem else 'no new rows'}; the log copied; commit it"
+            )
+            return 0
+    except (FileExistsError, FileNotFoundError) as error:
+        print(f"refused: {error}", file=sys.stderr)
+        return 1
     if args.from_published:
+        if args.version != "v2":
+            parser.error("--from-published: v2 only; v3 carries on with --resume")
         try:
             return from_published()
         except (FileExistsError, FileNotFoundError) as error:
             print(f"refused: {error}", file=sys.stderr)
             return 1
-    log = REPO / ROOT / "compute.jsonl"
+    log = REPO / pub.root / "compute.jsonl"
     attempts = read_log(log)
+    if args.estimate:
+        print(estimate(pub.plan()))
+        return 0
     if args.compute:
         published = REPO / "leaderboards" / "compute.jsonl"
-        if not log.is_file() and published.is_file():  # a fresh clone: the log --install committed
+        if (
+            args.version == "v2" and not log.is_file() and published.is_file()
+        ):  # a fresh clone: the log --install committed
             attempts = read_log(published)
-        print(compute_table(attempts, worker=published_worker_seconds()))
+        if args.version == "v2":
+            worker = published_worker_seconds()
+        else:
+            from uav_penetration_env.benchmark.rows import store_tables
+
+            store = REPO / pub.layout.store
+            worker = worker_seconds(store_tables(store)) if store.is_file() else {}
+        print(compute_table(attempts, worker=worker, order=pub.order))
         return 0
     if args.install:
-        tables = next(part for part in parts() if part.name == "tables")
+        tables = next(part for part in pub.plan() if part.name == "tables")
         if not rebuild_checked(attempts, [command_key(c) for c in tables.commands]):
             print("refused: the tables part has not ended with a passed rebuild check; run it first",
                   file=sys.stderr)  # fmt: skip
             return 1
-        print(f"{len(install())} files copied into leaderboards/")
+        print(
+            f"{len(install(pub.layout.out, log=pub.root / 'compute.jsonl'))} files copied into leaderboards/"
+        )
         return 0
-    plan = parts()
+    plan = pub.plan()
     names = [p.name for p in plan]
     unknown = [name for name in args.only if name not in names]
     if unknown:
@@ -588,7 +1120,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                     return 1
                 checked_imports = True
             if part.name == "tables":  # no stale file may take part in the comparison
-                for folder, first in ((OUT, index == 0), (CHECK, command[0] == "leaderboard")):
+                for folder, first in (
+                    (pub.layout.out, index == 0),
+                    (pub.layout.check, command[0] == "leaderboard"),
+                ):
                     if first and (REPO / folder).is_dir():
                         shutil.rmtree(REPO / folder)
             status = run_attempt(part.name, command, log)
@@ -603,13 +1138,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return WAITING
             continue
         if part.name == "tables" and not args.dry_run:
-            differing = compare_rebuild(REPO / OUT, REPO / CHECK)
+            differing = compare_rebuild(REPO / pub.layout.out, REPO / pub.layout.check)
             append_attempt(log, {"part": "tables", "command": REBUILD_CHECK, "wall_s": 0.0, "cpu_s": 0.0,
                                  "status": 1 if differing else 0, "commit": commit()})  # fmt: skip
             if differing:
                 print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
                 return 1
             print("tables rebuilt from the rows equal the store's (apart from the date line)")
+    if args.dry_run and args.version == "v3":
+        print(
+            "\nestimate (worker hours from earlier rows' own episode and window-run seconds; docs/publishing.md §5.4):"
+        )
+        print(estimate(plan))
     return 0
 
 

@@ -20,6 +20,15 @@ Usage (the committed table):
         --part suite=leaderboards/ctg-sensitivity/suite-value-rows/suite-value-4256938-episodes.parquet \
         --part suite=leaderboards/ctg-sensitivity/suite-forms-rows/suite-forms-4256938-episodes.parquet \
         --out /tmp/ctg-table && cp /tmp/ctg-table/* leaderboards/ctg-sensitivity/
+
+From one store's exported rows (leaderboard v3, docs/publishing.md §5), where one episodes file
+holds every scenario, ``--within NAME=SELECTION`` keeps a part's episodes on one scenario or on a
+frozen suite's members by the suite's seed rule (seeds 0-4 on a fixed member, seed 0 on a
+procedural one, docs/suite.md §4), so the suite part counts what ``run --suite`` flies:
+    python benchmarks/terminal_cost_table.py \
+        --part paper=results/v3/out/rows/leaderboard-episodes.parquet --within paper=paper-2022-sec5 \
+        --part suite=results/v3/out/rows/leaderboard-episodes.parquet --within suite=uavpen-v1 \
+        --out results/v3/out/ctg-sensitivity
 """
 
 from __future__ import annotations
@@ -51,6 +60,34 @@ def read_part(paths: list[Path], bare_form: str) -> pd.DataFrame:
     e.loc[mpc & e.form.isna(), "form"] = bare_form
     e["form"] = e.form.fillna("-")
     return e
+
+
+def within(e: pd.DataFrame, selection: str) -> pd.DataFrame:
+    """The episodes of ``e`` on ``selection``: a frozen suite's members by its seed rule, or one scenario name.
+
+    A suite member is matched by its scenario name (``random-30000``, ``paper-2022-sec5``); a fixed
+    member keeps seeds below ``FIXED_MEMBER_SEEDS`` (5), a procedural one below
+    ``PROCEDURAL_MEMBER_SEEDS`` (1), which is every seed the rule flies (a deterministic policy's
+    single seed 0 included).
+
+    Raises:
+        SystemExit: ``selection`` is neither a suite nor a scenario of ``e`` (one line naming it).
+    """
+    from uav_penetration_env.suites import SuiteError, load_suite
+    from uav_penetration_env.suites.schema import FIXED_GROUP
+    from uav_penetration_env.suites.seeds import FIXED_MEMBER_SEEDS, PROCEDURAL_MEMBER_SEEDS
+
+    try:
+        suite = load_suite(selection)
+    except SuiteError:
+        if selection not in set(e.scenario):
+            raise SystemExit(
+                f"--within: {selection!r} is neither a suite nor a scenario of the episodes"
+            ) from None
+        return e[e.scenario == selection]
+    limit = {m.scenario: FIXED_MEMBER_SEEDS if m.group == FIXED_GROUP else PROCEDURAL_MEMBER_SEEDS
+             for m in suite.members}  # fmt: skip
+    return e[e.scenario.map(limit).gt(e.seed)]
 
 
 def planner_table(e: pd.DataFrame) -> pd.DataFrame:
@@ -152,12 +189,20 @@ def markdown(parts: dict[str, tuple[pd.DataFrame, list[dict], list]]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The script's flags (benchmarks/publish.py's v3 tables part checks its command against them)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", action="append", required=True, metavar="NAME=PATH",
                         help="episodes (CSV or Parquet) of one part; repeat a NAME to join files")  # fmt: skip
+    parser.add_argument("--within", action="append", default=[], metavar="NAME=SELECTION",
+                        help="keep part NAME's episodes on one scenario or a frozen suite (its seed rule)")  # fmt: skip
     parser.add_argument("--bare-form", default="value", choices=FORMS, help="the form a bare planner name flew")
     parser.add_argument("--out", type=Path, required=True, help="folder for sensitivity.md and sensitivity.csv")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     files: dict[str, list[Path]] = {}
     for item in args.part:
@@ -167,9 +212,17 @@ def main(argv: list[str] | None = None) -> int:
         if not Path(path).is_file():
             parser.error(f"--part {name}: no file {path}")
         files.setdefault(name, []).append(Path(path))
+    selections: dict[str, str] = {}
+    for item in args.within:
+        name, sep, selection = item.partition("=")
+        if not sep or name not in files or not selection:
+            parser.error(f"--within: got {item!r}, expected NAME=SCENARIO|SUITE for a --part NAME")
+        selections[name] = selection
     parts, csv_rows = {}, []
     for name, paths in files.items():
         e = read_part(paths, args.bare_form)
+        if name in selections:
+            e = within(e, selections[name])
         table = planner_table(e)
         pairs = [p for p in (paired(e, f) for f in FORMS) if p is not None]
         parts[name] = (table, pairs, conclusions(table, pairs))

@@ -353,3 +353,24 @@ def test_rl_noise_corridor_without_noise_is_the_greedy_floor(capsys):
     assert cost == total and not crashed
     module.main(["--scenario", "paper", "--stds", "0.37", "--clearances", "100", "--episodes", "2"])
     assert "0.37" in capsys.readouterr().out
+
+
+def test_terminal_cost_table_within_keeps_a_suite_by_its_seed_rule_or_one_scenario():
+    """One export holds every scenario (leaderboard v3): ``--within`` keeps what ``run --suite`` flies."""
+    import pandas as pd
+
+    module = load("terminal_cost_table")
+    # the suite rule (docs/suite.md §4): seeds 0-4 on a fixed member, seed 0 on a procedural one
+    rows = [("paper-2022-sec5", s) for s in range(7)] + [
+        ("random-30000", 0),
+        ("random-30000", 1),
+        ("random-10000", 0),
+    ]
+    e = pd.DataFrame(rows, columns=["scenario", "seed"]).assign(policy="ihpso")
+    suite = module.within(e, "uavpen-v1")
+    assert list(zip(suite.scenario, suite.seed, strict=True)) == [
+        ("paper-2022-sec5", s) for s in range(5)
+    ] + [("random-30000", 0)]
+    assert module.within(e, "random-30000").seed.tolist() == [0, 1]
+    with pytest.raises(SystemExit, match=r"^--within: 'nowhere' is neither a suite nor a scenario"):
+        module.within(e, "nowhere")

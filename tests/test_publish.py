@@ -325,3 +325,125 @@ def test_derived_parts_rerun_in_the_same_invocation_after_new_rows(tmp_path, mon
     tables = next(p for p in plan if p.name == "tables")
     assert ran == ["agents"] * len(plan[5].commands) + ["best-known"] + ["tables"] * len(tables.commands)
     assert publish.rebuild_checked(publish.read_log(log), [publish.command_key(c) for c in tables.commands])
+
+
+def test_v3_flies_the_new_planners_beside_the_v2_parts(tmp_path):
+    v2 = {part.name: part for part in publish.parts(tmp_path, unfinished=list)}
+    v3 = {part.name: part for part in publish.parts_v3(tmp_path, unfinished=list)}
+    assert list(v3) == list(publish.V3_ORDER) and "ctg-sensitivity" not in v2
+    new = ["lattice", "lattice-c40", "value-greedy-c40", "distill-shield:leaderboards/distill/c40-value-s1",
+           "distill:leaderboards/distill/c40-value-s1", "distill-shield:leaderboards/distill/c40-value64-s0"]  # fmt: skip
+    for name in ("paper", "suite", "held-out"):
+        (command,) = v3[name].commands
+        policies = command[command.index("--policies") + 1 :]
+        assert (
+            policies[: policies.index(new[0])]
+            == v2[name].commands[0][v2[name].commands[0].index("--policies") + 1 :][: policies.index(new[0])]
+        )  # the v2 policies first, in their order
+        assert all(p in policies for p in new) and not any(p in v2[name].commands[0] for p in new)
+        assert command[command.index("--store") + 1] == "results/v3/leaderboard.sqlite"
+    paper, suite = v3["ctg-sensitivity"].commands
+    forms = [f"{n}-ctg-{f}" for f in ("distance", "dubins") for n in ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "cmaes")]  # fmt: skip
+    assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == forms and "20" in paper
+    assert suite[:3] == ["run", "--suite", "uavpen-v1"] and suite[4:18] == forms
+    tables = [c[0] for c in v3["tables"].commands]
+    assert tables.index("benchmarks/terminal_cost_table.py") == tables.index("export") + 1
+    # the v2 plan writes to results/v2 only
+    assert all("results/v3" not in " ".join(c) for part in v2.values() for c in part.commands)
+
+
+def test_every_v3_command_parses_with_the_real_cli_or_its_script(tmp_path):
+    from uav_penetration_env.benchmark.cli import build_parser
+
+    table = load("terminal_cost_table").build_parser()
+    parser = build_parser()
+    parser.exit_on_error = table.exit_on_error = False
+    for part in publish.parts_v3(tmp_path, unfinished=list):
+        for command in part.commands:
+            if command[0].endswith(".py"):
+                assert publish.command_key(command).startswith(
+                    "python benchmarks/terminal_cost_table.py --part"
+                )
+                table.parse_args(command[1:])
+            else:
+                parser.parse_args(command)
+
+
+def tiny_store(tmp_path, store, seeds):
+    from tests.conftest import tiny_scenario
+    from uav_penetration_env.benchmark import cli
+
+    scenario = tmp_path / "tiny.yaml"
+    if not scenario.is_file():
+        tiny_scenario(time={"max_steps": 6}).to_yaml(scenario)
+    assert cli.main(["run", "--policies", "greedy", "--scenarios", str(scenario), "--seeds", seeds, "--store",
+                     str(store), "--jobs", "1", "--no-report", "--no-progress"]) == 0  # fmt: skip
+
+
+def test_v3_seed_checkpoint_and_resume_round_trip(tmp_path, monkeypatch, capsys):
+    """Seeded from two stores (colliding ids), checkpointed twice (only new runs), resumed: the same episodes."""
+    from uav_penetration_env.benchmark import cli
+    from uav_penetration_env.benchmark.rows import read_table, store_tables
+
+    monkeypatch.setattr(publish, "REPO", tmp_path)
+    monkeypatch.setattr(publish, "bench", cli.main)  # in-process: no interpreter start per command
+    pub = publish.publications()["v3"]
+    stems = []
+    for name, seeds in (("a", "2"), ("b", "2:3")):  # two stores: both start their ids at 1
+        tiny_store(tmp_path, tmp_path / f"{name}.sqlite", seeds)
+        stems.append(Path(f"seed/{name}"))
+        assert cli.main(["export", "--format", "parquet", "--store", str(tmp_path / f"{name}.sqlite"),
+                         "--out", str(tmp_path / stems[-1])]) == 0  # fmt: skip
+    assert publish.seed_from(stems, pub) == 0
+    store = tmp_path / pub.layout.store
+    held = store_tables(store).episodes
+    assert sorted(held.seed) == [0, 1, 2] and held.episode_id.is_unique and held.run_id.nunique() == 2
+    with pytest.raises(FileExistsError, match="exists; this only rebuilds a missing store"):
+        publish.seed_from(stems, pub)
+    log = tmp_path / pub.root / "compute.jsonl"
+    log.write_text('{"part": "paper", "command": "c", "status": 0}\n')
+    folder = Path("leaderboards/v3-checkpoint")
+    assert publish.checkpoint(pub, folder) is None  # only seed rows: named, not copied
+    assert publish.read_manifest(folder)["seeds"] == [s.as_posix() for s in stems]
+    tiny_store(tmp_path, store, "4")  # seed 3 is new: one more run, one more episode
+    first = publish.checkpoint(pub, folder)
+    assert first == folder / "chunk-001" and read_table(tmp_path / first, "episodes").seed.tolist() == [3]
+    steps = read_table(tmp_path / first, "steps")
+    assert set(steps.episode_id) == set(read_table(tmp_path / first, "episodes").episode_id)
+    assert publish.checkpoint(pub, folder) is None  # nothing new since
+    expected = store_tables(store).episodes
+    for path in (store, log, tmp_path / pub.root / "seeded.json"):
+        path.unlink()
+    capsys.readouterr()
+    assert publish.resume(pub, folder) == 0
+    rebuilt = store_tables(store).episodes
+    assert rebuilt.drop(columns="finished").equals(expected.drop(columns="finished"))
+    assert publish.read_log(log) == [{"part": "paper", "command": "c", "status": 0}]
+    with pytest.raises(FileExistsError):
+        publish.resume(pub, folder)
+
+
+def test_v3_only_flags_refuse_v2(capsys):
+    with pytest.raises(SystemExit):
+        publish.main(["--checkpoint"])
+    assert "--checkpoint: only with --version v3" in capsys.readouterr().err
+
+
+def test_the_estimate_counts_each_command_by_its_seed_rule():
+    """Counted by hand: uavpen-v1 has 3 fixed members (5 seeds, 1 for a deterministic planner) and 60 procedural (1)."""
+    suite = publish.planned_items(["run", "--suite", "uavpen-v1", "--policies", "ihpso", "lattice"])
+    assert sum(p == "ihpso" for p, _, _ in suite) == 3 * 5 + 60 and sum(p == "lattice" for p, _, _ in suite) == 63
+    paper = publish.planned_items(["run", "--scenarios", "paper", "paper-w2", "--policies", "greedy", "--seeds", "20"])
+    assert len(paper) == 40 and {s for _, s, _ in paper} == {"paper-2022-sec5", "paper-2022-sec5-w2"}
+    windows = next(p for p in publish.parts_v3(unfinished=list) if p.name == "windows").commands[0]
+    assert len(publish.planned_items(windows)) == 15 * 10 * 20  # steps x optimizers x seeds
+    assert publish.evidence_name("ihpso+sb3:leaderboards/rl/models/ppo-paper-s0.zip") == "ihpso+sb3:ppo-paper-s0"
+
+
+def test_merged_rows_refuse_an_episode_twice(tmp_path):
+    from uav_penetration_env.benchmark import cli
+
+    tiny_store(tmp_path, tmp_path / "a.sqlite", "1")
+    assert cli.main(["export", "--format", "parquet", "--store", str(tmp_path / "a.sqlite"), "--out", str(tmp_path / "a")]) == 0
+    with pytest.raises(SystemExit, match=r"^episode greedy on .* seed 0 is in two of"):
+        publish.merge_rows([tmp_path / "a", tmp_path / "a"], tmp_path / "merged")
