@@ -101,6 +101,7 @@ class UAVPenetrationSB3VecEnv(VecEnv):
         super().__init__(num_envs, self.vector_env.single_observation_space, policy_space)
         self.metadata = dict(self.vector_env.metadata)
         self._actions: np.ndarray | None = None
+        self._physical = False
 
     # --- SB3 VecEnv API ------------------------------------------------------------------------------
 
@@ -141,12 +142,23 @@ class UAVPenetrationSB3VecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         """Store the policy actions for :meth:`step_wait`."""
         self._actions = np.asarray(actions)
+        self._physical = False
+
+    def step_async_physical(self, actions: np.ndarray) -> None:
+        """Store ``(num_envs, 3)`` actions already in physical units (a training formulation's controller).
+
+        :meth:`step_wait` passes them to the env as they are, without the [-1, 1] rescaling
+        (``baselines.formulation``, docs/rl.md §4.10).
+        """
+        self._actions = np.asarray(actions, dtype=np.float64)
+        self._physical = True
 
     def step_wait(self) -> VecEnvStepReturn:
         """Step all sub-envs; finished ones are reset at once (SAME_STEP), as ``DummyVecEnv`` does."""
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async(actions)")
-        obs, rewards, terminated, truncated, info = self.vector_env.step(self.to_physical(self._actions))
+        physical = self._actions if self._physical else self.to_physical(self._actions)
+        obs, rewards, terminated, truncated, info = self.vector_env.step(physical)
         self._actions = None
         dones = terminated | truncated
         infos = info_rows(info, self.num_envs)
