@@ -106,7 +106,7 @@ def _add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_formulation_arguments(parser: argparse.ArgumentParser) -> None:
-    """What the learner learns from and acts in (docs/rl.md §4.10); the defaults are today's."""
+    """What the learner learns from and acts in (docs/rl.md §6); the defaults are today's."""
     parser.add_argument(
         "--shaping",
         choices=["none", "value"],

@@ -72,7 +72,7 @@ class TrainConfig:
         torch_threads: torch intra-op threads while training (``None``: leave torch's setting).
         device: torch device (``cpu``: small MLPs run fastest there).
         shaping: ``none`` or ``value``: potential-based shaping from the value function, in
-            training only (:mod:`baselines.formulation`, docs/rl.md §4.10).
+            training only (:mod:`baselines.formulation`, docs/rl.md §6).
         action: ``physical`` (the env's box) or ``turn`` (a lattice turn flown by the candidate
             control; ``Discrete(5)`` for PPO and A2C, ``Box(1)`` otherwise).
         clearance_m: [m] the turn controller's terrain-following height (``action="turn"``).
@@ -340,9 +340,9 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
 
 
 def _formulation(config: TrainConfig, native_class: type, params: Mapping[str, Any]) -> Formulation:
-    """The run's checked :class:`~baselines.formulation.Formulation` (docs/rl.md §4.10).
+    """The run's checked :class:`~baselines.formulation.Formulation` (docs/rl.md §6).
 
-    DECISION (docs/rl.md §4.10, one scenario): shaping, the turn action and the value inputs read the
+    DECISION (docs/rl.md §6, one scenario): shaping, the turn action and the value inputs read the
     scenario's value function at the exact state, so they train on the fixed-scenario ids; the
     Random id, whose sub-envs fly a changing pool, is refused with them.
 

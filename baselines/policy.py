@@ -164,7 +164,7 @@ class SB3Policy:
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The deterministic action for ``observation``, in physical units [dv, dphi, dtheta].
 
-        A model trained with a formulation (docs/rl.md §4.10) reads the value inputs of
+        A model trained with a formulation (docs/rl.md §6) reads the value inputs of
         ``info["state"]`` after the observation, and its turn action is flown as the same candidate
         control as in training (:func:`baselines.formulation.turn_control`).
         """

@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 from baselines.artifacts import SIDECAR_FORMAT, ModelFiles, artifact_hashes
-from baselines.formulation import make_formulation_vec_env
 from baselines.hyperparameters import algorithm_class, algorithm_kwargs, normalize_kwargs
 from baselines.plan import TrainingPlan
 from baselines.resume import ResumeState
@@ -192,7 +191,7 @@ class _Run:
         from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
         from baselines.plan import vector_class
-        from baselines.vec_env import UAVPenetrationSB3VecEnv
+        from baselines.vec_env import UAVPenetrationSB3VecEnv, make_formulation_vec_env
         from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
 
         self.plan = plan
@@ -203,7 +202,7 @@ class _Run:
             # The pool the id would draw anyway (the first reset's seed), named so a resumed run keeps it.
             env_kwargs.setdefault("pool_seed", self.seeds[0])
         self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **env_kwargs)
-        # The formulation's wrapper (docs/rl.md §4.10); today's formulation is the adapter itself.
+        # The formulation's wrapper (docs/rl.md §6); today's formulation is the adapter itself.
         self.learner_env = make_formulation_vec_env(
             self.venv, plan.formulation, plan.hyperparams.get("gamma", 0.99)
         )

@@ -1,4 +1,4 @@
-"""Training formulations (docs/rl.md §4.10): value shaping telescopes and leaves J alone; the turn action
+"""Training formulations (docs/rl.md §6): value shaping telescopes and leaves J alone; the turn action
 is the lattice's candidate control, in training and in the evaluator."""
 
 from __future__ import annotations
@@ -10,17 +10,24 @@ import pytest
 from conftest import RL_EXTRA, tiny_scenario
 
 from baselines.formulation import (
+    LOOKAHEAD_STEPS,
+    OBSERVATION_VALUES,
     TURNS,
     Formulation,
-    TurnAction,
-    ValueShaping,
     formulation_for,
     learner_observation,
     turn_control,
     value_potential,
 )
+from baselines.formulation_env import TurnAction, ValueShaping
 from uav_penetration_env.env import UAVPenetrationEnv
-from uav_penetration_env.value_function import LatticeGuidance, candidate_control, value_function
+from uav_penetration_env.model import OBSERVATION_SIZE
+from uav_penetration_env.value_function import (
+    LATTICE_GUIDANCE,
+    LatticeGuidance,
+    candidate_control,
+    value_function,
+)
 
 # A fixed zig-zag of turns: not the optimum, so the potential changes along the way.
 TURN_SEQUENCE = (4, 4, 2, 0, 1, 2, 3, 2, 2, 0)
@@ -131,6 +138,12 @@ def test_the_value_inputs_follow_the_observation():
     np.testing.assert_allclose(inputs[67:], value_features(env.model, info["state"]).astype(np.float32))
 
 
+def test_the_light_constants_are_the_physics_ones():
+    assert TURNS == tuple(float(t) for t in LATTICE_GUIDANCE.turns)
+    assert LOOKAHEAD_STEPS == LATTICE_GUIDANCE.lookahead_steps
+    assert OBSERVATION_VALUES == OBSERVATION_SIZE
+
+
 def test_formulations_are_checked_naming_the_field():
     assert formulation_for("ppo", action="turn").turn_space == "discrete"
     assert formulation_for("sac", action="turn").turn_space == "box"
@@ -152,8 +165,7 @@ def sb3():
 
 
 def test_the_batched_wrapper_shapes_as_the_single_env_wrapper(sb3):
-    from baselines.formulation import FormulationVecEnv
-    from baselines.vec_env import UAVPenetrationSB3VecEnv
+    from baselines.vec_env import FormulationVecEnv, UAVPenetrationSB3VecEnv
 
     formulation = Formulation(shaping="value", action="turn", features="value")
     venv = FormulationVecEnv(UAVPenetrationSB3VecEnv(num_envs=1, scenario=tiny_scenario()), formulation, 0.97)
