@@ -331,11 +331,13 @@ def load_policy(path: str | Path) -> SB3Policy:
     sidecar = read_sidecar(files.sidecar)
     model_sha256, vecnormalize_sha256 = verify_artifacts(files, sidecar)
     shape = tuple(sidecar["observation_space"].get("shape", ()))
-    expected = Formulation.from_json(sidecar.get("formulation")).observation_size
+    formulation = Formulation.from_json(sidecar.get("formulation"))
+    expected = formulation.observation_size
     if shape != (expected,):
+        inputs = "" if formulation.is_default else " with the sidecar's formulation's inputs"
         raise ValueError(
             f"{files.sidecar}: the model was trained on observations of shape {shape}, "
-            f"this env's (with the sidecar's formulation) are ({expected},)"
+            f"this env's are ({expected},){inputs}"
         )
     return SB3Policy(files, sidecar, model_sha256, vecnormalize_sha256, sha256_file(files.sidecar))
 
