@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 from conftest import RL_EXTRA, tiny_scenario
+from sb3_helpers import baselines_plugins  # noqa: F401 (a fixture)
 
 from baselines.formulation import (
     LOOKAHEAD_STEPS,
@@ -275,3 +276,56 @@ def test_the_random_id_is_refused_with_a_formulation(sb3, tmp_path):
         prepare_training(
             TrainConfig(env_id="UAVPenetrationRandom-v0", shaping="value", out=tmp_path / "x.zip")
         )
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("baselines_plugins")
+def test_the_cli_trains_a_turn_model_and_workers_fly_it_as_in_process(sb3, tmp_path):
+    """`uav-bench train` with every option, then `uav-bench run` in two worker processes: the same J."""
+    from baselines import load_policy
+    from uav_penetration_env.benchmark import cli
+    from uav_penetration_env.benchmark.evaluate import evaluate
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
+    model = tmp_path / "ppo-turn.zip"
+    train = [
+        "train",
+        "--scenario",
+        str(scenario),
+        "--timesteps",
+        "4096",
+        "--n-envs",
+        "4",
+        "--out",
+        str(model),
+    ]
+    train += [
+        "--action",
+        "turn",
+        "--features",
+        "value",
+        "--shaping",
+        "value",
+        "--eval-freq",
+        "2048",
+        "--no-progress",
+    ]
+    assert cli.main(train) == 0
+    store = tmp_path / "rl.sqlite"
+    run = [
+        "run",
+        "--policies",
+        f"sb3:{model}",
+        "--scenarios",
+        str(scenario),
+        "--seeds",
+        "2",
+        "--store",
+        str(store),
+    ]
+    assert cli.main([*run, "--no-report", "--no-progress", "--jobs", "2"]) == 0
+    with ResultsStore(store) as results:
+        rows = results.episodes().sort_values("seed")
+    in_process = evaluate({"turn": load_policy(model)}, [tiny_scenario()], range(2), progress=False, n_jobs=1)
+    np.testing.assert_array_equal(rows["total_J"], in_process.sort_values("seed")["total_J"])
