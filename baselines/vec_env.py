@@ -19,7 +19,8 @@ autoreset_mode="SAME_STEP")`` and speaks SB3's protocol:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -249,6 +250,25 @@ class UAVPenetrationSB3VecEnv(VecEnv):
         return f"{type(self).__name__}({self.env_id!r}, num_envs={self.num_envs})"
 
 
+@contextlib.contextmanager
+def _one_compiled_thread() -> Iterator[None]:
+    """Run the value look-ups of a formulation on the calling thread (numba's count restored after).
+
+    DECISION (model.md §8, threads): as the batched step (``threads=1`` above), the value function's
+    compiled look-up runs on one thread inside a training process: a parallel region over 8 poses
+    waits for a second core that torch and the other jobs keep busy (on a loaded 2-core machine a
+    shaped run took several times longer); results never depend on it.
+    """
+    import numba
+
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
 def make_formulation_vec_env(venv: Any, formulation: Formulation, gamma: float | None) -> Any:
     """``venv`` (a :class:`~baselines.vec_env.UAVPenetrationSB3VecEnv`) wrapped for ``formulation``.
 
@@ -318,14 +338,27 @@ class FormulationVecEnv(VecEnvWrapper):
 
     def reset(self) -> np.ndarray:
         """Reset every sub-env; Φ of the first states is remembered for the first step."""
+        with _one_compiled_thread():
+            return self._reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        """Map turn actions to physical ones (from each sub-env's state now); pass others on."""
+        with _one_compiled_thread():
+            self._step_async(actions)
+
+    def step_wait(self) -> Any:
+        """Step; add F to the rewards (shaping), the value inputs to the observations (features)."""
+        with _one_compiled_thread():
+            return self._step_wait()
+
+    def _reset(self) -> np.ndarray:
         obs = self.venv.reset()
         states = self._states()
         if self.formulation.shaping == "value":
             self._phi = value_potential(self._model, states)
         return self._observe(obs, states)
 
-    def step_async(self, actions: np.ndarray) -> None:
-        """Map turn actions to physical ones (from each sub-env's state now); pass others on."""
+    def _step_async(self, actions: np.ndarray) -> None:
         if self.formulation.action != "turn":
             self.venv.step_async(actions)
             return
@@ -336,8 +369,7 @@ class FormulationVecEnv(VecEnvWrapper):
         )
         self.venv.step_async_physical(physical)
 
-    def step_wait(self) -> Any:
-        """Step; add F to the rewards (shaping), the value inputs to the observations (features)."""
+    def _step_wait(self) -> Any:
         obs, rewards, dones, infos = self.venv.step_wait()
         model = self._model
         if self.formulation.features == "value":
