@@ -132,6 +132,11 @@ class Formulation:
         formulation.check()
         if "turns" in data and tuple(float(t) for t in data["turns"]) != TURNS:
             raise ValueError(f"formulation.turns: got {data['turns']!r}, expected {list(TURNS)!r}")
+        # The controller this version flies must be the one the model was trained with.
+        if "lookahead_steps" in data and float(data["lookahead_steps"]) != LOOKAHEAD_STEPS:
+            raise ValueError(
+                f"formulation.lookahead_steps: got {data['lookahead_steps']!r}, expected {LOOKAHEAD_STEPS}"
+            )
         return formulation
 
     def check(self) -> None:

@@ -154,6 +154,9 @@ def test_formulations_are_checked_naming_the_field():
         formulation_for("ppo", action="turn", clearance_m=-5.0)
     with pytest.raises(ValueError, match=r"^formulation.turns"):
         Formulation.from_json({"action": "turn", "turns": [-1, 0, 1]})
+    with pytest.raises(ValueError, match=r"^formulation.lookahead_steps: got 3"):
+        Formulation.from_json({"action": "turn", "lookahead_steps": 3})
+    assert Formulation.from_json(Formulation(action="turn").to_json()) == Formulation(action="turn")
     assert Formulation.from_json(None).is_default  # a sidecar written before formulations
 
 
