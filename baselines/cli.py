@@ -190,6 +190,7 @@ def train_command(args: argparse.Namespace) -> int:
     Raises:
         CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
     """
+    from baselines.formulation import formulation_for
     from baselines.plan import prepare_training
     from baselines.run import run_training
 
@@ -203,7 +204,16 @@ def train_command(args: argparse.Namespace) -> int:
             f"not to {args.scenario or args.env_id}"
         )
     # The default file is named after the scenario as typed (``paper``), not the resolved name.
-    out = Path(args.out) if args.out else default_model_path(args.algo, args.env_id, args.scenario, args.seed)
+    tag = ""
+    try:
+        tag = formulation_for(args.algo, args.shaping, args.action, args.clearance_m, args.features).tag
+    except ValueError:
+        pass  # prepare_training names the bad flag below
+    out = (
+        Path(args.out)
+        if args.out
+        else default_model_path(args.algo, args.env_id, args.scenario, args.seed, tag)
+    )
     config = TrainConfig(
         algo=args.algo, env_id=args.env_id, scenario=scenario, total_timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, out=out, hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,

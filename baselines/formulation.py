@@ -83,6 +83,21 @@ class Formulation:
         return self.shaping == "none" and self.action == "physical" and self.features == "none"
 
     @property
+    def tag(self) -> str:
+        """A name part for default model files (empty for today's formulation).
+
+        ``shaped``, ``turn`` (``turn-c100`` at another clearance) and ``value``, joined by ``-``.
+        """
+        parts = []
+        if self.shaping == "value":
+            parts.append("shaped")
+        if self.action == "turn":
+            parts.append("turn" if self.clearance_m == DEFAULT_CLEARANCE_M else f"turn-c{self.clearance_m:g}")
+        if self.features == "value":
+            parts.append("value")
+        return "-".join(parts)
+
+    @property
     def observation_size(self) -> int:
         """The learner's input width: 67, plus 6 with ``features="value"``."""
         return OBSERVATION_VALUES + (FEATURE_WIDTH if self.features == "value" else 0)

@@ -151,11 +151,13 @@ class TrainingPlan:
     formulation: Formulation = dataclasses.field(default_factory=Formulation)
 
 
-def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path:
-    """``results/models/ALGO-NAME-sSEED.zip``.
+def default_model_path(algo: str, env_id: str, scenario: Any, seed: int, tag: str = "") -> Path:
+    """``results/models/ALGO-NAME[-TAG]-sSEED.zip``.
 
     NAME is the scenario's as the user gave it: a catalogue name or ``random:SEED`` as typed, a YAML
-    path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`).
+    path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`). TAG names a training
+    formulation other than today's (:attr:`baselines.formulation.Formulation.tag`, e.g.
+    ``turn-value``), so its default file is not today's agent's.
     """
     if scenario is None:
         name = DEFAULT_NAMES.get(env_id, env_id)
@@ -168,6 +170,8 @@ def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path
         )
         name = name or "custom"
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
+    if tag:
+        name = f"{name}-{tag}"
     return DEFAULT_MODELS / f"{algo.lower()}-{name}-s{seed}.zip"
 
 
@@ -264,6 +268,16 @@ def _check_seed(seed: Any) -> int:
     return int(seed)
 
 
+def _tag(config: TrainConfig) -> str:
+    """The default file name's tag of ``config``'s formulation (checked later by :func:`_formulation`)."""
+    try:
+        return formulation_for(
+            config.algo, config.shaping, config.action, config.clearance_m, config.features
+        ).tag
+    except ValueError:
+        return ""
+
+
 def _model_files(config: TrainConfig) -> ModelFiles:
     """The run's files (``out``, else :func:`default_model_path`), their folder created.
 
@@ -273,7 +287,7 @@ def _model_files(config: TrainConfig) -> ModelFiles:
     out = (
         config.out
         if config.out is not None
-        else default_model_path(config.algo, config.env_id, config.scenario, config.seed)
+        else default_model_path(config.algo, config.env_id, config.scenario, config.seed, _tag(config))
     )
     files = ModelFiles.of(out)
     try:

@@ -145,6 +145,16 @@ def test_the_light_constants_are_the_physics_ones():
     assert OBSERVATION_VALUES == OBSERVATION_SIZE
 
 
+def test_a_formulation_has_its_own_default_model_file():
+    from baselines.plan import default_model_path
+
+    assert formulation_for("ppo").tag == ""
+    assert formulation_for("ppo", action="turn", features="value").tag == "turn-value"
+    assert formulation_for("ppo", shaping="value", action="turn", clearance_m=100.0).tag == "shaped-turn-c100"
+    tag = formulation_for("ppo", action="turn").tag
+    assert default_model_path("ppo", "UAVPenetration-v0", "paper", 0, tag).name == "ppo-paper-turn-s0.zip"
+
+
 def test_formulations_are_checked_naming_the_field():
     assert formulation_for("ppo", action="turn").turn_space == "discrete"
     assert formulation_for("sac", action="turn").turn_space == "box"
