@@ -105,6 +105,37 @@ def _add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_formulation_arguments(parser: argparse.ArgumentParser) -> None:
+    """What the learner learns from and acts in (docs/rl.md §6); the defaults are today's."""
+    parser.add_argument(
+        "--shaping",
+        choices=["none", "value"],
+        default=DEFAULTS.shaping,
+        help="value: add F = gamma*Phi(s') - Phi(s), Phi = -min(V, 50) of the value function, to the "
+        "training reward only (the scored J is unchanged); default: none",
+    )
+    parser.add_argument(
+        "--action",
+        choices=["physical", "turn"],
+        default=DEFAULTS.action,
+        help="turn: choose one of the lattice's five turns (PPO, A2C; a turn in [-1, 1] for SAC, TD3), "
+        "flown by the lattice's candidate control; default: physical (dv, dphi, dtheta)",
+    )
+    parser.add_argument(
+        "--clearance",
+        dest="clearance_m",
+        type=float,
+        default=DEFAULTS.clearance_m,
+        help=f"terrain-following height of the turn controller [m] (default: {DEFAULTS.clearance_m:g}, lattice-c40's)",
+    )
+    parser.add_argument(
+        "--features",
+        choices=["none", "value"],
+        default=DEFAULTS.features,
+        help="value: append the six value inputs of the distilled planners to the observation; default: none",
+    )
+
+
 def _add_runtime_arguments(parser: argparse.ArgumentParser) -> None:
     """How the run behaves: torch threads, SB3 verbosity, the progress bar."""
     parser.add_argument(
@@ -126,6 +157,7 @@ def add_train_arguments(parser: argparse.ArgumentParser) -> None:
     _add_task_arguments(parser)
     _add_budget_arguments(parser)
     _add_checkpoint_arguments(parser)
+    _add_formulation_arguments(parser)
     _add_runtime_arguments(parser)
 
 
@@ -158,6 +190,7 @@ def train_command(args: argparse.Namespace) -> int:
     Raises:
         CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
     """
+    from baselines.formulation import formulation_for
     from baselines.plan import prepare_training
     from baselines.run import run_training
 
@@ -171,12 +204,22 @@ def train_command(args: argparse.Namespace) -> int:
             f"not to {args.scenario or args.env_id}"
         )
     # The default file is named after the scenario as typed (``paper``), not the resolved name.
-    out = Path(args.out) if args.out else default_model_path(args.algo, args.env_id, args.scenario, args.seed)
+    tag = ""
+    try:
+        tag = formulation_for(args.algo, args.shaping, args.action, args.clearance_m, args.features).tag
+    except ValueError:
+        pass  # prepare_training names the bad flag below
+    out = (
+        Path(args.out)
+        if args.out
+        else default_model_path(args.algo, args.env_id, args.scenario, args.seed, tag)
+    )
     config = TrainConfig(
         algo=args.algo, env_id=args.env_id, scenario=scenario, total_timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, out=out, hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
         progress_bar=args.progress, verbose=args.verbose, torch_threads=args.torch_threads, resume=args.resume,
+        shaping=args.shaping, action=args.action, clearance_m=args.clearance_m, features=args.features,
     )  # fmt: skip
     try:
         plan = prepare_training(config)

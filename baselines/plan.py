@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from baselines.artifacts import ModelFiles
+from baselines.formulation import Formulation, formulation_for
 from baselines.hyperparameters import resolve_hyperparams
 from baselines.resume import ResumeState, check_resumable, read_resume_state, resume_key
 from uav_penetration_env.suggest import did_you_mean
@@ -70,6 +71,12 @@ class TrainConfig:
         verbose: SB3's verbosity.
         torch_threads: torch intra-op threads while training (``None``: leave torch's setting).
         device: torch device (``cpu``: small MLPs run fastest there).
+        shaping: ``none`` or ``value``: potential-based shaping from the value function, in
+            training only (:mod:`baselines.formulation`, docs/rl.md §6).
+        action: ``physical`` (the env's box) or ``turn`` (a lattice turn flown by the candidate
+            control; ``Discrete(5)`` for PPO and A2C, ``Box(1)`` otherwise).
+        clearance_m: [m] the turn controller's terrain-following height (``action="turn"``).
+        features: ``none`` or ``value``: the six value inputs after the observation.
     """
 
     algo: str = "ppo"
@@ -93,6 +100,10 @@ class TrainConfig:
     verbose: int = 0
     torch_threads: int | None = 1
     device: str = "cpu"
+    shaping: str = "none"
+    action: str = "physical"
+    clearance_m: float = 40.0
+    features: str = "none"
 
     @classmethod
     def of(cls, **fields: Any) -> TrainConfig:
@@ -137,13 +148,16 @@ class TrainingPlan:
     torch_threads: int | None
     device: str
     resume_from: ResumeState | None = None
+    formulation: Formulation = dataclasses.field(default_factory=Formulation)
 
 
-def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path:
-    """``results/models/ALGO-NAME-sSEED.zip``.
+def default_model_path(algo: str, env_id: str, scenario: Any, seed: int, tag: str = "") -> Path:
+    """``results/models/ALGO-NAME[-TAG]-sSEED.zip``.
 
     NAME is the scenario's as the user gave it: a catalogue name or ``random:SEED`` as typed, a YAML
-    path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`).
+    path's stem, a Scenario's name, else the id's (:data:`DEFAULT_NAMES`). TAG names a training
+    formulation other than today's (:attr:`baselines.formulation.Formulation.tag`, e.g.
+    ``turn-value``), so its default file is not today's agent's.
     """
     if scenario is None:
         name = DEFAULT_NAMES.get(env_id, env_id)
@@ -156,6 +170,8 @@ def default_model_path(algo: str, env_id: str, scenario: Any, seed: int) -> Path
         )
         name = name or "custom"
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
+    if tag:
+        name = f"{name}-{tag}"
     return DEFAULT_MODELS / f"{algo.lower()}-{name}-s{seed}.zip"
 
 
@@ -252,6 +268,16 @@ def _check_seed(seed: Any) -> int:
     return int(seed)
 
 
+def _tag(config: TrainConfig) -> str:
+    """The default file name's tag of ``config``'s formulation (checked later by :func:`_formulation`)."""
+    try:
+        return formulation_for(
+            config.algo, config.shaping, config.action, config.clearance_m, config.features
+        ).tag
+    except ValueError:
+        return ""
+
+
 def _model_files(config: TrainConfig) -> ModelFiles:
     """The run's files (``out``, else :func:`default_model_path`), their folder created.
 
@@ -261,7 +287,7 @@ def _model_files(config: TrainConfig) -> ModelFiles:
     out = (
         config.out
         if config.out is not None
-        else default_model_path(config.algo, config.env_id, config.scenario, config.seed)
+        else default_model_path(config.algo, config.env_id, config.scenario, config.seed, _tag(config))
     )
     files = ModelFiles.of(out)
     try:
@@ -296,7 +322,9 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         FileNotFoundError: a hyper-parameter file that does not exist.
     """
     params, source = resolve_hyperparams(config.algo, config.hyperparams)
-    kwargs = _env_kwargs(config, _native_class(config.env_id))
+    native_class = _native_class(config.env_id)
+    formulation = _formulation(config, native_class, params)
+    kwargs = _env_kwargs(config, native_class)
     seed = _check_seed(config.seed)
     files = _model_files(config)
     torch_threads = config.torch_threads
@@ -320,5 +348,38 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         verbose=int(config.verbose),
         torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
         device=config.device,
+        formulation=formulation,
     )
     return _with_resume(plan, config)
+
+
+def _formulation(config: TrainConfig, native_class: type, params: Mapping[str, Any]) -> Formulation:
+    """The run's checked :class:`~baselines.formulation.Formulation` (docs/rl.md §6).
+
+    DECISION (docs/rl.md §6, one scenario): shaping, the turn action and the value inputs read the
+    scenario's value function at the exact state, so they train on the fixed-scenario ids; the
+    Random id, whose sub-envs fly a changing pool, is refused with them.
+
+    Raises:
+        ValueError: an unknown value; a formulation other than today's on the Random id; shaping
+            with a discount outside (0, 1]; the turn action with generalised state-dependent
+            exploration (``use_sde``, continuous boxes only).
+    """
+    from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
+
+    formulation = formulation_for(
+        config.algo, config.shaping, config.action, config.clearance_m, config.features
+    )
+    if formulation.is_default:
+        return formulation
+    if issubclass(native_class, UAVPenetrationRandomVectorEnv):
+        raise ValueError(
+            f"env_id: {config.env_id} flies a pool of procedural scenarios; shaping, the turn action and "
+            "the value inputs need one scenario (use UAVPenetration-v0 with scenario=)"
+        )
+    gamma = float(params.get("gamma", 0.99))
+    if formulation.shaping == "value" and not 0.0 < gamma <= 1.0:
+        raise ValueError(f"gamma: got {gamma!r}, expected a discount in (0, 1] for value shaping")
+    if formulation.action == "turn" and formulation.turn_space == "discrete" and params.get("use_sde"):
+        raise ValueError("use_sde: got true, expected false with action='turn' (a Discrete action space)")
+    return formulation

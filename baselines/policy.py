@@ -38,6 +38,7 @@ from baselines.foreign import (
     split_spec,
     zoo_env_id,
 )
+from baselines.formulation import Formulation, learner_observation, turn_control
 from baselines.install import RL_INSTALL
 from uav_penetration_env.env import action_space, observation_space
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
@@ -90,9 +91,11 @@ class SB3Policy:
         self.header = header
         self.algorithm = algorithm
         self.train_timesteps = timesteps
+        self.formulation = Formulation.from_json(sidecar.get("formulation") if sidecar is not None else None)
         self._agent: Any = None
         self._normalizer: Any = None
         self._to_physical: Any = None
+        self._model: PenetrationModel | None = None
 
     def __repr__(self) -> str:
         return f"SB3Policy({str(self.files.model)!r}, algorithm={self.algorithm!r})"
@@ -100,7 +103,7 @@ class SB3Policy:
     def __getstate__(self) -> dict[str, Any]:
         # Torch modules stay out of the pickle: workers load the model themselves (and cache it).
         state = self.__dict__.copy()
-        state.update(_agent=None, _normalizer=None, _to_physical=None)
+        state.update(_agent=None, _normalizer=None, _to_physical=None, _model=None)
         return state
 
     # --- what the harness reads ---------------------------------------------------------------------
@@ -112,7 +115,7 @@ class SB3Policy:
         A model without a sidecar has ``sidecar_sha256`` ``None``; its key is the hashes of the
         ``.zip`` and of the statistics it was given.
         """
-        return {
+        config = {
             "kind": "sb3",
             "algorithm": self.algorithm,
             "deterministic": True,
@@ -120,6 +123,10 @@ class SB3Policy:
             "vecnormalize_sha256": self.vecnormalize_sha256,
             "sidecar_sha256": self.sidecar_sha256,
         }
+        if not self.formulation.is_default:
+            # Also in the sidecar's hash; named here so a results table can say how the agent acts.
+            config["formulation"] = self.formulation.to_json()
+        return config
 
     @property
     def metadata(self) -> dict[str, Any]:
@@ -151,18 +158,34 @@ class SB3Policy:
         ones = np.ones(box.shape, dtype=box.dtype)
         # The map RescaleAction(env, -1, 1) and the training adapter apply: bit-identical actions.
         _, _, self._to_physical = rescale_box(box, -ones, ones)
+        self._model = model
         self._load()
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
-        """The deterministic action for ``observation``, in physical units [dv, dphi, dtheta]."""
-        del info
-        if self._to_physical is None:
+        """The deterministic action for ``observation``, in physical units [dv, dphi, dtheta].
+
+        A model trained with a formulation (docs/rl.md §6) reads the value inputs of
+        ``info["state"]`` after the observation, and its turn action is flown as the same candidate
+        control as in training (:func:`baselines.formulation.turn_control`).
+        """
+        if self._to_physical is None or self._model is None:
             raise RuntimeError("SB3Policy.act() before reset(model, seed)")
         agent, normalizer = self._load()
-        obs = np.asarray(observation, dtype=np.float32).reshape(1, -1)
+        formulation = self.formulation
+        state = info.get("state") if not formulation.is_default else None
+        if state is None and (formulation.features != "none" or formulation.action == "turn"):
+            raise ValueError("info: got no 'state', expected the exact state for this model's formulation")
+        inputs = (
+            learner_observation(formulation, self._model, observation, state)
+            if state is not None
+            else observation
+        )
+        obs = np.asarray(inputs, dtype=np.float32).reshape(1, -1)
         if normalizer is not None:
             obs = normalizer.normalize_obs(obs)
         action, _ = agent.predict(obs, deterministic=True)
+        if formulation.action == "turn":
+            return turn_control(self._model, state, formulation, action)
         clipped = np.clip(np.asarray(action, dtype=np.float32).reshape(-1), -1.0, 1.0)
         return np.asarray(self._to_physical(clipped), dtype=np.float64)
 
@@ -179,8 +202,11 @@ class SB3Policy:
             return
         problems = []
         shape = tuple(sidecar["observation_space"]["shape"])
-        if shape != (OBSERVATION_SIZE,):
-            problems.append(f"observation shape {shape} (the env's is ({OBSERVATION_SIZE},))")
+        if shape != (self.formulation.observation_size,):
+            problems.append(
+                f"observation shape {shape} (the env's is ({OBSERVATION_SIZE},), "
+                f"{self.formulation.observation_size} with the formulation's inputs)"
+            )
         box = action_space(model.limits)
         trained = sidecar["action_space"]
         if tuple(trained["shape"]) != box.shape or not (
@@ -305,10 +331,13 @@ def load_policy(path: str | Path) -> SB3Policy:
     sidecar = read_sidecar(files.sidecar)
     model_sha256, vecnormalize_sha256 = verify_artifacts(files, sidecar)
     shape = tuple(sidecar["observation_space"].get("shape", ()))
-    if shape != (OBSERVATION_SIZE,):
+    formulation = Formulation.from_json(sidecar.get("formulation"))
+    expected = formulation.observation_size
+    if shape != (expected,):
+        inputs = "" if formulation.is_default else " with the sidecar's formulation's inputs"
         raise ValueError(
             f"{files.sidecar}: the model was trained on observations of shape {shape}, "
-            f"this env's are ({OBSERVATION_SIZE},)"
+            f"this env's are ({expected},){inputs}"
         )
     return SB3Policy(files, sidecar, model_sha256, vecnormalize_sha256, sha256_file(files.sidecar))
 

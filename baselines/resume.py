@@ -58,6 +58,10 @@ def resume_key(plan: Any) -> dict[str, Any]:
         "eval_freq": plan.eval_freq,
         "eval_seeds": list(plan.eval_seeds),
     }
+    formulation = getattr(plan, "formulation", None)
+    if formulation is not None and not formulation.is_default:
+        # Only a new formulation enters the key, so the checkpoints of earlier runs still resume.
+        key["formulation"] = formulation.to_json()
     return json.loads(json.dumps(key, default=str))
 
 

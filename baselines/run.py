@@ -10,6 +10,7 @@ the functions that use them.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import datetime as dt
 import json
 import time
@@ -140,13 +141,21 @@ def describe_env(plan: TrainingPlan, venv: Any, seeds: Sequence[int]) -> dict[st
             "pool_seed": described["pool_seed"],
         }
     physical = venv.physical_action_space
+    formulation = plan.formulation
+    learner = {}
+    if not formulation.is_default:
+        # Only a new formulation is recorded, so the sidecars of today's agents keep their bytes.
+        learner = {"formulation": formulation.to_json()}
+        if formulation.shaping == "value":
+            learner["formulation"]["gamma"] = float(plan.hyperparams.get("gamma", 0.99))
     return {
+        **learner,
         "env_id": plan.env_id,
         "env_kwargs": env_kwargs,
         "profile": profile,
         "scenario": scenario,
         "observation_space": {
-            "shape": list(venv.observation_space.shape),
+            "shape": [formulation.observation_size],
             "low": float(np.min(venv.observation_space.low)),
             "high": float(np.max(venv.observation_space.high)),
             "dtype": str(venv.observation_space.dtype),
@@ -182,7 +191,7 @@ class _Run:
         from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
         from baselines.plan import vector_class
-        from baselines.vec_env import UAVPenetrationSB3VecEnv
+        from baselines.vec_env import UAVPenetrationSB3VecEnv, make_formulation_vec_env
         from uav_penetration_env.vector_env import UAVPenetrationRandomVectorEnv
 
         self.plan = plan
@@ -193,7 +202,11 @@ class _Run:
             # The pool the id would draw anyway (the first reset's seed), named so a resumed run keeps it.
             env_kwargs.setdefault("pool_seed", self.seeds[0])
         self.venv = UAVPenetrationSB3VecEnv(plan.env_id, plan.n_envs, **env_kwargs)
-        env: Any = VecMonitor(self.venv)  # episode returns/lengths for SB3's logger
+        # The formulation's wrapper (docs/rl.md §6); today's formulation is the adapter itself.
+        self.learner_env = make_formulation_vec_env(
+            self.venv, plan.formulation, plan.hyperparams.get("gamma", 0.99)
+        )
+        env: Any = VecMonitor(self.learner_env)  # episode returns/lengths for SB3's logger
         self.norm_kwargs = normalize_kwargs(plan.hyperparams)
         state = plan.resume_from
         if self.norm_kwargs is not None and state is not None:
@@ -205,8 +218,12 @@ class _Run:
         self.env = env
         self.segments = [*state.segments, state.timesteps] if state is not None else [0]
         self.eval_seeds = list(plan.eval_seeds)
+        # Evaluation flies the learner's actions and inputs, never the shaping (it reads info["J"]).
+        evaluated = dataclasses.replace(plan.formulation, shaping="none")
         self.eval_env = (
-            UAVPenetrationSB3VecEnv(plan.env_id, plan.eval_episodes, **plan.env_kwargs)
+            make_formulation_vec_env(
+                UAVPenetrationSB3VecEnv(plan.env_id, plan.eval_episodes, **plan.env_kwargs), evaluated, None
+            )
             if plan.eval_freq
             else None
         )
@@ -411,7 +428,7 @@ def _already_finished(plan: TrainingPlan) -> TrainResult | None:
 def _build_model(run: _Run, cls: type) -> list[int]:
     """Construct a fresh model on ``run.env``; return the sub-envs' reset seeds (the run's own)."""
     plan = run.plan
-    kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.venv.action_space.shape)))
+    kwargs = algorithm_kwargs(plan.hyperparams, int(np.prod(run.learner_env.action_space.shape)))
     run.model = cls(
         plan.hyperparams.get("policy", "MlpPolicy"),
         run.env,

@@ -19,16 +19,31 @@ autoreset_mode="SAME_STEP")`` and speaks SB3's protocol:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.wrappers.utils import rescale_box
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvStepReturn,
+    VecEnvWrapper,
+)
 
 import uav_penetration_env  # noqa: F401  (importing registers the env ids)
+from baselines.formulation import (
+    Formulation,
+    learner_observation,
+    learner_observation_space,
+    shaping_terms,
+    turn_control,
+    value_potential,
+)
+from uav_penetration_env.model import PenetrationModel
 
 # Attributes that differ per sub-env: read from the batched env's read-only per-env view. Every
 # other attribute is the batched env's own, shared by all sub-envs.
@@ -101,6 +116,7 @@ class UAVPenetrationSB3VecEnv(VecEnv):
         super().__init__(num_envs, self.vector_env.single_observation_space, policy_space)
         self.metadata = dict(self.vector_env.metadata)
         self._actions: np.ndarray | None = None
+        self._physical = False
 
     # --- SB3 VecEnv API ------------------------------------------------------------------------------
 
@@ -141,12 +157,23 @@ class UAVPenetrationSB3VecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         """Store the policy actions for :meth:`step_wait`."""
         self._actions = np.asarray(actions)
+        self._physical = False
+
+    def step_async_physical(self, actions: np.ndarray) -> None:
+        """Store ``(num_envs, 3)`` actions already in physical units (a training formulation's controller).
+
+        :meth:`step_wait` passes them to the env as they are, without the [-1, 1] rescaling
+        (``baselines.formulation``, docs/rl.md §6).
+        """
+        self._actions = np.asarray(actions, dtype=np.float64)
+        self._physical = True
 
     def step_wait(self) -> VecEnvStepReturn:
         """Step all sub-envs; finished ones are reset at once (SAME_STEP), as ``DummyVecEnv`` does."""
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async(actions)")
-        obs, rewards, terminated, truncated, info = self.vector_env.step(self.to_physical(self._actions))
+        physical = self._actions if self._physical else self.to_physical(self._actions)
+        obs, rewards, terminated, truncated, info = self.vector_env.step(physical)
         self._actions = None
         dones = terminated | truncated
         infos = info_rows(info, self.num_envs)
@@ -221,3 +248,145 @@ class UAVPenetrationSB3VecEnv(VecEnv):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.env_id!r}, num_envs={self.num_envs})"
+
+
+@contextlib.contextmanager
+def _one_compiled_thread() -> Iterator[None]:
+    """Run the value look-ups of a formulation on the calling thread (numba's count restored after).
+
+    DECISION (model.md §8, threads): as the batched step (``threads=1`` above), the value function's
+    compiled look-up runs on one thread inside a training process: a parallel region over 8 poses
+    waits for a second core that torch and the other jobs keep busy (on the loaded 2-core machine
+    Φ of 8 poses took 73-80 µs on one thread, 122-129 µs on two); results never depend on it.
+    """
+    import numba
+
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
+def make_formulation_vec_env(venv: Any, formulation: Formulation, gamma: float | None) -> Any:
+    """``venv`` (a :class:`~baselines.vec_env.UAVPenetrationSB3VecEnv`) wrapped for ``formulation``.
+
+    Args:
+        venv: the batched SB3 adapter (one fixed scenario).
+        formulation: what to apply.
+        gamma: the shaping discount (the learner's γ); unused without shaping.
+
+    Returns:
+        ``venv`` itself for today's formulation, else a :class:`FormulationVecEnv`.
+    """
+    if formulation.is_default:
+        return venv
+    return FormulationVecEnv(venv, formulation, gamma)
+
+
+class FormulationVecEnv(VecEnvWrapper):
+    """The batched training env with a :class:`Formulation` applied (docs/rl.md §6).
+
+    Turn actions are mapped per sub-env by :func:`turn_control` from the sub-env's exact state and
+    stepped in physical units; the value inputs are appended to every observation (and to
+    ``terminal_observation``); with shaping, each reward gets F of :func:`shaping_terms` (the env's
+    reward is kept in ``info["reward_env"]``, F in ``info["shaping"]``; ``info["J"]`` is untouched).
+
+    Args:
+        venv: a :class:`~baselines.vec_env.UAVPenetrationSB3VecEnv` over one fixed scenario.
+        formulation: what to apply.
+        gamma: the shaping discount (required with ``shaping="value"``).
+
+    Raises:
+        ValueError: shaping without ``gamma`` in (0, 1].
+    """
+
+    def __init__(self, venv: Any, formulation: Formulation, gamma: float | None = None) -> None:
+        formulation.check()
+        if formulation.shaping == "value" and not (gamma is not None and 0.0 < gamma <= 1.0):
+            raise ValueError(f"gamma: got {gamma!r}, expected a number in (0, 1] for value shaping")
+        self.formulation = formulation
+        self.gamma = float(gamma) if gamma is not None else 1.0
+        action_space = (
+            formulation.policy_action_space(venv.physical_action_space)
+            if formulation.action == "turn"
+            else venv.action_space
+        )
+        super().__init__(
+            venv,
+            observation_space=learner_observation_space(formulation, venv.observation_space),
+            action_space=action_space,
+        )
+        self._phi = np.zeros(venv.num_envs)
+        self._actions: np.ndarray | None = None
+
+    @property
+    def _model(self) -> PenetrationModel:
+        return self.venv.vector_env.model
+
+    def _states(self) -> np.ndarray:
+        return np.array(self.venv.vector_env.states, dtype=np.float64)
+
+    def _observe(self, obs: np.ndarray, states: np.ndarray) -> np.ndarray:
+        if self.formulation.features == "none":
+            return obs
+        model = self._model
+        return np.stack(
+            [learner_observation(self.formulation, model, o, s) for o, s in zip(obs, states, strict=True)]
+        )
+
+    def reset(self) -> np.ndarray:
+        """Reset every sub-env; Φ of the first states is remembered for the first step."""
+        with _one_compiled_thread():
+            return self._reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        """Map turn actions to physical ones (from each sub-env's state now); pass others on."""
+        with _one_compiled_thread():
+            self._step_async(actions)
+
+    def step_wait(self) -> Any:
+        """Step; add F to the rewards (shaping), the value inputs to the observations (features)."""
+        with _one_compiled_thread():
+            return self._step_wait()
+
+    def _reset(self) -> np.ndarray:
+        obs = self.venv.reset()
+        states = self._states()
+        if self.formulation.shaping == "value":
+            self._phi = value_potential(self._model, states)
+        return self._observe(obs, states)
+
+    def _step_async(self, actions: np.ndarray) -> None:
+        if self.formulation.action != "turn":
+            self.venv.step_async(actions)
+            return
+        model, states = self._model, self._states()
+        rows = np.asarray(actions).reshape(self.num_envs, -1)
+        physical = np.stack(
+            [turn_control(model, s, self.formulation, a) for s, a in zip(states, rows, strict=True)]
+        )
+        self.venv.step_async_physical(physical)
+
+    def _step_wait(self) -> Any:
+        obs, rewards, dones, infos = self.venv.step_wait()
+        model = self._model
+        if self.formulation.features == "value":
+            for i in np.flatnonzero(dones):
+                infos[i]["terminal_observation"] = learner_observation(
+                    self.formulation, model, infos[i]["terminal_observation"], infos[i]["state"]
+                )
+        states = self._states()  # a finished sub-env's is already its next episode's first
+        if self.formulation.shaping == "value":
+            final = np.stack([np.asarray(info["state"], dtype=np.float64) for info in infos])
+            terminated = np.array(
+                [bool(d) and not info["TimeLimit.truncated"] for d, info in zip(dones, infos, strict=True)]
+            )
+            terms = shaping_terms(self._phi, value_potential(model, final), terminated, self.gamma)
+            for i, info in enumerate(infos):
+                info["reward_env"] = float(rewards[i])
+                info["shaping"] = float(terms[i])
+            rewards = (rewards.astype(np.float64) + terms).astype(np.float32)
+            self._phi = value_potential(model, states)
+        return self._observe(obs, states), rewards, dones, infos
