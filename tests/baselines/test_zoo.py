@@ -30,6 +30,29 @@ from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash
 from uav_penetration_env.env import UAVPenetrationEnv
 
 pytestmark = pytest.mark.usefixtures("baselines_plugins")
+
+
+@pytest.fixture(autouse=True)
+def _gymnasium_time_limit_restored():
+    """Put gymnasium's own TimeLimit back after each test: importing rl_zoo3 replaces it process-wide.
+
+    ``rl_zoo3.gym_patches`` assigns its ``PatchedTimeLimit`` (a step that reports no truncation when
+    the episode also terminates) to ``gymnasium.wrappers``, ``gymnasium.wrappers.common`` and
+    ``gymnasium.envs.registration``; left in place, every later ``gym.make`` in the test process
+    would wrap with it and the vector-env equality tests would compare two different wrappers.
+    """
+    import gymnasium.envs.registration as registration
+    import gymnasium.wrappers as wrappers
+    import gymnasium.wrappers.common as common
+
+    missing = object()
+    saved = [(module, getattr(module, "TimeLimit", missing)) for module in (wrappers, common, registration)]
+    yield
+    for module, original in saved:
+        if original is missing:
+            module.__dict__.pop("TimeLimit", None)  # the zoo added it (gymnasium.envs.registration has none)
+        else:
+            module.TimeLimit = original
 REPO = Path(__file__).resolve().parents[2]
 
 
