@@ -134,6 +134,21 @@ def _add_formulation_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULTS.features,
         help="value: append the six value inputs of the distilled planners to the observation; default: none",
     )
+    parser.add_argument(
+        "--init-from",
+        metavar="RUN_FOLDER",
+        default=None,
+        help="start PPO's actor from this distilled turn network (uav-bench distill --head turn; needs "
+        "--action turn and the network's --features and --clearance) and fine-tune it (docs/rl.md §6.5)",
+    )
+    parser.add_argument(
+        "--critic-warmup",
+        dest="critic_warmup_steps",
+        metavar="STEPS",
+        type=int,
+        default=None,
+        help="with --init-from: environment steps at the start in which only the critic learns (default: 20480)",
+    )
 
 
 def _add_runtime_arguments(parser: argparse.ArgumentParser) -> None:
@@ -209,6 +224,8 @@ def train_command(args: argparse.Namespace) -> int:
         tag = formulation_for(args.algo, args.shaping, args.action, args.clearance_m, args.features).tag
     except ValueError:
         pass  # prepare_training names the bad flag below
+    if args.init_from is not None:
+        tag = f"{tag}-warm"
     out = (
         Path(args.out)
         if args.out
@@ -220,6 +237,7 @@ def train_command(args: argparse.Namespace) -> int:
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
         progress_bar=args.progress, verbose=args.verbose, torch_threads=args.torch_threads, resume=args.resume,
         shaping=args.shaping, action=args.action, clearance_m=args.clearance_m, features=args.features,
+        init_from=args.init_from, critic_warmup_steps=args.critic_warmup_steps,
     )  # fmt: skip
     try:
         plan = prepare_training(config)

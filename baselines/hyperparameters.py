@@ -62,13 +62,17 @@ def _read_yaml(path: Path, what: str) -> dict[str, Any]:
 
 
 def resolve_hyperparams(
-    algo: str, overrides: Mapping[str, Any] | str | Path | None = None
+    algo: str,
+    overrides: Mapping[str, Any] | str | Path | None = None,
+    defaults: tuple[str, Mapping[str, Any]] | None = None,
 ) -> tuple[dict[str, Any], str]:
     """The tuned hyper-parameters of ``algo`` with ``overrides`` merged in, validated.
 
     Without a tuned file (e.g. ``a2c``) SB3's defaults are used, with a warning. ``overrides`` (a
     mapping or a YAML file with the same keys) replaces keys; ``policy_kwargs`` and ``normalize``
-    mappings are merged key by key.
+    mappings are merged key by key. ``defaults`` (a name and a mapping, e.g. the warm start's
+    fine-tuning settings, docs/rl.md §6.5) is merged the same way before ``overrides``, so the
+    user's keys still win.
 
     Returns:
         The hyper-parameters and where they came from.
@@ -90,13 +94,19 @@ def resolve_hyperparams(
         )
         params = {"provenance": f"SB3 {cls.__name__} defaults (no tuned file)", "policy": "MlpPolicy"}
         source = f"stable_baselines3.{cls.__name__} defaults"
+    layers: list[Mapping[str, Any]] = []
+    if defaults is not None:
+        source += f" + {defaults[0]}"
+        layers.append(defaults[1])
     if overrides is not None:
         if isinstance(overrides, (str, Path)):
             source += f" + {overrides}"
             overrides = _read_yaml(Path(overrides), "hyperparams")
         else:
             source += " + overrides"
-        for name, value in dict(overrides).items():
+        layers.append(overrides)
+    for layer in layers:
+        for name, value in dict(layer).items():
             current = params.get(name)
             if (
                 name in ("policy_kwargs", "normalize")

@@ -20,6 +20,13 @@ from baselines.artifacts import ModelFiles
 from baselines.formulation import Formulation, formulation_for
 from baselines.hyperparameters import resolve_hyperparams
 from baselines.resume import ResumeState, check_resumable, read_resume_state, resume_key
+from baselines.warm_start import (
+    CRITIC_WARMUP_STEPS,
+    WarmStart,
+    check_hyperparams,
+    warm_start_for,
+    warm_start_hyperparams,
+)
 from uav_penetration_env.suggest import did_you_mean
 
 DEFAULT_MODELS = Path("results/models")  # leaderboards/ holds only generated, published files
@@ -77,6 +84,11 @@ class TrainConfig:
             control; ``Discrete(5)`` for PPO and A2C, ``Box(1)`` otherwise).
         clearance_m: [m] the turn controller's terrain-following height (``action="turn"``).
         features: ``none`` or ``value``: the six value inputs after the observation.
+        init_from: a distillation run folder whose ``turn`` network starts PPO's actor
+            (:mod:`baselines.warm_start`, docs/rl.md §6.5; needs ``action="turn"`` and the
+            network's features and clearance); ``None``: a fresh network.
+        critic_warmup_steps: with ``init_from``, environment steps at the start in which only the
+            critic learns (``None``: :data:`baselines.warm_start.CRITIC_WARMUP_STEPS`).
     """
 
     algo: str = "ppo"
@@ -104,6 +116,8 @@ class TrainConfig:
     action: str = "physical"
     clearance_m: float = 40.0
     features: str = "none"
+    init_from: str | Path | None = None
+    critic_warmup_steps: int | None = None
 
     @classmethod
     def of(cls, **fields: Any) -> TrainConfig:
@@ -149,6 +163,7 @@ class TrainingPlan:
     device: str
     resume_from: ResumeState | None = None
     formulation: Formulation = dataclasses.field(default_factory=Formulation)
+    warm_start: WarmStart | None = None
 
 
 def default_model_path(algo: str, env_id: str, scenario: Any, seed: int, tag: str = "") -> Path:
@@ -271,11 +286,12 @@ def _check_seed(seed: Any) -> int:
 def _tag(config: TrainConfig) -> str:
     """The default file name's tag of ``config``'s formulation (checked later by :func:`_formulation`)."""
     try:
-        return formulation_for(
+        tag = formulation_for(
             config.algo, config.shaping, config.action, config.clearance_m, config.features
         ).tag
     except ValueError:
         return ""
+    return f"{tag}-warm" if config.init_from is not None else tag
 
 
 def _model_files(config: TrainConfig) -> ModelFiles:
@@ -324,6 +340,12 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
     params, source = resolve_hyperparams(config.algo, config.hyperparams)
     native_class = _native_class(config.env_id)
     formulation = _formulation(config, native_class, params)
+    warm = _warm_start(config, formulation)
+    if warm is not None:
+        params, source = resolve_hyperparams(
+            config.algo, config.hyperparams, ("warm start (docs/rl.md §6.5)", warm_start_hyperparams(warm))
+        )
+        check_hyperparams(params, warm)
     kwargs = _env_kwargs(config, native_class)
     seed = _check_seed(config.seed)
     files = _model_files(config)
@@ -349,8 +371,25 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
         device=config.device,
         formulation=formulation,
+        warm_start=warm,
     )
     return _with_resume(plan, config)
+
+
+def _warm_start(config: TrainConfig, formulation: Formulation) -> WarmStart | None:
+    """The checked warm start of ``config.init_from`` (``None`` without one).
+
+    Raises:
+        ValueError: ``critic_warmup_steps`` without ``init_from``, or what
+            :func:`baselines.warm_start.warm_start_for` refuses.
+        FileNotFoundError: no distilled network there.
+    """
+    if config.init_from is None:
+        if config.critic_warmup_steps is not None:
+            raise ValueError("critic_warmup_steps: given without init_from, expected a warm-started run")
+        return None
+    steps = CRITIC_WARMUP_STEPS if config.critic_warmup_steps is None else config.critic_warmup_steps
+    return warm_start_for(config.init_from, config.algo, formulation, steps)
 
 
 def _formulation(config: TrainConfig, native_class: type, params: Mapping[str, Any]) -> Formulation:

@@ -62,6 +62,9 @@ def resume_key(plan: Any) -> dict[str, Any]:
     if formulation is not None and not formulation.is_default:
         # Only a new formulation enters the key, so the checkpoints of earlier runs still resume.
         key["formulation"] = formulation.to_json()
+    warm = getattr(plan, "warm_start", None)
+    if warm is not None:
+        key["warm_start"] = warm.to_json()
     return json.loads(json.dumps(key, default=str))
 
 

@@ -148,6 +148,8 @@ def describe_env(plan: TrainingPlan, venv: Any, seeds: Sequence[int]) -> dict[st
         learner = {"formulation": formulation.to_json()}
         if formulation.shaping == "value":
             learner["formulation"]["gamma"] = float(plan.hyperparams.get("gamma", 0.99))
+    if plan.warm_start is not None:
+        learner["warm_start"] = plan.warm_start.to_json()
     return {
         **learner,
         "env_id": plan.env_id,
@@ -398,7 +400,42 @@ def _callbacks(run: _Run) -> list[Any]:
                 run.checkpoint()
                 self.next_checkpoint = (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq
 
+    class CriticWarmup(BaseCallback):
+        """Keep the actor frozen for the warm start's first steps, so only the critic learns (docs/rl.md §6.5).
+
+        The freeze is set or lifted at the start of each rollout, from the step count, so a resumed
+        run is frozen exactly when the run it continues would be.
+        """
+
+        def _set(self) -> None:
+            from baselines.warm_start import set_actor_trainable
+
+            warm = plan.warm_start
+            assert warm is not None
+            set_actor_trainable(self.model, self.model.num_timesteps >= warm.critic_warmup_steps)
+
+        def _on_training_start(self) -> None:
+            self._set()
+
+        def _on_rollout_start(self) -> None:
+            self._set()
+
+        def _on_step(self) -> bool:
+            return True
+
+    class StartEvaluation(BaseCallback):
+        """A warm-started run's curve starts with the network it was given (an evaluation at step 0)."""
+
+        def _on_training_start(self) -> None:
+            if plan.eval_freq and not run.evaluations and self.model.num_timesteps == 0:
+                run.evaluate()
+
+        def _on_step(self) -> bool:
+            return True
+
     callbacks: list[Any] = [Periodic()]
+    if plan.warm_start is not None:
+        callbacks = [StartEvaluation(), CriticWarmup(), *callbacks]
     if plan.progress_bar:
         callbacks.append(ProgressBar())
     return callbacks
@@ -437,6 +474,10 @@ def _build_model(run: _Run, cls: type) -> list[int]:
         device=plan.device,
         **kwargs,
     )
+    if plan.warm_start is not None:
+        from baselines.warm_start import load_into
+
+        load_into(run.model, plan.warm_start.arrays())  # the actor starts as the distilled network
     return run.seeds
 
 
