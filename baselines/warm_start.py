@@ -54,6 +54,8 @@ class WarmStart:
         hidden: the network's hidden widths (the actor's and the critic's ``net_arch``).
         expert: the planner the network imitated.
         critic_warmup_steps: environment steps with the actor frozen, at the start of training.
+        expert_labels: the expert labels the network's distillation computed (its training cost).
+        train_cpu_seconds: the distillation's CPU seconds (collection and fits).
     """
 
     folder: str
@@ -61,6 +63,8 @@ class WarmStart:
     hidden: tuple[int, ...]
     expert: str
     critic_warmup_steps: int = CRITIC_WARMUP_STEPS
+    expert_labels: int = 0
+    train_cpu_seconds: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
         """The sidecar's ``warm_start`` entry (and the resume key's)."""
@@ -70,6 +74,8 @@ class WarmStart:
             "hidden": list(self.hidden),
             "expert": self.expert,
             "critic_warmup_steps": self.critic_warmup_steps,
+            "expert_labels": self.expert_labels,
+            "train_cpu_seconds": self.train_cpu_seconds,
         }
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -134,6 +140,8 @@ def warm_start_for(
         hidden=tuple(int(h) for h in policy.sidecar["hidden"]),
         expert=str(policy.sidecar.get("expert", "")),
         critic_warmup_steps=int(critic_warmup_steps),
+        expert_labels=int(policy.sidecar.get("expert_labels", 0)),
+        train_cpu_seconds=float(policy.sidecar.get("train_cpu_seconds", 0.0)),
     )
 
 

@@ -230,7 +230,12 @@ def test_a_turn_model_is_scored_by_the_evaluator_with_the_same_mapping(trained_t
     # The policy's physical action is the candidate control of the network's own turn.
     env = UAVPenetrationEnv(scenario=tiny_scenario())
     obs, info = env.reset(seed=0)
+    from uav_penetration_env import value_function as fields
+
+    assert env.model not in fields._memo
     policy.reset(env.model, 0)
+    # The value inputs' field is built in reset, not in the first act() (whose time is decision time).
+    assert (0, fields.LATTICE_DEFAULTS) in fields._memo[env.model]
     agent, normalizer = policy._load()
     inputs = normalizer.normalize_obs(
         learner_observation(policy.formulation, env.model, obs, info["state"])[None]
