@@ -43,14 +43,24 @@ class Run(NamedTuple):
 
 
 class Experiment(NamedTuple):
-    """Runs of the untuned set with ``overrides`` (a hyper-parameter file) on top, one per seed."""
+    """Runs of the untuned set with ``overrides`` (a hyper-parameter file, or ``None``) on top, one per seed.
+
+    ``flags``: the training formulation's ``uav-bench train`` flags (:data:`EXPERIMENT_FLAGS`, e.g.
+    ``--action turn``; docs/rl.md §6), empty for today's formulation.
+    """
 
     algo: str
     regime: str
     name: str
-    overrides: str
+    overrides: str | None
     seeds: tuple[int, ...]
     timesteps: int
+    flags: tuple[str, ...] = ()
+
+
+# The ``uav-bench train`` flags an experiment may add (the formulations of docs/rl.md §6); the
+# programme itself sets the algorithm, regime, steps, seed, output and cadence.
+EXPERIMENT_FLAGS = ("--shaping", "--action", "--clearance", "--features", "--init-from", "--critic-warmup")
 
 
 @dataclass(frozen=True)
@@ -117,8 +127,10 @@ def _name(where: str, value: Any, known: Mapping[str, Any] | None = None) -> str
     return value
 
 
-def _mapping(where: str, value: Any, keys: tuple[str, ...] | None = None) -> dict[str, Any]:
-    """``value`` as a mapping; with ``keys``, exactly those keys (a missing or unknown one is named)."""
+def _mapping(
+    where: str, value: Any, keys: tuple[str, ...] | None = None, optional: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """``value`` as a mapping; with ``keys``, exactly those keys, less any of ``optional`` (a missing or unknown one is named)."""
     if not isinstance(value, dict):
         expected = f"a mapping with {', '.join(keys)}" if keys else "a mapping"
         raise _fail(where, value, expected)
@@ -126,7 +138,7 @@ def _mapping(where: str, value: Any, keys: tuple[str, ...] | None = None) -> dic
         for key in value:
             if key not in keys:
                 raise _fail(f"{where}.{key}", key, _one_of(key, keys))
-        missing = [key for key in keys if key not in value]
+        missing = [key for key in keys if key not in value and key not in optional]
         if missing:
             raise CampaignError(f"{where}: {missing[0]} is missing; expected the keys {', '.join(keys)}")
     return value
@@ -197,18 +209,33 @@ def _experiments(value: Any, algos: Mapping[str, Any], regimes: Mapping[str, Any
     experiments = []
     for i, item in enumerate(_items("experiments", value)):
         where = f"experiments[{i}]"
-        entry = _mapping(where, item, EXPERIMENT_KEYS)
+        entry = _mapping(where, item, EXPERIMENT_KEYS, optional=("flags",))
+        overrides = entry["overrides"]
         experiments.append(
             Experiment(
                 _name(f"{where}.algo", entry["algo"], algos),
                 _name(f"{where}.regime", entry["regime"], regimes),
                 _name(f"{where}.name", entry["name"]),
-                _name(f"{where}.overrides", entry["overrides"]),
+                None if overrides is None else _name(f"{where}.overrides", overrides),
                 _seeds(f"{where}.seeds", entry["seeds"]),
                 _integer(f"{where}.timesteps", entry["timesteps"], 1),
+                _flags(f"{where}.flags", entry.get("flags", [])),
             )
         )
     return tuple(experiments)
+
+
+def _flags(where: str, value: Any) -> tuple[str, ...]:
+    """An experiment's formulation flags: pairs ``FLAG VALUE`` with FLAG in :data:`EXPERIMENT_FLAGS`."""
+    items = [str(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v for v in _items(where, value)]
+    if len(items) % 2:
+        raise _fail(where, value, "pairs of a flag and its value")
+    for i in range(0, len(items), 2):
+        flag, argument = items[i], items[i + 1]
+        if flag not in EXPERIMENT_FLAGS:
+            raise _fail(f"{where}[{i}]", flag, _one_of(str(flag), EXPERIMENT_FLAGS))
+        _name(f"{where}[{i + 1}]", argument)
+    return tuple(items)
 
 
 def campaign_from_mapping(data: Any) -> Campaign:

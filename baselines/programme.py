@@ -227,17 +227,18 @@ def train_step(
     hyperparams: str | Path | None,
     model: Path,
     campaign: Campaign | None = None,
+    flags: Sequence[str] = (),
 ) -> Step:
     """One resumable ``uav-bench train`` run (``hyperparams`` None: the untuned set), done when its sidecar says so.
 
     The regime's flags and the evaluation and checkpoint cadence come from ``campaign`` (default:
-    the packaged one).
+    the packaged one); ``flags`` are an experiment's formulation flags (docs/rl.md §6).
     """
     c = campaign or default_campaign()
     argv = ["train", "--algo", algo, *c.regime_flags[regime], "--timesteps", str(total), "--seed", str(seed),
             *(["--hyperparams", str(hyperparams)] if hyperparams else []), "--out", str(model),
             "--eval-freq", str(c.eval_freq[algo]), "--eval-episodes", str(c.eval_episodes[regime]),
-            "--checkpoint-freq", str(c.checkpoint_freq[algo]), "--resume", "--no-progress"]  # fmt: skip
+            "--checkpoint-freq", str(c.checkpoint_freq[algo]), *flags, "--resume", "--no-progress"]  # fmt: skip
     done = model_done(model, total)
     return Step(name, argv, done, f"{total} steps" + (", done" if done else ""))
 
@@ -293,11 +294,11 @@ def training_steps(
                                           skipped=True))  # fmt: skip
                         continue
                 steps.append(train_step(name, algo, regime, seed, total, params, model, campaign))
-    for algo, regime, experiment, overrides, seeds, total in campaign.experiments:
+    for algo, regime, experiment, overrides, seeds, total, flags in campaign.experiments:
         for seed in seeds:
             label = f"{algo}-{regime}-{experiment}-s{seed}"
             model = root / "models" / f"{label}.zip"
-            steps.append(train_step(f"train/{label}", algo, regime, seed, total, overrides, model, campaign))
+            steps.append(train_step(f"train/{label}", algo, regime, seed, total, overrides, model, campaign, flags))
     return steps
 
 

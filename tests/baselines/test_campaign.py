@@ -72,6 +72,8 @@ def change(edit):
         (change(lambda d: d["runs"][4].update(regime="random")), "runs[4]: got 'td3-random'; expected the algorithm and regime of a study"),
         (change(lambda d: d["experiments"][0].update(timesteps=None)), "experiments[0].timesteps: got None; expected an integer"),
         (change(lambda d: d["experiments"][0].update(overrides="")), "experiments[0].overrides: got ''; expected a non-empty string"),
+        (change(lambda d: d["experiments"][0].update(flags=["--timesteps", "5"])), "experiments[0].flags[0]: got '--timesteps'; expected one of --shaping, --action, --clearance, --features, --init-from, --critic-warmup"),
+        (change(lambda d: d["experiments"][0].update(flags=["--action"])), "experiments[0].flags: got ['--action']; expected pairs of a flag and its value"),
         (change(lambda d: d.update(off_policy_cpu_minutes=0)), "off_policy_cpu_minutes: got 0; expected a number > 0"),
         (change(lambda d: d.update(confirmed=["ppo", "dqn"])), "confirmed[1]: got 'dqn'; expected one of ppo, sac, td3"),
         (change(lambda d: d["checkpoint_freq"].pop("td3")), "checkpoint_freq: got ['ppo', 'sac']; expected the algorithms of eval_freq"),

@@ -72,11 +72,13 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     # PPO per regime: seed 0 of both sets (the confirmation), then seeds 1-4 of the chosen (zoo) set
     ppo_paper = ["ppo-paper-s0", "ppo-paper-zoo-s0"] + [f"ppo-paper-zoo-s{seed}" for seed in range(1, 5)]
     assert run_names(fake.calls)[:6] == ppo_paper
-    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3 + 10  # + the corridor experiments, 2 x 5 seeds
-    assert run_names(fake.calls)[-10:] == [
-        f"ppo-paper-{name}-s{seed}" for name in ("ent", "gamma") for seed in range(5)
+    # + the corridor experiments (2 x 5 seeds) and the formulations of docs/rl.md §6 (4 x 3 seeds)
+    assert len(fake.calls) == 5 + 6 + 6 + 3 + 3 + 3 + 10 + 12
+    assert run_names(fake.calls)[-22:] == [
+        *(f"ppo-paper-{name}-s{seed}" for name in ("ent", "gamma") for seed in range(5)),
+        *(f"ppo-paper-{name}-s{seed}" for name in ("turn", "turn-value", "shaped", "turn-value-warm") for seed in range(3)),
     ]
-    ent = fake.calls[-10]
+    ent = fake.calls[-22]
     assert ent[ent.index("--hyperparams") + 1] == "baselines/hyperparams/experiments/ppo-ent.yaml"
     printed = capsys.readouterr().out
     assert (
@@ -100,7 +102,7 @@ def test_the_programme_runs_every_step_once_and_a_second_run_skips_them(tmp_path
     assert run_programme(tmp_path, runner=again) == 0
     assert again.calls == []
     printed = capsys.readouterr().out
-    assert printed.count("[done]") == 5 + 31 and printed.count("[skip]") == 8
+    assert printed.count("[done]") == 5 + 31 + 12 and printed.count("[skip]") == 8
     assert "[skip] train/ppo-random-s4: not chosen" in printed
 
 
@@ -121,7 +123,7 @@ def test_a_stopped_programme_continues_where_it_stopped(tmp_path, capsys):
     rest = FakeUavBench(tmp_path)
     assert run_programme(tmp_path, runner=rest) == 0
     assert run_names(rest.calls)[0] == "ppo-paper-zoo-s1"  # the cut run first, nothing before it
-    assert len(rest.calls) == 36 - 7
+    assert len(rest.calls) == 48 - 7
 
 
 def test_a_step_another_process_runs_is_skipped_and_left_to_it(tmp_path, capsys):
