@@ -374,3 +374,26 @@ def test_terminal_cost_table_within_keeps_a_suite_by_its_seed_rule_or_one_scenar
     assert module.within(e, "random-30000").seed.tolist() == [0, 1]
     with pytest.raises(SystemExit, match=r"^--within: 'nowhere' is neither a suite nor a scenario"):
         module.within(e, "nowhere")
+
+
+def test_rl_formulations_groups_agents_by_name_and_counts_maps_cheaper_than_greedy():
+    script = load("rl_formulations")
+
+    def row(policy, scenario, cost, outcome="success"):
+        return {"policy": policy, "scenario": scenario, "total_cost": cost, "outcome": outcome, "error": ""}
+
+    agent = "sb3:leaderboards/rl/models/ppo-paper-turn-s{}.zip"
+    episodes = pd.DataFrame(
+        [row(agent.format(0), "paper-2022-sec5", 13.0), row(agent.format(1), "paper-2022-sec5", 15.0),
+         row(agent.format(0), "random-50500", 9.0), row(agent.format(1), "random-50500", 11.0),
+         row(agent.format(0), "random-50501", 90.0, "collided"), row(agent.format(1), "random-50501", 12.0),
+         row("greedy", "paper-2022-sec5", 17.2), row("greedy", "random-50500", 10.5), row("greedy", "random-50501", 12.0)]
+    )  # fmt: skip
+    table = script.formulation_table(episodes).set_index("formulation")
+    turn = table.loc["ppo-turn"]
+    assert turn["seeds"] == 2 and turn["paper J per seed"] == "13.00 / 15.00" and turn["paper J mean"] == 14.0
+    assert 13.0 <= turn["paper CI low"] <= turn["paper CI high"] <= 15.0
+    # Map 50500: mean over seeds 10.0 < greedy 10.5; map 50501: 51.0 > 12.0.
+    assert turn["maps cheaper than greedy"] == 1 and turn["validation success"] == 0.75
+    assert table.index.tolist() == ["ppo-turn", "greedy"]  # the references last
+    assert "| ppo-turn | 2 | 13.00 / 15.00 | 14.00 [" in script.markdown(table.reset_index())
