@@ -429,6 +429,20 @@ def rl_compute(rl_root: Path = RL_ROOT) -> list[tuple[str, int, float]]:
             (f"RL training ({len(models)} runs)", len(models), training)]  # fmt: skip
 
 
+def imitation_compute(distill_root: Path) -> tuple[str, float] | None:
+    """The published distilled networks' training: (what, CPU seconds), from their sidecars; ``None`` without any.
+
+    Each ``RUN/policy.json`` records the distillation's CPU seconds (expert labelling and fits,
+    ``train_cpu_seconds``) and its expert labels (``expert_labels``, each one expert decision).
+    """
+    sidecars = [json.loads(path.read_text()) for path in sorted((REPO / distill_root).glob("*/policy.json"))]
+    if not sidecars:
+        return None
+    labels = sum(int(s.get("expert_labels") or 0) for s in sidecars)
+    seconds = sum(float(s.get("train_cpu_seconds") or 0.0) for s in sidecars)
+    return f"imitation training ({len(sidecars)} networks, {labels:,} expert labels)", seconds
+
+
 def worker_seconds(tables: Any) -> dict[str, tuple[int, float]]:
     """Per run command: (finished episodes and window runs, the sum of their own wall seconds).
 
@@ -453,6 +467,7 @@ def compute_table(
     rl_root: Path = RL_ROOT,
     worker: dict[str, tuple[int, float]] | None = None,
     order: Sequence[str] = ORDER,
+    distill_root: Path | None = None,
 ) -> str:
     """Per part: attempts, logged wall and CPU time, and the worker time of its finished work; then the RL programme.
 
@@ -487,6 +502,9 @@ def compute_table(
     )
     for what, _, wall in rl_compute(rl_root):
         lines.append(f"| {what} | | {wall / 3600:.2f} | (one core each) | | |")
+    imitation = imitation_compute(distill_root) if distill_root is not None else None
+    if imitation is not None:
+        lines.append(f"| {imitation[0]} | | | {imitation[1] / 3600:.2f} | | |")
     return "\n".join(lines)
 
 
@@ -1073,7 +1091,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             store = REPO / pub.layout.store
             worker = worker_seconds(store_tables(store)) if store.is_file() else {}
-        print(compute_table(attempts, worker=worker, order=pub.order))
+        # v3 publishes the distilled planners (docs/publishing.md §5.1), so their training is its compute.
+        distill_root = DISTILLED if args.version == "v3" else None
+        print(compute_table(attempts, worker=worker, order=pub.order, distill_root=distill_root))
         return 0
     if args.install:
         tables = next(part for part in pub.plan() if part.name == "tables")

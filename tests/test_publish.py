@@ -211,6 +211,17 @@ def test_rl_compute_sums_trial_durations_and_training_wall_time(tmp_path):
     ]
     table = publish.compute_table([], rl_root=tmp_path)
     assert "| RL tuning (2 trials) | | 0.25 |" in table and "| RL training (2 runs) | | 2.00 |" in table
+    assert "imitation" not in table  # v2's table: no distilled planners published
+
+
+def test_the_imitation_row_sums_the_distilled_networks_sidecars(tmp_path):
+    for name, labels, seconds in (("a", 1000, 1800.0), ("b", 234, 5400.0)):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "policy.json").write_text(json.dumps({"expert_labels": labels, "train_cpu_seconds": seconds}))
+    assert publish.imitation_compute(tmp_path) == ("imitation training (2 networks, 1,234 expert labels)", 7200.0)
+    table = publish.compute_table([], rl_root=tmp_path / "none", distill_root=tmp_path)
+    assert "| imitation training (2 networks, 1,234 expert labels) | | | 2.00 | | |" in table
+    assert publish.imitation_compute(tmp_path / "none") is None
 
 
 def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_path, monkeypatch):
