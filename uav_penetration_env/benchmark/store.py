@@ -628,6 +628,22 @@ class ResultsStore:
         )
 
     @_reading
+    def tracks(self) -> pd.DataFrame:
+        """The positions of every step row from step 1 (the failure kinds' input, api.md §4.11).
+
+        Columns :data:`~.failure_kinds.TRACK_COLUMNS` (``episode_id``, ``step``, ``x_km``,
+        ``y_km``, ``z_m``), ordered by episode and step; the step-0 rows are left out, as
+        :meth:`steps` and an export leave them out, so a store and its exported rows give the
+        same kinds.
+        """
+        from uav_penetration_env.benchmark.failure_kinds import TRACK_COLUMNS
+
+        return pd.read_sql_query(
+            f"SELECT {', '.join(TRACK_COLUMNS)} FROM steps WHERE step > 0 ORDER BY episode_id, step",
+            self._connection,
+        )
+
+    @_reading
     def count(self, table: str) -> int:
         """Rows in one table (``episodes``, ``steps`` with the step-0 rows, ``runs``, ...)."""
         if table not in ("runs", "policies", "scenarios", "episodes", "steps", "window_runs"):
