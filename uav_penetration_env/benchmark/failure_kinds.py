@@ -37,7 +37,6 @@ FAILED_OUTCOMES = ("collided", "out_of_area", "truncated")  # the outcomes that 
 # The track must recede from its closest approach by more than this to have passed the goal [km]:
 # 1 mm, far below any step (>= v_min dt) and far above float rounding of kilometre coordinates.
 RECEDE_TOLERANCE_KM = 1e-6
-TRACK_COLUMNS = ("episode_id", "step", "x_km", "y_km", "z_m")  # what the classification reads
 
 
 @dataclass(frozen=True)
@@ -201,7 +200,7 @@ def failure_kinds(
 
     Args:
         episodes: episode rows with ``episode_id``, ``scenario_hash``, ``outcome`` (and ``error``).
-        tracks: step rows with :data:`TRACK_COLUMNS`; only steps >= 1 are read (see
+        tracks: step rows with :data:`~.store.TRACK_COLUMNS`; only steps >= 1 are read (see
             :meth:`~.store.ResultsStore.tracks`).
         geometries: scenario hash -> its geometry, or ``None`` when its scenario could not be read.
 

@@ -44,7 +44,7 @@ class ResultTables:
         episodes: one row per episode (:meth:`~.store.ResultsStore.episodes`).
         runs: run provenance rows (:meth:`~.store.ResultsStore.runs`).
         window_runs: fixed-target window runs (:meth:`~.store.ResultsStore.window_runs`), maybe empty.
-        tracks: the step rows' positions (:data:`~.failure_kinds.TRACK_COLUMNS`, steps >= 1), which
+        tracks: the step rows' positions (:data:`~.store.TRACK_COLUMNS`, steps >= 1), which
             the failure kinds are read from (api.md §4.11); ``None`` when the rows have no steps.
         scenarios: scenario hash -> its stored YAML; ``None`` when the rows have no scenarios.
     """
@@ -174,7 +174,7 @@ def read_rows(stem: str | Path) -> ResultTables:
         frames[table] = frame
     if "scenario_hash" not in frames["episodes"].columns:
         raise RowsError(f"--rows {stem}: the episodes table has no scenario_hash column; expected an export")
-    from uav_penetration_env.benchmark.failure_kinds import TRACK_COLUMNS
+    from uav_penetration_env.benchmark.store import TRACK_COLUMNS
 
     tracks = read_table(stem, "steps", TRACK_COLUMNS)
     scenarios = read_table(stem, "scenarios", ("scenario_hash", "yaml"))
