@@ -16,6 +16,7 @@ NULL in the JSON columns (:data:`JSON_TEXT_COLUMNS`), where empty text cannot oc
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,11 +44,16 @@ class ResultTables:
         episodes: one row per episode (:meth:`~.store.ResultsStore.episodes`).
         runs: run provenance rows (:meth:`~.store.ResultsStore.runs`).
         window_runs: fixed-target window runs (:meth:`~.store.ResultsStore.window_runs`), maybe empty.
+        tracks: the step rows' positions (:data:`~.store.TRACK_COLUMNS`, steps >= 1), which
+            the failure kinds are read from (api.md §4.11); ``None`` when the rows have no steps.
+        scenarios: scenario hash -> its stored YAML; ``None`` when the rows have no scenarios.
     """
 
     episodes: pd.DataFrame
     runs: pd.DataFrame
     window_runs: pd.DataFrame
+    tracks: pd.DataFrame | None = None
+    scenarios: Mapping[str, str] | None = None
 
 
 def store_tables(store_path: str | Path) -> ResultTables:
@@ -55,7 +61,13 @@ def store_tables(store_path: str | Path) -> ResultTables:
     from uav_penetration_env.benchmark.store import ResultsStore
 
     with ResultsStore(store_path, create=False) as store:
-        return ResultTables(store.episodes(), store.runs(), store.window_runs())
+        return ResultTables(
+            store.episodes(),
+            store.runs(),
+            store.window_runs(),
+            store.tracks(),
+            {h: text for h, (_, text) in store.scenarios().items()},
+        )
 
 
 def row_path(stem: str | Path, table: str, extension: str) -> Path:
@@ -113,8 +125,8 @@ def _read_csv(path: Path, table: str) -> pd.DataFrame:
     return frame
 
 
-def read_table(stem: str | Path, table: str) -> pd.DataFrame | None:
-    """One exported table under ``stem`` (``None`` where neither format exists).
+def read_table(stem: str | Path, table: str, columns: tuple[str, ...] | None = None) -> pd.DataFrame | None:
+    """One exported table under ``stem`` (``None`` where neither format exists), or some of its ``columns``.
 
     Raises:
         RowsError: the table in both formats, or a file that cannot be read as a table.
@@ -129,8 +141,11 @@ def read_table(stem: str | Path, table: str) -> pd.DataFrame | None:
         return None
     path = found[0]
     try:
-        return pd.read_parquet(path) if path.suffix == ".parquet" else _read_csv(path, table)
-    except (OSError, ValueError) as error:
+        if path.suffix == ".parquet":
+            return pd.read_parquet(path, columns=list(columns) if columns is not None else None)
+        frame = _read_csv(path, table)
+        return frame if columns is None else frame[list(columns)]
+    except (OSError, ValueError, KeyError) as error:
         raise RowsError(f"--rows {stem}: {path} is not a readable {table} table ({error})") from None
 
 
@@ -138,7 +153,8 @@ def read_rows(stem: str | Path) -> ResultTables:
     """The row tables exported under ``stem`` (``<stem>-episodes.parquet`` or ``.csv``, ...).
 
     ``episodes`` and ``runs`` are required; ``window_runs`` is optional (empty when absent; an
-    export always writes it, so a stale one cannot join newer tables).
+    export always writes it, so a stale one cannot join newer tables); the positions of ``steps``
+    and the YAML of ``scenarios`` are read where exported (the failure kinds, api.md §4.11).
 
     Raises:
         RowsError: no ``<stem>-episodes`` or ``<stem>-runs`` file in either format, a table in
@@ -158,4 +174,14 @@ def read_rows(stem: str | Path) -> ResultTables:
         frames[table] = frame
     if "scenario_hash" not in frames["episodes"].columns:
         raise RowsError(f"--rows {stem}: the episodes table has no scenario_hash column; expected an export")
-    return ResultTables(frames["episodes"], frames["runs"], frames["window_runs"])
+    from uav_penetration_env.benchmark.store import TRACK_COLUMNS
+
+    tracks = read_table(stem, "steps", TRACK_COLUMNS)
+    scenarios = read_table(stem, "scenarios", ("scenario_hash", "yaml"))
+    return ResultTables(
+        frames["episodes"],
+        frames["runs"],
+        frames["window_runs"],
+        tracks,
+        None if scenarios is None else dict(zip(scenarios["scenario_hash"], scenarios["yaml"], strict=True)),
+    )

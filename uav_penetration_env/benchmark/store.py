@@ -38,6 +38,8 @@ SCHEMA_VERSION = 2
 EPISODE_COLUMNS: dict[str, str] = sql_types(EPISODE)  # name -> SQLite type, from benchmark.columns
 STEP_COLUMNS: dict[str, str] = sql_types(STEP)
 WINDOW_RUN_COLUMNS: dict[str, str] = sql_types(WINDOW_RUN)
+# The step columns a track is read from (ResultsStore.tracks; the failure kinds, api.md §4.11).
+TRACK_COLUMNS = ("episode_id", "step", "x_km", "y_km", "z_m")
 # A window run is unique by its window, its MPC configuration and its seed (a rerun skips it).
 WINDOW_RUN_KEY = ("scenario_hash", "source_policy_hash", "episode_seed", "step", "optimizer_hash", "seed")
 
@@ -625,6 +627,20 @@ class ResultsStore:
             f"SELECT {columns} FROM steps WHERE episode_id IN ({marks}){where} ORDER BY episode_id, step",
             self._connection,
             params=ids,
+        )
+
+    @_reading
+    def tracks(self) -> pd.DataFrame:
+        """The positions of every step row from step 1 (the failure kinds' input, api.md §4.11).
+
+        Columns :data:`TRACK_COLUMNS` (``episode_id``, ``step``, ``x_km``, ``y_km``, ``z_m``),
+        ordered by episode and step; the step-0 rows are left out, as
+        :meth:`steps` and an export leave them out, so a store and its exported rows give the
+        same kinds.
+        """
+        return pd.read_sql_query(
+            f"SELECT {', '.join(TRACK_COLUMNS)} FROM steps WHERE step > 0 ORDER BY episode_id, step",
+            self._connection,
         )
 
     @_reading

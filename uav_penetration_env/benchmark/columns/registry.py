@@ -203,6 +203,14 @@ STATISTICS: tuple[Column, ...] = (
                                           csv=("successes", "success_rate", "success_rate_ci_low", "success_rate_ci_high"))),
     _statistic("outcome_counts", Board("collided/out/truncated", "episodes that hit the terrain, left the map or exceeded the ceiling, or ran out of steps", section="outcomes", aggregate="statistic",
                                         csv=("collided", "out_of_area", "truncated"))),
+    _statistic("failure_kinds", Board(
+        "failures: goal pass/terrain/edge/ceiling/trunc",
+        "failed episodes by kind (api.md §4.11): goal pass (came within two turn radii at v_max of the goal, then "
+        "moved away; counted first, however the episode ended), terrain (collided), edge (left the map's x/y bounds), "
+        "ceiling (climbed above the map's ceiling), trunc (ran out of steps); read from the step rows, blank for a "
+        "policy with a failure whose track is not stored",
+        name="failures", section="outcomes", aggregate="statistic", out="fail_goal_pass",
+        csv=("fail_goal_pass", "fail_terrain", "fail_edge", "fail_ceiling", "fail_truncation"), recorded_only=True)),
     _statistic("total_cost_mean", Board(
         "total J (incl. penalty) mean [95% CI]",
         "ΣJ(k) + failure penalty = −return, per episode; mean with a percentile-bootstrap 95 % interval "

@@ -26,6 +26,7 @@ from pathlib import Path
 import pandas as pd
 
 from uav_penetration_env.atomic import atomic_path, write_text_atomic
+from uav_penetration_env.benchmark.failure_kinds import with_failure_kinds
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
     compact_ranges,
@@ -129,6 +130,9 @@ def write_leaderboards(
         n_resamples: bootstrap resamples.
         suite: write one table over all scenarios, named ``suite``.
 
+    The tables count failed episodes by kind (goal pass, terrain, edge, ceiling, truncation) when
+    the store or rows hold their step rows (api.md §4.11).
+
     A group with RL agents gets an "RL agents over training seeds" section in its Markdown file
     and ``<stem>-rl.csv`` (:func:`~.rl.rl_table`, docs/rl-statistics.md §2).
 
@@ -144,7 +148,8 @@ def write_leaderboards(
     """
     out_dir = Path(out_dir)
     tables = _tables_of(store_path)
-    episodes, runs = tables.episodes, tables.runs
+    # The failure kind of each failed episode, from its step rows (api.md §4.11).
+    episodes, runs = with_failure_kinds(tables), tables.runs
     if command is None:
         source = "rows" if isinstance(store_path, ResultTables) else str(store_path)
         command = f"write_leaderboards({source!r}, {str(out_dir)!r}, reference={reference!r}, seed={seed})"

@@ -16,6 +16,7 @@ import pandas as pd
 
 from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.columns import Column, leaderboard_columns, legend_lines
+from uav_penetration_env.benchmark.failure_kinds import FAILURE_COLUMNS
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
     compact_ranges,
@@ -52,6 +53,12 @@ def _share(value: Any) -> str:
     return f"{100 * float(value):.0f}%"
 
 
+def _counts(values: Iterable[Any]) -> str:
+    """Counts as ``a/b/c``; blank when any is missing (a policy whose failures are not all classified)."""
+    counts = list(values)
+    return "" if any(pd.isna(v) for v in counts) else "/".join(f"{int(v)}" for v in counts)
+
+
 # How each leaderboard statistic (columns.STATISTICS) prints: row of leaderboard_table -> cell.
 STATISTIC_CELLS: dict[str, Any] = {
     "policy": lambda r, reference: f"**{r.policy}**" if r.policy == reference else str(r.policy),
@@ -60,6 +67,7 @@ STATISTIC_CELLS: dict[str, Any] = {
     "errors": lambda r, reference: f"{int(r.errors)}",
     "success_rate": _success_cell,
     "outcome_counts": lambda r, reference: f"{int(r.collided)}/{int(r.out_of_area)}/{int(r.truncated)}",
+    "failure_kinds": lambda r, reference: _counts(r[column] for column in FAILURE_COLUMNS),
     "total_cost_mean": lambda r, reference: format_interval(
         r.total_cost_mean, r.total_cost_mean_ci_low, r.total_cost_mean_ci_high
     ),

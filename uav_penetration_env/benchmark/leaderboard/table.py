@@ -20,6 +20,7 @@ import pandas as pd
 
 from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.columns import SECTIONS, Column, aggregated_columns
+from uav_penetration_env.benchmark.failure_kinds import FAILURE_COLUMNS, failure_counts
 from uav_penetration_env.benchmark.leaderboard.groups import cost_table, prepare_episodes, resolve_reference
 
 ALPHA = 0.05  # significance level of the pairwise tests (after Holm's correction)
@@ -56,7 +57,9 @@ def leaderboard_table(
 
     Args:
         episodes: the group's episode rows (as from :meth:`ResultsStore.episodes`); error rows count
-            in ``errors`` and nowhere else.
+            in ``errors`` and nowhere else. A ``failure_kind`` column
+            (:func:`~uav_penetration_env.benchmark.failure_kinds.with_failure_kinds`) adds the
+            failure counts by kind.
         reference: the policy the Wilcoxon tests and paired differences compare against.
         seed: seed of every bootstrap (each policy and statistic derives its own stream from it).
         n_resamples: bootstrap resamples.
@@ -67,7 +70,8 @@ def leaderboard_table(
 
     Returns:
         A DataFrame with columns ``policy``, ``policy_hash``, ``episodes``, ``errors``, outcome
-        counts, ``success_rate`` and its ``_ci_low``/``_ci_high``, ``total_cost_mean`` and
+        counts, the failures by kind (``fail_goal_pass`` ... ``fail_truncation``, nullable
+        integers; only with a ``failure_kind`` column, api.md §4.11), ``success_rate`` and its ``_ci_low``/``_ci_high``, ``total_cost_mean`` and
         ``total_cost_iqm`` with their intervals, the aggregates of the column table's "means"
         section, ``friedman_rank``, the comparison with the reference (``delta_mean`` with its
         interval, ``median_difference``, ``n_pairs``, ``wilcoxon_statistic``, ``pvalue``,
@@ -204,6 +208,7 @@ def _policy_row(
         "collided": int((valid["outcome"] == "collided").sum()),
         "out_of_area": int((valid["outcome"] == "out_of_area").sum()),
         "truncated": int((valid["outcome"] == "truncated").sum()),
+        **failure_counts(valid),  # fail_goal_pass ... fail_truncation, when the tracks are known
         "success_rate": successes / n if n else np.nan,
         "success_rate_ci_low": success_ci[0],
         "success_rate_ci_high": success_ci[1],
@@ -226,7 +231,8 @@ def _drop_unrecorded(table: pd.DataFrame, gaps_recorded: bool) -> pd.DataFrame:
     """``table`` without the columns that no episode recorded, and without the gaps when nothing has a record.
 
     A column marked ``Board.recorded_only`` is left out when every row lacks it, so the table of an
-    older store is unchanged; the gap columns likewise when no scenario has a best-known record.
+    older store is unchanged; the gap columns likewise when no scenario has a best-known record,
+    and the failure counts when no policy's failures could be classified (api.md §4.11).
     """
     unrecorded = [
         column.out
@@ -236,6 +242,11 @@ def _drop_unrecorded(table: pd.DataFrame, gaps_recorded: bool) -> pd.DataFrame:
     ]
     if table.empty or not gaps_recorded:
         unrecorded += [name for name in GAP_COLUMNS if name in table]
+    kinds = [name for name in FAILURE_COLUMNS if name in table]
+    if kinds and table[kinds].isna().all().all():
+        unrecorded += kinds  # no policy's failures could all be classified: as a store without tracks
+    elif kinds:
+        table = table.astype(dict.fromkeys(kinds, "Int64"))  # counts stay integers beside a blank
     return table.drop(columns=unrecorded)
 
 
