@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 
 PAPER = "paper-2022-sec5"
-AGENT = re.compile(r"^sb3:(?:.*/)?(?P<algo>[a-z0-9]+)-(?P<regime>paper|random)-(?P<name>.+)-s(?P<seed>\d+)\.zip$")
+# The store labels an agent sb3:STEM (a path and .zip are accepted too).
+AGENT = re.compile(r"^sb3:(?:.*/)?(?P<algo>[a-z0-9]+)-(?P<regime>paper|random)-(?P<name>.+)-s(?P<seed>\d+)(?:\.zip)?$")
 REFERENCES = ("greedy", "lattice-c40", "value-greedy-c40")
 
 

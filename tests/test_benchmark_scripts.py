@@ -382,7 +382,7 @@ def test_rl_formulations_groups_agents_by_name_and_counts_maps_cheaper_than_gree
     def row(policy, scenario, cost, outcome="success"):
         return {"policy": policy, "scenario": scenario, "total_cost": cost, "outcome": outcome, "error": ""}
 
-    agent = "sb3:leaderboards/rl/models/ppo-paper-turn-s{}.zip"
+    agent = "sb3:ppo-paper-turn-s{}"  # the store's label
     episodes = pd.DataFrame(
         [row(agent.format(0), "paper-2022-sec5", 13.0), row(agent.format(1), "paper-2022-sec5", 15.0),
          row(agent.format(0), "random-50500", 9.0), row(agent.format(1), "random-50500", 11.0),
