@@ -250,6 +250,10 @@ def cost_axis(ax, values: Any, quantity: str, detail: str) -> bool:
     return False
 
 
+LEGEND_ROWS = 24  # entries (headers included) one column of the outside legend holds beside a 5-inch panel
+LEGEND_COLUMN_INCHES = 3.4  # the width of one legend column of policy labels at 7 pt
+
+
 def outside_legend(container, fontsize: float = 7.0) -> None:
     """One legend for a (sub-)figure's labelled artists, outside its axes (right, top).
 
@@ -281,7 +285,13 @@ def outside_legend(container, fontsize: float = 7.0) -> None:
     for label in others:
         handles.append(entries[label])
         texts.append(label)
-    legend = container.legend(handles, texts, loc="outside right upper", fontsize=fontsize)
+    # A long list (every family of a v3 table, ~30 entries) is taller than the panel: two columns.
+    columns = 1 if len(texts) <= LEGEND_ROWS else 2
+    if columns == 2:  # widen the figure by the second column, so the panel keeps its width
+        figure = container.figure
+        width, height = figure.get_size_inches()
+        figure.set_size_inches(width + LEGEND_COLUMN_INCHES, height)
+    legend = container.legend(handles, texts, loc="outside right upper", fontsize=fontsize, ncols=columns)
     for index in headers:
         legend.get_texts()[index].set_fontweight("bold")
 
