@@ -189,7 +189,7 @@ def folded_layers(arrays: Mapping[str, np.ndarray]) -> list[tuple[np.ndarray, np
     inverse_scale = 1.0 / np.asarray(arrays["obs_scale"], dtype=np.float64)  # 1/inf = 0
     w0, b0 = layers[0]
     w0 = w0 * inverse_scale[None, :]
-    layers[0] = (w0, b0 - w0 @ np.where(np.isfinite(mean), mean, 0.0))
+    layers[0] = (w0, b0 - w0 @ mean)  # a blinded slot's mean is 0 (observation_scaling)
     return layers
 
 
