@@ -16,7 +16,7 @@ NULL in the JSON columns (:data:`JSON_TEXT_COLUMNS`), where empty text cannot oc
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -185,3 +185,91 @@ def read_rows(stem: str | Path) -> ResultTables:
         tracks,
         None if scenarios is None else dict(zip(scenarios["scenario_hash"], scenarios["yaml"], strict=True)),
     )
+
+
+# The id each table is ordered by, as the store reads it (``ORDER BY``), so joined chunks read alike.
+_ORDER = {"episodes": ["episode_id"], "runs": ["run_id"], "window_runs": ["window_run_id"],
+          "tracks": ["episode_id", "step"]}  # fmt: skip
+
+
+CHECKPOINT_MANIFEST = "manifest.json"
+
+
+def checkpoint_stems(path: str | Path) -> list[Path]:
+    """The stems ``path`` stands for: a checkpoint folder's chunks in its manifest's order, else ``[path]``.
+
+    A checkpoint folder (``benchmarks/publish.py --checkpoint``, docs/publishing.md §5.2) holds
+    ``chunk-NNN-<table>.parquet`` files and a ``manifest.json`` naming the chunks that are whole.
+
+    Raises:
+        RowsError: an unreadable manifest, or one with seed rows (exports of another store, whose
+            ids must be joined with ``uav-bench import`` first).
+    """
+    import json
+
+    folder = Path(path)
+    manifest = folder / CHECKPOINT_MANIFEST
+    if not (folder.is_dir() and manifest.is_file()):
+        return [folder]
+    try:
+        content = json.loads(manifest.read_text(encoding="utf-8"))
+        names = [str(chunk["name"]) for chunk in content["chunks"]]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise RowsError(f"--rows {folder}: {manifest.name} is not a checkpoint manifest ({error}); "
+                        "expected {\"chunks\": [{\"name\": ...}, ...]}") from None  # fmt: skip
+    if content.get("seeds"):
+        raise RowsError(f"--rows {folder}: the checkpoint names seed rows of another store; expected "
+                        "chunks of one store (rebuild its store with publish.py --resume and use --store)")  # fmt: skip
+    if not names:
+        raise RowsError(f"--rows {folder}: the manifest names no chunk; expected at least one")
+    return [folder / name for name in names]
+
+
+def read_chunks(stems: Sequence[str | Path]) -> ResultTables:
+    """The row tables of several exports of one store (``--rows STEM [STEM ...]``), read as one.
+
+    A store exported in pieces (a publication's checkpoint chunks, docs/publishing.md §5.2) has
+    disjoint run, episode and window-run ids, so the pieces are concatenated, each table ordered
+    by its id as the store orders it, and the scenarios kept once by hash. A checkpoint folder
+    stands for the chunks its manifest names (:func:`checkpoint_stems`). One stem is
+    :func:`read_rows` itself.
+
+    Raises:
+        RowsError: a stem :func:`read_rows` refuses, an id in two stems (exports of different
+            stores: join them with ``uav-bench import`` first), or one scenario hash with two YAML texts.
+    """
+    stems = [piece for stem in stems for piece in checkpoint_stems(stem)]
+    if len(stems) == 1:
+        return read_rows(stems[0])
+    pieces = [read_rows(stem) for stem in stems]
+    joined: dict[str, pd.DataFrame | None] = {}
+    for table in ("episodes", "runs", "window_runs", "tracks"):
+        frames = [getattr(piece, table) for piece in pieces]
+        present = [f for f in frames if f is not None]
+        if table == "tracks" and len(present) < len(frames):
+            joined[table] = None  # some piece has no steps: no failure kinds, as for one such stem
+            continue
+        # An empty piece (a chunk without window runs) has untyped columns that would widen the rest's.
+        filled = [f for f in present if not f.empty] or present[:1]
+        frame = pd.concat(filled, ignore_index=True) if len(filled) > 1 else filled[0]
+        key = _ORDER[table][0]
+        if table != "tracks" and key in frame.columns and frame[key].duplicated().any():
+            repeated = int(frame.loc[frame[key].duplicated(), key].iloc[0])
+            raise RowsError(
+                f"--rows: {table} {key} {repeated} is in two of {', '.join(map(str, stems))}; expected "
+                "exports of one store with disjoint ids (join other stores with `uav-bench import` first)"
+            )
+        order = [column for column in _ORDER[table] if column in frame.columns]
+        if order:
+            frame = frame.sort_values(order, kind="stable", ignore_index=True)
+        joined[table] = frame
+    scenarios: dict[str, str] | None = {}
+    for piece in pieces:
+        if piece.scenarios is None:
+            scenarios = None
+            break
+        for digest, text in piece.scenarios.items():
+            if scenarios.setdefault(digest, text) != text:
+                raise RowsError(f"--rows: scenario {digest} has two different YAML texts among the stems; "
+                                "expected exports of one store")  # fmt: skip
+    return ResultTables(joined["episodes"], joined["runs"], joined["window_runs"], joined["tracks"], scenarios)

@@ -2,11 +2,14 @@
 
 ``--rows STEM`` computes them from exported rows instead (``uav-bench export``; :mod:`~..rows`):
 the same rows give the same files, byte for byte apart from the date line, with no store at all.
+Several stems are exports of one store in pieces (a publication's checkpoint chunks), read as one
+(:func:`~..rows.read_chunks`).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from uav_penetration_env.benchmark.commands.common import (
@@ -34,8 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--rows",
         type=path_argument,
+        nargs="+",
         metavar="STEM",
-        help="compute from exported rows STEM-episodes/-runs[/-window_runs].parquet|csv instead of a store",
+        help="compute from exported rows STEM-episodes/-runs[/-window_runs].parquet|csv instead of a store; "
+        "several stems: pieces of one store's export (checkpoint chunks), read as one",
     )
     parser.add_argument(
         "--out", type=path_argument, default=str(DEFAULT_OUT), help=f"output folder (default: {DEFAULT_OUT})"
@@ -51,13 +56,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Write the tables; print a compact summary of each and their paths."""
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
-    from uav_penetration_env.benchmark.rows import RowsError, read_rows
+    from uav_penetration_env.benchmark.rows import RowsError, read_chunks
 
     if args.rows is not None and args.store is not None:
         raise CLIError("--rows and --store: give one source of results, not both")
     if args.rows is not None:
         try:
-            store = read_rows(args.rows)
+            store = read_chunks(args.rows)
         except RowsError as error:
             raise CLIError(str(error)) from None
     else:
@@ -79,7 +84,12 @@ def run(args: argparse.Namespace) -> int:
         )
 
     check_writable_folder(Path(args.out), "--out")
-    source = args.rows or args.store or DEFAULT_STORE
+    # Pieces of one export are recorded as their common folder (a checkpoint), one stem as itself.
+    source = (
+        (args.rows[0] if len(args.rows) == 1 else os.path.commonpath(args.rows))
+        if args.rows
+        else args.store or DEFAULT_STORE
+    )
     check_out_folder(Path(args.out), source, replace=bool(args.replace_out))
     written = write_leaderboards(
         store,
