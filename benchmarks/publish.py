@@ -411,6 +411,42 @@ def install(out: Path = OUT, target: Path = Path("leaderboards"), log: Path | No
     return copied
 
 
+def install_folder(out: Path, target: Path, log: Path | None = None) -> list[Path]:
+    """Replace the folder ``target`` by ``out``'s tables, figures and report, without the exported rows.
+
+    DECISION (docs/publishing.md §5.5, v3's install): a publication whose rows are committed
+    elsewhere (v3's checkpoint chunks, which its tables part rebuilds from) installs into a folder
+    of its own, so the earlier version's tables stay where they are and nothing is copied twice:
+    every file under ``out`` except ``rows/`` (the store's export, the same rows as the chunks),
+    then the compute log. The new folder is written beside ``target`` and renamed over it, so a cut
+    install leaves the previous one whole.
+
+    Raises:
+        SystemExit: ``out`` has no ``index.html`` (the tables part has not run).
+    """
+    out, target = REPO / out, REPO / target
+    if not (out / "index.html").is_file():
+        raise SystemExit(f"{out}: no index.html; run the tables part first")
+    staging = target.with_name(target.name + ".installing")
+    if staging.exists():
+        shutil.rmtree(staging)
+    files = sorted(
+        p for p in out.rglob("*")
+        if p.is_file() and p.name != OUT_SOURCE_FILE and p.relative_to(out).parts[0] != "rows"
+    )  # fmt: skip
+    for path in files:
+        destination = staging / path.relative_to(out)
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, destination)
+    log = REPO / log if log is not None else None
+    if log is not None and log.is_file():
+        shutil.copyfile(log, staging / "compute.jsonl")
+    if target.exists():
+        shutil.rmtree(target)
+    staging.rename(target)
+    return sorted(p for p in target.rglob("*") if p.is_file())
+
+
 def rl_compute(rl_root: Path = RL_ROOT) -> list[tuple[str, int, float]]:
     """The RL programme's compute from its committed snapshot: (what, count, wall seconds).
 
@@ -574,6 +610,7 @@ V3_ORDER = ("paper", "windows", "suite", "windows-suite", "held-out", "ctg-sensi
             "tables")  # fmt: skip
 CTG_TABLE = "benchmarks/terminal_cost_table.py"
 CHECKPOINT = Path("leaderboards/v3-checkpoint")
+V3_TARGET = Path("leaderboards/v3")  # v3's installed tables; v2's stay at the top of leaderboards/
 MANIFEST = "manifest.json"
 # Rows flown with the `value` default at clean commits, whose policy hashes equal v3's (docs/publishing.md §5.3).
 SEED_ROWS = (Path("leaderboards/ctg-sensitivity/suite-value-rows/suite-value-4256938"),
@@ -609,7 +646,11 @@ def parts_v3(
     named = {part.name: part for part in v2}
     tables = named["tables"]
     export = next(i for i, c in enumerate(tables.commands) if c[0] == "export")
-    named["tables"] = Part("tables", [*tables.commands[: export + 1], table, *tables.commands[export + 1 :]])
+    # DECISION (docs/publishing.md §5.5, the checkpoint is the published rows): the tables are rebuilt
+    # from the committed chunks, not from a second export, so the rows a reader rebuilds from are the
+    # ones the check read, and the install commits no copy of them.
+    rebuild = ["leaderboard", "--rows", CHECKPOINT.as_posix(), "--out", str(V3.check)]
+    named["tables"] = Part("tables", [*tables.commands[: export + 1], table, rebuild])
     named["ctg-sensitivity"] = ctg
     return [named[name] for name in V3_ORDER]
 
@@ -623,13 +664,15 @@ class Publication:
     layout: Layout
     order: tuple[str, ...]
     plan: Callable[[], list[Part]]
+    target: Path = Path("leaderboards")  # where --install puts the tables
+    rows: Path | None = None  # the committed rows, when they are not installed with the tables (v3: the checkpoint)
 
 
 def publications() -> dict[str, Publication]:
     """The registered publications by version (v2's paths read at call time, so tests can move ``ROOT``)."""
     return {
         "v2": Publication("v2", ROOT, Layout(STORE, OUT, ROWS, CHECK), ORDER, parts),
-        "v3": Publication("v3", V3_ROOT, V3, V3_ORDER, parts_v3),
+        "v3": Publication("v3", V3_ROOT, V3, V3_ORDER, parts_v3, target=V3_TARGET, rows=CHECKPOINT),
     }
 
 
@@ -1087,10 +1130,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.version == "v2":
             worker = published_worker_seconds()
         else:
-            from uav_penetration_env.benchmark.rows import store_tables
+            from uav_penetration_env.benchmark.rows import read_chunks, store_tables
 
-            store = REPO / pub.layout.store
-            worker = worker_seconds(store_tables(store)) if store.is_file() else {}
+            store, committed = REPO / pub.layout.store, REPO / pub.target / "compute.jsonl"
+            if not log.is_file() and committed.is_file():  # a fresh clone: the installed log
+                attempts = read_log(committed)
+            if store.is_file():
+                worker = worker_seconds(store_tables(store))
+            elif pub.rows is not None and (REPO / pub.rows / MANIFEST).is_file():
+                worker = worker_seconds(read_chunks([REPO / pub.rows]))  # a fresh clone: the committed chunks
+            else:
+                worker = {}
         # v3 publishes the distilled planners (docs/publishing.md §5.1), so their training is its compute.
         distill_root = DISTILLED if args.version == "v3" else None
         print(compute_table(attempts, worker=worker, order=pub.order, distill_root=distill_root))
@@ -1101,9 +1151,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             print("refused: the tables part has not ended with a passed rebuild check; run it first",
                   file=sys.stderr)  # fmt: skip
             return 1
-        print(
-            f"{len(install(pub.layout.out, log=pub.root / 'compute.jsonl'))} files copied into leaderboards/"
-        )
+        if pub.rows is not None:
+            copied = install_folder(pub.layout.out, pub.target, log=pub.root / "compute.jsonl")
+        else:
+            copied = install(pub.layout.out, pub.target, log=pub.root / "compute.jsonl")
+        print(f"{len(copied)} files copied into {pub.target}/")
         return 0
     plan = pub.plan()
     names = [p.name for p in plan]

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from tests.test_benchmark_scripts import load
+from uav_penetration_env.benchmark.commands.common import OUT_SOURCE_FILE
 
 publish = load("publish")
 
@@ -247,6 +248,32 @@ def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_pa
     assert (target / "compute.jsonl").read_text() == log.read_text()
 
 
+def test_v3_installs_into_its_own_folder_without_the_exported_rows(tmp_path, monkeypatch):
+    """v2's tables stay; v3's folder is replaced whole, its rows are the committed chunks (publishing.md §5.5)."""
+    monkeypatch.setattr(publish, "REPO", tmp_path)
+    out, target = tmp_path / "results/v3/out", tmp_path / "leaderboards/v3"
+    (out / "rows").mkdir(parents=True)
+    (out / "ctg-sensitivity").mkdir()
+    (out / "index.html").write_text("<html></html>")
+    (out / "uavpen-v1.csv").write_text("v3")
+    (out / "ctg-sensitivity" / "sensitivity.md").write_text("forms")
+    (out / "rows" / "leaderboard-steps.parquet").write_bytes(b"rows")
+    (out / OUT_SOURCE_FILE).write_text("results/v3/leaderboard.sqlite")
+    target.mkdir(parents=True)
+    (target / "stale.md").write_text("an earlier v3 table no longer written")
+    (tmp_path / "leaderboards" / "paper-2022-sec5.md").write_text("v2")
+    log = tmp_path / "results/v3/compute.jsonl"
+    log.write_text('{"part": "paper", "wall_s": 1.0, "cpu_s": 2.0}\n')
+    copied = publish.install_folder(Path("results/v3/out"), Path("leaderboards/v3"), Path("results/v3/compute.jsonl"))
+    assert sorted(p.relative_to(target).as_posix() for p in copied) == [
+        "compute.jsonl", "ctg-sensitivity/sensitivity.md", "index.html", "uavpen-v1.csv"
+    ]  # fmt: skip
+    assert (tmp_path / "leaderboards" / "paper-2022-sec5.md").read_text() == "v2"
+    assert not (tmp_path / "leaderboards" / "v3.installing").exists()
+    assert (target / "compute.jsonl").read_text() == log.read_text()
+    assert publish.publications()["v3"].target == Path("leaderboards/v3")
+
+
 def test_worker_time_counts_finished_work_of_every_attempt_logged_or_not():
     from types import SimpleNamespace
 
@@ -359,6 +386,8 @@ def test_v3_flies_the_new_planners_beside_the_v2_parts(tmp_path):
     assert suite[:3] == ["run", "--suite", "uavpen-v1"] and suite[4:18] == forms
     tables = [c[0] for c in v3["tables"].commands]
     assert tables.index("benchmarks/terminal_cost_table.py") == tables.index("export") + 1
+    # v3's tables are rebuilt from the committed checkpoint, not from a second export (publishing.md §5.5)
+    assert v3["tables"].commands[-1][:3] == ["leaderboard", "--rows", "leaderboards/v3-checkpoint"]
     # the v2 plan writes to results/v2 only
     assert all("results/v3" not in " ".join(c) for part in v2.values() for c in part.commands)
 

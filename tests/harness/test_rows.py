@@ -113,3 +113,75 @@ def test_missing_rows_and_two_sources_are_refused_in_one_line(exported, tmp_path
         assert run_cli("export", "--format", fmt, "--store", store, "--out", mixed / "x") == 0
     with pytest.raises(RowsError, match=r"both x-episodes\.parquet and x-episodes\.csv exist"):
         read_rows(mixed / "x")
+
+
+def split_export(folder, store, target):
+    """The store's export in two chunks by run (the `run` command's run, then the `windows` run), with a manifest."""
+    import json
+
+    from uav_penetration_env.benchmark.rows import EXPORT_TABLES, read_table, row_path, write_table
+
+    frames = {table: read_table(folder / "parquet" / "published", table) for table in EXPORT_TABLES}
+    runs = sorted(frames["runs"].run_id)
+    assert len(runs) == 2  # the fixture's run and windows commands
+    names = []
+    for index, run_id in enumerate(runs, start=1):
+        episodes = frames["episodes"][frames["episodes"].run_id == run_id]
+        chunk = {
+            "runs": frames["runs"][frames["runs"].run_id == run_id],
+            "episodes": episodes,
+            "window_runs": frames["window_runs"][frames["window_runs"].run_id == run_id],
+            "steps": frames["steps"][frames["steps"].episode_id.isin(set(episodes.episode_id))],
+            "scenarios": frames["scenarios"],
+            "policies": frames["policies"],
+        }
+        name = f"chunk-{index:03d}"
+        for table, frame in chunk.items():
+            write_table(frame, row_path(target / name, table, "parquet"), "parquet")
+        names.append(name)
+    (target / "manifest.json").write_text(json.dumps({"seeds": [], "chunks": [{"name": n} for n in names]}))
+    return [target / n for n in names]
+
+
+def test_a_checkpoint_folder_and_its_chunks_rebuild_the_store_tables(exported, tmp_path):
+    """Pieces of one store's export (docs/publishing.md §5.2) read as one give the store's tables."""
+    folder, store = exported
+    stems = split_export(folder, store, tmp_path / "checkpoint")
+    reference = folder / "from-store-chunks"
+    assert run_cli("leaderboard", "--store", store, "--out", reference) == 0
+    names = sorted(p.name for p in reference.iterdir() if p.name != OUT_SOURCE_FILE)
+    for source, out in (([tmp_path / "checkpoint"], tmp_path / "a"), (stems, tmp_path / "b")):
+        assert run_cli("leaderboard", "--rows", *source, "--out", out) == 0
+        assert sorted(p.name for p in out.iterdir() if p.name != OUT_SOURCE_FILE) == names
+        for name in names:
+            if name.endswith(".csv"):
+                assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+            else:
+                assert stable_lines(out / name) == stable_lines(reference / name), name
+    # the pieces are recorded as their folder
+    assert (tmp_path / "b" / OUT_SOURCE_FILE).read_text().strip() == str((tmp_path / "checkpoint").resolve())
+
+
+def test_chunks_of_two_stores_and_bad_manifests_are_refused_in_one_line(exported, tmp_path, capsys):
+    import json
+
+    from uav_penetration_env.benchmark.rows import checkpoint_stems, read_chunks
+
+    folder, _store = exported
+    published = folder / "parquet" / "published"
+    with pytest.raises(RowsError, match="episodes episode_id 1 is in two of"):
+        read_chunks([published, published])  # the same ids twice: not pieces of one store
+    assert run_cli("leaderboard", "--rows", published, published, "--out", tmp_path / "o") == 2
+    assert "disjoint ids" in capsys.readouterr().err
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "manifest.json").write_text("{not json")
+    with pytest.raises(RowsError, match="not a checkpoint manifest"):
+        checkpoint_stems(bad)
+    (bad / "manifest.json").write_text(json.dumps({"seeds": ["other/store"], "chunks": [{"name": "chunk-001"}]}))
+    with pytest.raises(RowsError, match="seed rows of another store"):
+        checkpoint_stems(bad)
+    (bad / "manifest.json").write_text(json.dumps({"seeds": [], "chunks": []}))
+    with pytest.raises(RowsError, match="names no chunk"):
+        checkpoint_stems(bad)
+    assert checkpoint_stems(published) == [published]  # a plain stem stands for itself

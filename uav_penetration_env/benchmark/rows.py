@@ -272,4 +272,6 @@ def read_chunks(stems: Sequence[str | Path]) -> ResultTables:
             if scenarios.setdefault(digest, text) != text:
                 raise RowsError(f"--rows: scenario {digest} has two different YAML texts among the stems; "
                                 "expected exports of one store")  # fmt: skip
-    return ResultTables(joined["episodes"], joined["runs"], joined["window_runs"], joined["tracks"], scenarios)
+    return ResultTables(
+        joined["episodes"], joined["runs"], joined["window_runs"], joined["tracks"], scenarios
+    )
