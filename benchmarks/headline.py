@@ -284,13 +284,23 @@ def compute_section(folder: Path) -> list[str]:
         spec.loader.exec_module(publish)
     finally:
         sys.modules.pop(spec.name, None)
-    rows = folder / "rows" / "leaderboard"
-    worker = {}
-    if rows.with_name("leaderboard-runs.parquet").is_file():
-        from uav_penetration_env.benchmark.rows import read_rows
+    from uav_penetration_env.benchmark.rows import read_chunks
 
-        worker = publish.worker_seconds(read_rows(rows))
-    table = publish.compute_table(publish.read_log(log), rl_root=folder / "rl", worker=worker)
+    # The rows the compute is read from: an export in the folder (v2, a rebuilt folder), else the
+    # publication's committed checkpoint beside it (v3: leaderboards/v3 -> leaderboards/v3-checkpoint).
+    exported, checkpoint = folder / "rows" / "leaderboard", folder.with_name(f"{folder.name}-checkpoint")
+    worker = {}
+    if exported.with_name("leaderboard-runs.parquet").is_file():
+        worker = publish.worker_seconds(read_chunks([exported]))
+    elif (checkpoint / publish.MANIFEST).is_file():
+        worker = publish.worker_seconds(read_chunks([checkpoint]))
+    attempts = publish.read_log(log)
+    # v3's log has its terminal-cost part, and v3 publishes the distilled planners (publishing.md §5.1).
+    v3 = any(a.get("part") == "ctg-sensitivity" for a in attempts)
+    rl_root = folder / "rl" if (folder / "rl").is_dir() else folder.parent / "rl"
+    table = publish.compute_table(attempts, rl_root=rl_root, worker=worker,
+                                  order=publish.V3_ORDER if v3 else publish.ORDER,
+                                  distill_root=publish.DISTILLED if v3 else None)  # fmt: skip
     return ["## 6. Compute of the regeneration", "", table, ""]
 
 

@@ -380,10 +380,17 @@ def test_v3_flies_the_new_planners_beside_the_v2_parts(tmp_path):
         )  # the v2 policies first, in their order
         assert all(p in policies for p in new) and not any(p in v2[name].commands[0] for p in new)
         assert command[command.index("--store") + 1] == "results/v3/leaderboard.sqlite"
-    paper, suite = v3["ctg-sensitivity"].commands
+    paper, suite, held_out, w2 = v3["ctg-sensitivity"].commands
     forms = [f"{n}-ctg-{f}" for f in ("distance", "dubins") for n in ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "cmaes")]  # fmt: skip
-    assert paper[paper.index("--policies") + 1 : paper.index("--seeds")] == forms and "20" in paper
-    assert suite[:3] == ["run", "--suite", "uavpen-v1"] and suite[4:18] == forms
+    for command, scenario in ((paper, "paper"), (w2, "paper-w2")):
+        assert command[:3] == ["run", "--scenarios", scenario]
+        assert command[command.index("--policies") + 1 : command.index("--seeds")] == forms and "20" in command
+    for command, suite_name in ((suite, "uavpen-v1"), (held_out, "uavpen-heldout-v1")):
+        assert command[:3] == ["run", "--suite", suite_name] and command[4:18] == forms
+    table = next(c for c in v3["tables"].commands if c[0] == "benchmarks/terminal_cost_table.py")
+    within = [table[i + 1] for i, a in enumerate(table) if a == "--within"]
+    assert within == ["paper=paper-2022-sec5", "suite=uavpen-v1", "held-out=uavpen-heldout-v1",
+                      "paper-w2=paper-2022-sec5-w2"]  # fmt: skip
     tables = [c[0] for c in v3["tables"].commands]
     assert tables.index("benchmarks/terminal_cost_table.py") == tables.index("export") + 1
     # v3's tables are rebuilt from the committed checkpoint, not from a second export (publishing.md §5.5)
