@@ -1,27 +1,37 @@
 """Write the published results page, ``docs/results.md``, and the README's headline from the tables.
 
-The results page answers the testbed's two questions, does IHPSO's adaptivity help and how do
-learned planners compare with swarm planners on cost and on compute, from the published
-leaderboard folder alone. Every number on it is computed here from a committed table:
+The results page answers the testbed's two questions from leaderboard v3's folder
+(``leaderboards/v3`` by default) alone, on its first screen:
 
-- the scenario tables ``<stem>.csv`` and their RL tables ``<stem>-rl.csv``;
-- the window studies' ``<stem>-fixed-target-paired.csv``;
-- the terminal-cost study's episode rows under ``ctg-sensitivity/`` (re-analysed with
-  ``benchmarks/terminal_cost_table.py``'s functions, so its conclusions are recomputed, not read);
-- then every section of ``benchmarks/headline.py`` (the full tables behind each finding).
+1. Does IHPSO's adaptivity help? IHPSO against HPSO per table (the table's CSV: success, mean,
+   IQM, the paired Δ with its interval and Holm-corrected Wilcoxon p, evaluations per step), the
+   same pairing recomputed under every terminal-cost form from the episode rows (robust or not),
+   and the identical-window studies (``*-fixed-target-paired.csv``).
+2. Learned planners against swarm planners, on cost and on decision time: per table the cheapest
+   distilled network, the cheapest RL agent group, the best of the paper's swarm planners and
+   IHPSO, then each learned planner paired with that swarm planner under every terminal-cost form.
 
-The prose between the numbers is fixed text without numbers; a sentence whose direction depends
-on the data (cheaper or costlier, beats the floor or not) is chosen here from the data.
+Then the 99 % bar (every MPC planner reaches the goal in at least 99 % of episodes and no failure
+is a goal pass) and every section of ``benchmarks/headline.py`` (the full tables).
+
+Every number is computed here from a table or from the episode rows; the prose between them holds
+no number, and a sentence whose direction depends on the data is chosen here from the data. The
+episode rows are ``FOLDER/rows/leaderboard-episodes.parquet`` (a rebuilt or provisional folder) or
+the checkpoint chunks of ``FOLDER-checkpoint`` (the published layout, docs/publishing.md §5.2);
+the per-form pairings reuse ``benchmarks/terminal_cost_table.py``'s ``read_part``, ``within``
+and ``paired``.
 
 Usage::
 
     python benchmarks/results_page.py                 # rewrite docs/results.md and the README's headline
     python benchmarks/results_page.py --check         # exit 1 when either is not what the tables give
+    python benchmarks/results_page.py --folder DIR --out /tmp/results.md --readme /tmp/README.md
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -37,210 +47,587 @@ for path in (ROOT, HERE):  # run as a script from anywhere: this checkout's pack
 import headline as hl  # noqa: E402
 import terminal_cost_table as ctg  # noqa: E402
 
-from uav_penetration_env.benchmark.families import MPC_FAMILIES, policy_family  # noqa: E402
+from uav_penetration_env.benchmark.families import MPC_FAMILIES, PAPER_PLANNERS, policy_family  # noqa: E402
 
 ALPHA = 0.05
-EPISODE_TABLES = ("paper-2022-sec5", "paper-2022-sec5-w2", "uavpen-heldout-v1")
-RL_TABLES = ("paper-2022-sec5", "uavpen-heldout-v1")
-COMPARED_FAMILIES = (*MPC_FAMILIES[:2], "floors")  # the planners and floors a finding names (no ablations, agents)
-# The terminal-cost study's committed episodes (benchmarks/terminal_cost_table.py's usage).
-CTG_PARTS = {
-    "paper scenario": ("paper-episodes.csv",),
-    "suite uavpen-v1": ("suite-value-rows/suite-value-4256938-episodes.parquet",
-                        "suite-forms-rows/suite-forms-4256938-episodes.parquet"),
-}  # fmt: skip
-CTG_WINDOWS = "ctg-sensitivity/windows"  # the window study flown again with the value terminal cost
+SUCCESS_BAR = ctg.SUCCESS_BAR  # the issue's bar: every MPC planner reaches the goal in >= 99 % of episodes
+DEFAULT_FOLDER = ROOT / "leaderboards" / "v3"
+ADAPTIVITY_TABLES = ("paper-2022-sec5", "paper-2022-sec5-w2", "uavpen-v1", "uavpen-heldout-v1")
+LEARNED_TABLES = ("paper-2022-sec5", "uavpen-v1", "uavpen-heldout-v1")
+IMITATION = "imitation (distilled)"
 README_START = "<!-- headline: written by benchmarks/results_page.py -->"
 README_END = "<!-- /headline -->"
+OTHER_FORMS = tuple(f for f in ctg.FORMS if f != "value")
+
+
+# --- reading ------------------------------------------------------------------------------------
+
+
+def episode_paths(folder: Path) -> list[Path]:
+    """The episode files behind ``folder``: its exported rows, else its checkpoint's chunks.
+
+    A rebuilt or provisional folder holds ``rows/leaderboard-episodes.parquet``; the published v3
+    folder does not, and its rows are the chunks of ``<folder>-checkpoint`` beside it (the chunks
+    its manifest names, in order).
+
+    Raises:
+        SystemExit: neither exists (one line naming both paths).
+    """
+    from uav_penetration_env.benchmark.rows import ROW_FORMATS, checkpoint_stems, row_path
+
+    exported = folder / "rows" / "leaderboard-episodes.parquet"
+    if exported.is_file():
+        return [exported]
+    checkpoint = folder.parent / f"{folder.name}-checkpoint"
+    if (checkpoint / "manifest.json").is_file():
+        stems = checkpoint_stems(checkpoint)
+        paths = [row_path(s, "episodes", ext) for s in stems for ext in ROW_FORMATS]
+        return [p for p in paths if p.is_file()]
+    raise SystemExit(f"{folder}: no episode rows; expected {exported} or a checkpoint folder {checkpoint}/manifest.json")
+
+
+def episode_rows(folder: Path) -> pd.DataFrame:
+    """The episodes behind ``folder`` with ``planner`` and ``form`` columns (``ctg.read_part``; bare = ``value``).
+
+    Raises:
+        SystemExit: no episode rows (:func:`episode_paths`).
+    """
+    return ctg.read_part(episode_paths(folder), "value")
+
+
+def selection(episodes: pd.DataFrame, stem: str) -> pd.DataFrame:
+    """The episodes a table counts: a suite's members by its seed rule or one scenario (``ctg.within``).
+
+    DECISION: a table whose name is neither a suite nor a scenario of the rows gets no episodes
+    (its pairings read "-"), rather than stopping the page.
+    """
+    try:
+        return ctg.within(episodes, stem)
+    except SystemExit:
+        return episodes.iloc[0:0]
+
+
+# --- small helpers --------------------------------------------------------------------------------
 
 
 def names(items: Sequence[str]) -> str:
+    """Back-quoted, comma-separated names; ``none`` for none."""
     return ", ".join(f"`{i}`" for i in items) if items else "none"
 
 
-def versus_ihpso(table: pd.DataFrame) -> tuple[list[str], list[str]]:
-    """The planners and floors significantly cheaper and costlier than IHPSO (Holm-corrected Wilcoxon).
+def signed(value: float, digits: int = 3) -> str:
+    """``value`` with an explicit sign (``+0.12``, ``-0.3``) and ``digits`` significant digits."""
+    text = hl.number(value, digits)
+    return text if text == "-" or text.startswith("-") else f"+{text}"
 
-    The direction is the paired median difference's, as the signed-rank test is about the typical pair.
+
+def interval(value: float, low: float, high: float, digits: int = 3) -> str:
+    """``value [low, high]`` with signs."""
+    return f"{signed(value, digits)} [{signed(low, digits)}, {signed(high, digits)}]"
+
+
+def direction(median: float, p: float) -> int:
+    """-1 when the first of a pair is significantly cheaper, +1 when costlier, 0 otherwise.
+
+    DECISION: the direction is the paired median difference's, as the signed-rank test is about
+    the typical pair (one member where a planner loiters can move the mean against most pairs).
     """
-    compared = table[[policy_family(str(p)) in COMPARED_FAMILIES for p in table.index]]
-    significant = compared[compared["pvalue_holm"] < ALPHA]
-    cheaper = significant[significant["median_difference"] < 0].sort_values("total_cost_iqm")
-    costlier = significant[significant["median_difference"] > 0].sort_values("total_cost_iqm")
-    return list(cheaper.index), list(costlier.index)
+    if p is None or math.isnan(p) or p >= ALPHA or median == 0 or math.isnan(median):
+        return 0
+    return -1 if median < 0 else 1
 
 
-def episode_findings(tables: dict[str, pd.DataFrame]) -> list[str]:
-    """One line per episode table: IHPSO's success and rank, who is cheaper and who costlier."""
-    lines = []
-    for stem in EPISODE_TABLES:
-        table = tables.get(stem)
-        if table is None or hl.REFERENCE not in table.index:
-            continue
-        r = table.loc[hl.REFERENCE]
-        cheaper, costlier = versus_ihpso(table)
-        lines.append(
-            f"- `{stem}`: IHPSO reaches the goal in {hl.percent(r['success_rate'])} of {int(r['episodes'])} episodes, "
-            f"IQM {hl.number(r['total_cost_iqm'], 4)}, Friedman rank {hl.number(r['friedman_rank'], 3)} of {len(table)}. "
-            f"Significantly cheaper than IHPSO: {names(cheaper)}; significantly costlier: {names(costlier)}."
-        )
-    return lines
+def verdict(sign: int, first: str, second: str) -> str:
+    """The words for :func:`direction`'s answer about ``first`` - ``second``."""
+    return {-1: f"{first} cheaper", 1: f"{second} cheaper", 0: "no significant difference"}[sign]
 
 
-def evaluation_findings(tables: dict[str, pd.DataFrame], folder: Path) -> list[str]:
-    """IHPSO's evaluation share in the episodes and its paired comparisons on identical windows."""
-    lines = []
-    table = tables.get(EPISODE_TABLES[0])
-    if table is not None and {hl.REFERENCE, hl.BASELINE} <= set(table.index):
-        r, base = table.loc[hl.REFERENCE], table.loc[hl.BASELINE]
-        lines.append(
-            f"- In the `{EPISODE_TABLES[0]}` episodes IHPSO spends {hl.percent(r['nfev_per_step'] / base['nfev_per_step'])} "
-            f"of HPSO's evaluations per MPC step and its adaptive termination stops "
-            f"{hl.percent(r['stopped_early_share'])} of steps early (the paper reports 78 % of HPSO's iterations)."
-        )
-    studies = [(p, "") for p in sorted(folder.glob("*-fixed-target-paired.csv"))]
-    studies += [(p, ", `value` terminal cost") for p in sorted((folder / CTG_WINDOWS).glob("*-fixed-target-paired.csv"))]
-    for path, form in studies:
-        stem = path.name.removesuffix("-fixed-target-paired.csv")
+def flown(pair: dict | None, units: int) -> bool:
+    """Whether a form's pairing covers the table: at least half of the value form's ``units``.
+
+    DECISION: a form flown on at least half of the table's pairing units counts (its coverage is
+    printed beside it, so a publication still missing a few episodes shows them); below half it
+    was flown for another selection (the suite's five seeds of a fixed member, seen from that
+    member's own 20-seed table) and the table is "value form only".
+    """
+    return pair is not None and 2 * pair["n"] >= units
+
+
+# --- 1. IHPSO against HPSO ------------------------------------------------------------------------
+
+
+def ihpso_vs_hpso(table: pd.DataFrame) -> dict | None:
+    """IHPSO against HPSO from one scenario table (indexed by policy); None if either is missing.
+
+    The table's ``delta_mean``, its interval and ``median_difference`` are policy - IHPSO, so
+    HPSO's row gives HPSO - IHPSO: negated here and the bounds swapped, every value reads
+    IHPSO - HPSO. ``p`` is HPSO's Holm-corrected Wilcoxon p; ``sign`` is :func:`direction`'s.
+    """
+    if not {hl.REFERENCE, hl.BASELINE} <= set(table.index):
+        return None
+    r, b = table.loc[hl.REFERENCE], table.loc[hl.BASELINE]
+    out = {"ihpso_success": r["success_rate"], "hpso_success": b["success_rate"],
+           "ihpso_mean": r["total_cost_mean"], "ihpso_iqm": r["total_cost_iqm"],
+           "hpso_mean": b["total_cost_mean"], "hpso_iqm": b["total_cost_iqm"],
+           "delta": -b["delta_mean"], "low": -b["delta_mean_ci_high"], "high": -b["delta_mean_ci_low"],
+           "median": -b["median_difference"], "p": b["pvalue_holm"],
+           "evals_share": r["nfev_per_step"] / b["nfev_per_step"]}  # fmt: skip
+    out["sign"] = direction(out["median"], out["p"])
+    return out
+
+
+def pairs_by_form(episodes: pd.DataFrame, a: str, b: str) -> dict[str, dict]:
+    """``a - b`` paired under every terminal-cost form flown (``ctg.paired``: per seed or per member).
+
+    A policy without a terminal cost (form ``-``: a learned or classical planner) is paired with
+    ``b`` under each form of ``b``.
+    """
+    out = {}
+    for form in ctg.FORMS:
+        rows = episodes[episodes["planner"].isin([a, b]) & episodes["form"].isin([form, "-"])]
+        pair = ctg.paired(rows.assign(form=form), form, a, b)
+        if pair is not None:
+            out[form] = pair
+    return out
+
+
+def robustness(sign: int, pairs: dict[str, dict]) -> str:
+    """``**robust**`` when every other form gives the value form's verdict ``sign`` (p < ALPHA, or none).
+
+    ``value form only`` where another form was not flown on the table (:func:`flown`); ``-``
+    without a value-form pairing.
+    """
+    value = pairs.get("value")
+    if value is None:
+        return "-"
+    if not all(flown(pairs.get(f), value["n"]) for f in OTHER_FORMS):
+        return "value form only"
+    held = all(direction(pairs[f]["median"], pairs[f]["p"]) == sign for f in OTHER_FORMS)
+    return "**robust**" if held else "not robust"
+
+
+def form_medians(pairs: dict[str, dict]) -> str:
+    """Per form: the paired median and Wilcoxon p, with the coverage where short of the value form's."""
+    units = pairs["value"]["n"] if "value" in pairs else 0
+    cells = []
+    for form, p in pairs.items():
+        short = f", {p['n']} of {units} {p['unit']}s" if p["n"] < units else ""
+        cells.append(f"{form} {signed(p['median'], 2)} (p {hl.pvalue(p['p'])}{short})")
+    return "; ".join(cells) or "-"
+
+
+def adaptivity_table(rows: dict[str, tuple[dict, dict[str, dict]]]) -> list[str]:
+    """The first screen's table: per scenario table, IHPSO against HPSO and its robustness.
+
+    Args:
+        rows: table stem -> (:func:`ihpso_vs_hpso`'s dict, :func:`pairs_by_form`'s dict).
+    """
+    header = ["table", "success IHPSO / HPSO", "mean (IQM) IHPSO", "mean (IQM) HPSO",
+              "Δ IHPSO − HPSO [95 % CI]", "Holm p", "verdict", "IHPSO evals / HPSO's",
+              "under every terminal cost", "median Δ per form (Wilcoxon p)"]  # fmt: skip
+    body = []
+    for stem, (r, pairs) in rows.items():
+        body.append([f"`{stem}`", f"{hl.percent(r['ihpso_success'])} / {hl.percent(r['hpso_success'])}",
+                     f"{hl.number(r['ihpso_mean'], 4)} ({hl.number(r['ihpso_iqm'], 4)})",
+                     f"{hl.number(r['hpso_mean'], 4)} ({hl.number(r['hpso_iqm'], 4)})",
+                     interval(r["delta"], r["low"], r["high"]), hl.pvalue(r["p"]),
+                     verdict(r["sign"], "IHPSO", "HPSO"), hl.percent(r["evals_share"]),
+                     robustness(r["sign"], pairs), form_medians(pairs)])  # fmt: skip
+    return [hl.markdown(header, body)]
+
+
+def window_studies(folder: Path) -> dict[str, pd.DataFrame]:
+    """Each identical-window study's IHPSO-vs-HPSO rows (``*-fixed-target-paired.csv``), by stem."""
+    out = {}
+    for path in sorted(folder.glob("*-fixed-target-paired.csv")):
         paired = pd.read_csv(path)
         paired = paired[(paired["reference"] == hl.REFERENCE) & (paired["other"] == hl.BASELINE)]
-        if paired.empty:
-            continue
-        parts = []
-        for r in paired.itertuples():
-            if r.pvalue >= ALPHA:
-                verdict = "no significant difference"
-            else:
-                # "better" counts the pairs each side wins; the one winning more pairs is the faster/cheaper
-                verdict = f"{'IHPSO' if r.reference_better > r.other_better else 'HPSO'} is better"
-            parts.append(f"{r.comparison}: {verdict} (medians IHPSO {hl.number(r.reference_median, 5)}, "
-                         f"HPSO {hl.number(r.other_median, 5)}; p {hl.pvalue(r.pvalue)}, {r.pairs} pairs)")  # fmt: skip
-        lines.append(f"- Identical MPC windows of `{stem}`{form}: " + "; ".join(parts) + ".")
-    return lines
+        if not paired.empty:
+            out[path.name.removesuffix("-fixed-target-paired.csv")] = paired.set_index("comparison")
+    return out
 
 
-def terminal_cost_findings(folder: Path) -> list[str]:
-    """The terminal-cost study's conclusions, recomputed from its committed episodes."""
-    lines = []
-    for part, files in CTG_PARTS.items():
-        paths = [folder / "ctg-sensitivity" / f for f in files]
-        if not all(p.is_file() for p in paths):
-            continue
-        episodes = ctg.read_part(paths, "value")
-        table = ctg.planner_table(episodes)
-        pairs = [p for p in (ctg.paired(episodes, f) for f in ctg.FORMS) if p is not None]
-        claims = ctg.conclusions(table, pairs)
-        every = [text for text, truth, _ in claims if truth and all(truth.values())]
-        depends = [text for text, truth, _ in claims if any(truth.values()) and not all(truth.values())]
-        lines.append(f"- {part}, under the forms {', '.join(ctg.FORMS)}: holds under every form: "
-                     f"{'; '.join(every) or 'nothing'}. Depends on the form: {'; '.join(depends) or 'nothing'}.")  # fmt: skip
-    return lines
+def window_verdict(row: pd.Series) -> int:
+    """-1 when IHPSO is significantly better on the comparison, +1 when HPSO is, 0 otherwise.
+
+    DECISION: the side winning more pairs is the better one (a fixed-target comparison ties on
+    many windows, where the median difference is 0 although one side wins more pairs).
+    """
+    if math.isnan(row["pvalue"]) or row["pvalue"] >= ALPHA or row["reference_better"] == row["other_better"]:
+        return 0
+    return -1 if row["reference_better"] > row["other_better"] else 1
 
 
-def rl_findings(folder: Path) -> list[str]:
-    """Per RL table: how many agent groups beat the greedy floor, the best group, and the decision-time ratio."""
-    lines = []
-    for stem in RL_TABLES:
-        path = folder / f"{stem}-rl.csv"
-        if not path.is_file():
-            continue
-        table = pd.read_csv(path)
-        groups = table[table["kind"] == "RL group"]
-        agents = groups[groups["group"].str.startswith("sb3:")]
-        hybrids = groups[~groups["group"].str.startswith("sb3:")]
-        planner = table[(table["kind"] == "reference") & (table["group"] != "greedy")]
-        if agents.empty or planner.empty:
-            continue
-        beat = int((agents["delta_greedy_ci_high"] < 0).sum())
-        worse = int((agents["delta_greedy_ci_low"] > 0).sum())
-        best = agents.sort_values("iqm").iloc[0]
-        p = planner.iloc[0]
-        text = (f"- `{stem}`: of {len(agents)} agent groups, {beat} beat the greedy floor and {worse} are costlier "
-                f"(paired Δ's 95 % interval below or above zero). The best, `{best['group']}`, has IQM "
-                f"{hl.number(best['iqm'], 4)} [{hl.number(best['iqm_ci_low'], 4)}, {hl.number(best['iqm_ci_high'], 4)}], "
-                f"Δ vs greedy {hl.number(best['delta_greedy'], 3)}; the best of the paper's swarm planners, `{p['group']}`, "
-                f"{hl.number(p['iqm'], 4)}. The agents decide "
-                f"{hl.number(p['decision_seconds'] / agents['decision_seconds'].median(), 2)} times faster than it "
-                "(median over groups, seconds per step on the same machine).")  # fmt: skip
-        if not hybrids.empty:
-            h = hybrids.sort_values("iqm").iloc[0]
-            text += (f" IHPSO warm-started by an agent (`{h['group']}`): IQM {hl.number(h['iqm'], 4)}, "
-                     f"Δ vs greedy {hl.number(h['delta_greedy'], 3)} [{hl.number(h['delta_greedy_ci_low'], 3)}, "
-                     f"{hl.number(h['delta_greedy_ci_high'], 3)}].")  # fmt: skip
-        lines.append(text)
-    return lines
+def window_counts(studies: dict[str, pd.DataFrame]) -> tuple[int, int, int]:
+    """How many studies favour IHPSO on evaluations and how many find no difference in J.
+
+    Returns:
+        (studies where IHPSO needs significantly fewer evaluations to the target, studies with no
+        significant difference in J at the fixed budget, studies).
+    """
+    fewer = sum(1 for s in studies.values() if "fixed target: evaluations" in s.index
+                and window_verdict(s.loc["fixed target: evaluations"]) == -1)  # fmt: skip
+    same_j = sum(1 for s in studies.values() if "fixed budget: J" in s.index
+                 and window_verdict(s.loc["fixed budget: J"]) == 0)  # fmt: skip
+    return fewer, same_j, len(studies)
 
 
-def readme_headline(tables: dict[str, pd.DataFrame], folder: Path) -> str:
-    """The README's short headline paragraph: the answer to each question in one sentence, with its numbers."""
-    stem = EPISODE_TABLES[0]
-    table = tables[stem]
-    r, base = table.loc[hl.REFERENCE], table.loc[hl.BASELINE]
-    cheaper, _ = versus_ihpso(table)
-    first = (f"On the paper's scenario, {len(cheaper)} planners are significantly cheaper than IHPSO "
-             f"({names(cheaper)}), while IHPSO spends {hl.percent(r['nfev_per_step'] / base['nfev_per_step'])} "
-             "of HPSO's evaluations.")  # fmt: skip
-    rl = pd.read_csv(folder / f"{stem}-rl.csv") if (folder / f"{stem}-rl.csv").is_file() else None
+def window_lines(studies: dict[str, pd.DataFrame], link: str) -> list[str]:
+    """The identical-window table, its two counts as sentences, and the links to the tolerance tables.
+
+    Args:
+        studies: :func:`window_studies`'s frames.
+        link: the folder's path as the page links it (``../leaderboards/v3``).
+    """
+    if not studies:
+        return ["No identical-window study in this folder.", ""]
+    words = {-1: "IHPSO better", 1: "HPSO better", 0: "no significant difference"}
+    body = []
+    for stem, s in studies.items():
+        cells = [f"`{stem}`"]
+        for comparison in ("fixed budget: J", "fixed target: evaluations"):
+            if comparison not in s.index:
+                cells.append("-")
+                continue
+            r = s.loc[comparison]
+            cells.append(f"{words[window_verdict(r)]}: medians {hl.number(r['reference_median'], 5)} vs "
+                         f"{hl.number(r['other_median'], 5)}, p {hl.pvalue(r['pvalue'])}, {int(r['pairs'])} pairs")  # fmt: skip
+        body.append(cells)
+    fewer, same_j, n = window_counts(studies)
+    tolerance = ", ".join(f"[{stem}]({link}/{stem}-fixed-target.md)" for stem in studies)
+    return [hl.markdown(["study", "fixed budget (J; IHPSO vs HPSO)", "fixed target (evaluations; IHPSO vs HPSO)"], body),
+            "", f"IHPSO needs significantly fewer evaluations to the same target in {fewer} of {n} studies; "
+            f"there is no significant difference in J at the same budget in {same_j} of {n}. "
+            f"The tolerance tables (ERT per target): {tolerance}.", ""]  # fmt: skip
+
+
+# --- 2. learned planners against swarm planners ---------------------------------------------------
+
+
+def complete(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows of ``table`` that cover every member of a suite table (all rows of a one-scenario table)."""
+    return table if "members" not in table else table[table["members"] == table["members"].max()]
+
+
+def cheapest(table: pd.DataFrame, candidates: Sequence[str]) -> str | None:
+    """The candidate with the lowest IQM total cost among those covering every member; None if none."""
+    pool = complete(table)
+    pool = pool[pool.index.isin(list(candidates))]
+    return None if pool.empty else str(pool["total_cost_iqm"].idxmin())
+
+
+def best_rl_group(rl: pd.DataFrame | None) -> pd.Series | None:
+    """The RL agent group (``sb3:``) with the lowest IQM among those flown on every member; None if none.
+
+    The RL table's ``tasks`` is the members a group's episodes cover; its most is the suite's.
+    """
     if rl is None:
+        return None
+    groups = rl[(rl["kind"] == "RL group") & rl["group"].str.startswith("sb3:")]
+    groups = groups[groups["tasks"] == rl["tasks"].max()]
+    return None if groups.empty else groups.sort_values("iqm").iloc[0]
+
+
+def planner_entry(table: pd.DataFrame, name: str, role: str) -> dict:
+    """One policy's row for the learned-planner table, from the scenario table (Δ vs IHPSO where it has one)."""
+    r = table.loc[name]
+    return {"role": role, "name": name, "success": r["success_rate"], "iqm": r["total_cost_iqm"],
+            "low": r["total_cost_iqm_ci_low"], "high": r["total_cost_iqm_ci_high"],
+            "ms": 1000 * r["planning_seconds"], "delta": r["delta_mean"], "dlow": r["delta_mean_ci_low"],
+            "dhigh": r["delta_mean_ci_high"], "p": r["pvalue_holm"]}  # fmt: skip
+
+
+def group_entry(table: pd.DataFrame, group: pd.Series) -> dict:
+    """An RL group's row: IQM and decision time from the RL table, success summed over its runs' policies.
+
+    The scenario table has a Δ vs IHPSO per run, not per group: left out.
+    """
+    runs = table.loc[table.index.intersection(str(group["members"]).split())]
+    success = runs["successes"].sum() / runs["episodes"].sum() if len(runs) else math.nan
+    return {"role": "RL agent group", "name": str(group["group"]), "success": success, "iqm": group["iqm"],
+            "low": group["iqm_ci_low"], "high": group["iqm_ci_high"], "ms": 1000 * group["decision_seconds"],
+            "delta": math.nan, "dlow": math.nan, "dhigh": math.nan, "p": math.nan}  # fmt: skip
+
+
+def learned_entries(table: pd.DataFrame, rl: pd.DataFrame | None) -> list[dict]:
+    """The cheapest distilled network, the cheapest RL group, the best paper swarm planner and IHPSO.
+
+    DECISION: "cheapest" and "best" are by IQM total cost (robust to the odd failed episode), among
+    the policies covering every member of a suite table; decision time is milliseconds per step
+    (the tables' ``planning_seconds`` and the RL table's ``decision_seconds`` are both the mean
+    wall clock per action).
+    """
+    out = []
+    imitation = cheapest(table, [p for p in table.index if policy_family(str(p)) == IMITATION])
+    if imitation is not None:
+        out.append(planner_entry(table, imitation, "distilled network"))
+    group = best_rl_group(rl)
+    if group is not None:
+        out.append(group_entry(table, group))
+    swarm = cheapest(table, PAPER_PLANNERS)
+    if swarm is not None:
+        out.append(planner_entry(table, swarm, "best swarm planner"))
+    if hl.REFERENCE in table.index and swarm != hl.REFERENCE:
+        out.append(planner_entry(table, hl.REFERENCE, "IHPSO"))
+    return out
+
+
+def learned_table(entries: dict[str, list[dict]]) -> list[str]:
+    """The learned-planner table: per scenario table, each entry's success, IQM, decision time and Δ vs IHPSO."""
+    header = ["table", "role", "policy", "success", "IQM [95 % CI]", "decision [ms/step]",
+              "Δ vs IHPSO [95 % CI]", "Holm p"]  # fmt: skip
+    body = []
+    for stem, rows in entries.items():
+        for r in rows:
+            delta = "-" if math.isnan(r["delta"]) else interval(r["delta"], r["dlow"], r["dhigh"])
+            body.append([f"`{stem}`", r["role"], f"`{r['name']}`", hl.percent(r["success"]),
+                         f"{hl.number(r['iqm'], 4)} [{hl.number(r['low'], 4)}, {hl.number(r['high'], 4)}]",
+                         hl.number(r["ms"], 3), delta, hl.pvalue(r["p"])])  # fmt: skip
+    return [hl.markdown(header, body)]
+
+
+def relabel_group(episodes: pd.DataFrame, group: pd.Series | None) -> pd.DataFrame:
+    """``episodes`` with the RL group's run policies labelled by the group (paired as one planner).
+
+    DECISION: a group's cost on a seed is the mean over its runs (``ctg.paired``'s pivot averages them).
+    """
+    if group is None:
+        return episodes
+    runs = str(group["members"]).split()
+    return episodes.assign(planner=episodes["planner"].where(~episodes["policy"].isin(runs), str(group["group"])))
+
+
+def learned_pair_table(pairs: dict[tuple[str, str, str], dict[str, dict]]) -> list[str]:
+    """Each learned planner against the best swarm planner under each form, with its robustness.
+
+    Args:
+        pairs: (table, learned planner, swarm planner) -> :func:`pairs_by_form`'s dict.
+    """
+    header = ["table", "learned − swarm", *(f"{f}: mean [95 % CI], median, p" for f in ctg.FORMS),
+              "verdict (value)", "under every terminal cost"]  # fmt: skip
+    body = []
+    for (stem, learned, swarm), by_form in pairs.items():
+        cells = [f"`{stem}`", f"`{learned}` − `{swarm}`"]
+        for form in ctg.FORMS:
+            p = by_form.get(form)
+            cells.append("-" if p is None else f"{interval(p['mean'], p['low'], p['high'])}, "
+                         f"{signed(p['median'], 2)}, {hl.pvalue(p['p'])} ({p['n']} {p['unit']}s)")  # fmt: skip
+        value = by_form.get("value")
+        sign = 0 if value is None else direction(value["median"], value["p"])
+        cells += ["-" if value is None else verdict(sign, "learned", "swarm"), robustness(sign, by_form)]
+        body.append(cells)
+    return [hl.markdown(header, body)]
+
+
+# --- 3. the 99 % bar ------------------------------------------------------------------------------
+
+
+def is_variant(name: str) -> bool:
+    """Whether ``name`` is a formulation variant (``-eq37``, ``-ctg-*``), not a planner of the bar."""
+    return name.endswith("-eq37") or "-ctg-" in name
+
+
+def goal_passes(folder: Path, stem: str, table: pd.DataFrame) -> pd.Series:
+    """Per policy of ``table``, the failures that passed the goal (``fail_goal_pass``).
+
+    A suite table lacks the failure kinds; they are summed from ``<suite>-members.csv`` (every
+    member's row, or a difficulty level's members for ``<suite>-<level>``). NaN where neither has them.
+    """
+    if "fail_goal_pass" in table:
+        return table["fail_goal_pass"]
+    for suite, level in ((stem, None), (stem.rsplit("-", 1)[0], stem.rsplit("-", 1)[-1])):
+        path = folder / f"{suite}-members.csv"
+        if path.is_file():
+            members = pd.read_csv(path)
+            if level is not None:
+                members = members[members["member_group"] == level]
+            if not members.empty:
+                return members.groupby("policy")["fail_goal_pass"].sum().reindex(table.index)
+    return pd.Series(math.nan, index=table.index)
+
+
+def success_bar(table: pd.DataFrame, passes: pd.Series) -> tuple[list[str], list[str], int, int]:
+    """The MPC planners below the bar or with a goal pass, and the formulation variants likewise.
+
+    Returns:
+        (planners' "name successes/episodes, k goal passes" texts, variants' texts, planners, variants).
+    """
+    mpc = [str(p) for p in table.index if policy_family(str(p)) in MPC_FAMILIES]
+    def failing(names: list[str]) -> list[str]:
+        out = []
+        for name in names:
+            r, k = table.loc[name], passes.get(name, math.nan)
+            if r["success_rate"] < SUCCESS_BAR or (not math.isnan(k) and k > 0):
+                goal = "" if math.isnan(k) else f", {int(k)} goal pass{'es' if int(k) != 1 else ''}"
+                out.append(f"`{name}` {int(r['successes'])}/{int(r['episodes'])}{goal}")
+        return out
+
+    planners = [n for n in mpc if not is_variant(n)]
+    variants = [n for n in mpc if is_variant(n)]
+    return failing(planners), failing(variants), len(planners), len(variants)
+
+
+def bar_lines(results: dict[str, tuple[list[str], list[str], int, int]]) -> list[str]:
+    """One line per table for the MPC planners, one for the formulation variants (not held to the bar)."""
+    lines = []
+    for stem, (planners, variants, n_planners, n_variants) in results.items():
+        state = "every one clears it" if not planners else f"{len(planners)} {'does' if len(planners) == 1 else 'do'} not: {'; '.join(planners)}"
+        lines.append(f"- `{stem}`, {n_planners} MPC planners: {state}.")
+        if n_variants:
+            lines.append(f"  Formulation variants (not held to the bar): {len(variants)} of {n_variants} below "
+                         f"it or with a goal pass{': ' + '; '.join(variants) if variants else ''}.")  # fmt: skip
+    return lines
+
+
+# --- the page -------------------------------------------------------------------------------------
+
+
+def collect(folder: Path) -> dict:
+    """Everything the page and the headline print, read and computed once from ``folder``.
+
+    Raises:
+        SystemExit: ``folder`` holds none of the scenario tables, or no episode rows.
+    """
+    tables = hl.read_tables(folder, hl.TABLES)
+    if not tables:
+        raise SystemExit(f"{folder}: none of the tables {', '.join(f'{s}.csv' for s in hl.TABLES)}; "
+                         "expected a leaderboard folder")  # fmt: skip
+    episodes = episode_rows(folder)
+    adaptivity = {}
+    for stem in ADAPTIVITY_TABLES:
+        r = ihpso_vs_hpso(tables[stem]) if stem in tables else None
+        if r is not None:
+            adaptivity[stem] = (r, pairs_by_form(selection(episodes, stem), hl.REFERENCE, hl.BASELINE))
+    learned, learned_pairs = {}, {}
+    for stem in LEARNED_TABLES:
+        if stem not in tables:
+            continue
+        rl_path = folder / f"{stem}-rl.csv"
+        rl = pd.read_csv(rl_path) if rl_path.is_file() else None
+        entries = learned_entries(tables[stem], rl)
+        learned[stem] = entries
+        swarm = next((e["name"] for e in entries if e["role"] == "best swarm planner"), None)
+        chosen = relabel_group(selection(episodes, stem), best_rl_group(rl))
+        for e in entries:
+            if swarm is not None and e["role"] in ("distilled network", "RL agent group"):
+                learned_pairs[(stem, e["name"], swarm)] = pairs_by_form(chosen, e["name"], swarm)
+    bar = {stem: success_bar(t, goal_passes(folder, stem, t)) for stem, t in tables.items()}
+    return {"tables": tables, "adaptivity": adaptivity, "windows": window_studies(folder),
+            "learned": learned, "learned_pairs": learned_pairs, "bar": bar}  # fmt: skip
+
+
+def count_signs(signs: Sequence[int]) -> tuple[int, int, int]:
+    """(how many are -1, +1, 0)."""
+    return sum(s == -1 for s in signs), sum(s == 1 for s in signs), sum(s == 0 for s in signs)
+
+
+def tally(signs: Sequence[int], first: str, second: str) -> str:
+    """``"FIRST is significantly cheaper than SECOND on k, significantly costlier on m and neither on j of n tables"``.
+
+    Args:
+        signs: one :func:`direction` per table, of ``first`` - ``second``.
+        first: the planner the sentence is about.
+        second: the planner it is compared with.
+    """
+    a, b, neither = count_signs(signs)
+    return (f"{first} is significantly cheaper than {second} on {a}, significantly costlier on {b} and "
+            f"neither on {neither} of {len(signs)} tables")  # fmt: skip
+
+
+def readme_headline(found: dict) -> str:
+    """The README's headline paragraph: each question answered in a sentence or two, with its numbers."""
+    rows = found["adaptivity"]
+    robust = sum(robustness(r["sign"], p) == "**robust**" for r, p in rows.values())
+    checked = sum(robustness(r["sign"], p) in ("**robust**", "not robust") for r, p in rows.values())
+    forms = f"; the verdict holds under every terminal cost on {robust} of the {checked} tables flown under all of them"
+    first = (f"In leaderboard v3, {tally([r['sign'] for r, _ in rows.values()], 'IHPSO', 'HPSO')} (paired "
+             f"Wilcoxon, Holm p < {ALPHA:g}{forms if checked else ''})")  # fmt: skip
+    paper = rows.get(ADAPTIVITY_TABLES[0])
+    if paper is not None:
+        first += f", while spending {hl.percent(paper[0]['evals_share'])} of HPSO's evaluations per step on the paper scenario"
+    fewer, _, n = window_counts(found["windows"])
+    first += (f"; on identical MPC windows it needs fewer evaluations to the same target in {fewer} of {n} studies."
+              if n else ".")  # fmt: skip
+    distilled = {k: v for k, v in found["learned_pairs"].items() if policy_family(k[1]) == IMITATION}
+    signs = [direction(p["value"]["median"], p["value"]["p"]) for p in distilled.values() if "value" in p]
+    speed = []
+    for entries in found["learned"].values():
+        by_role = {e["role"]: e for e in entries}
+        if {"distilled network", "best swarm planner"} <= set(by_role):
+            speed.append(by_role["best swarm planner"]["ms"] / by_role["distilled network"]["ms"])
+    if not signs or not speed:
         return first
-    agents = rl[(rl["kind"] == "RL group") & rl["group"].str.startswith("sb3:")]
-    beat = int((agents["delta_greedy_ci_high"] < 0).sum())
-    planner = rl[(rl["kind"] == "reference") & (rl["group"] != "greedy")].iloc[0]
-    count = f"None of the {len(agents)} RL agent groups beats" if beat == 0 else f"{beat} of {len(agents)} RL agent groups beat"
-    second = (f"{count} the greedy floor (trained on this scenario or on random ones); they decide about "
-              f"{hl.number(planner['decision_seconds'] / agents['decision_seconds'].median(), 2)} times faster "
-              f"than the best of the paper's swarm planners, `{planner['group']}`.")  # fmt: skip
+    swarm = "the best of the paper's swarm planners"
+    second = (f"{tally(signs, 'The cheapest distilled network', swarm)} "
+              f"(paired per seed or member, value terminal cost), and it decides {hl.number(min(speed), 2)} to "
+              f"{hl.number(max(speed), 2)} times faster per step.")  # fmt: skip
     return f"{first} {second}"
+
+
+def link_base(folder: Path) -> str:
+    """``folder`` as docs/results.md links it: relative to the repository when inside it."""
+    try:
+        return "../" + folder.resolve().relative_to(ROOT).as_posix()
+    except ValueError:
+        return folder.as_posix()
 
 
 INTRO = """\
 # Results
 
-This page is written by `python benchmarks/results_page.py` from the published leaderboard's CSV
-tables in `leaderboards/` (every number below is computed from them; `--check` verifies the page is
-current). The tables rebuild from the committed rows alone (docs/publishing.md §3).
-
-**Which version.** These are leaderboard v2's tables. Its MPC planners priced the end of each
-window with the straight-line `distance` terminal cost; the default is now the lattice value
-function (docs/model.md §7e), and leaderboard v3 flies every part again with it. The
-terminal-cost study below checks which conclusions survive that choice.
+Written by `python benchmarks/results_page.py` from leaderboard v3's tables and episode rows (the
+lattice value function as the MPC terminal cost, docs/model.md §7e); every number is computed from
+them, and `--check` verifies the page is current. Leaderboard v2's tables stay at the top of
+`leaderboards/`.
 """
 
 REPRODUCE = """\
 ## Reproduce
 
 ```bash
-python benchmarks/publish.py --from-published      # a fresh clone: the store and compute log back from leaderboards/
-python benchmarks/publish.py --dry-run             # every command of the publication, and whether it is done
-uav-bench leaderboard --rows leaderboards/rows/leaderboard --out /tmp/rebuilt   # the tables from the rows alone
-python benchmarks/results_page.py --check          # this page against the tables
+uav-bench leaderboard --rows leaderboards/v3-checkpoint --out /tmp/rebuilt   # the tables from the committed rows alone
+python benchmarks/results_page.py --check          # this page and the README's headline against the tables
 ```
 
-docs/publishing.md describes the driver; `benchmarks/reproduce_published.py STORE` compares a re-run
-with the published episodes.
+docs/publishing.md §5 describes the v3 publication; `benchmarks/reproduce_published.py STORE`
+compares a re-run with the published episodes.
 """
 
+ADAPTIVITY_NOTE = (
+    "Δ, its bootstrap interval and the Holm-corrected Wilcoxon p are the table's (paired per seed, per member "
+    "on a suite); the verdict is the median difference's direction where p < {alpha:g}. *Under every terminal "
+    "cost*: the same pairing recomputed from the episode rows under each form (`value`, the default; `NAME-ctg-dubins`; "
+    "`NAME-ctg-distance`): **robust** when each other form gives the verdict with p < {alpha:g} (or no "
+    "difference under each), *value form only* where the other forms were not flown on the table."
+)
 
-def page(folder: Path) -> str:
+
+def page(folder: Path, found: dict | None = None) -> str:
     """The whole results page for the leaderboard folder ``folder`` (Markdown).
 
     Raises:
-        SystemExit: ``folder`` holds none of the scenario tables.
+        SystemExit: ``folder`` holds none of the scenario tables, or no episode rows.
     """
-    tables = hl.read_tables(folder, hl.TABLES)
-    if not tables:
-        raise SystemExit(f"{folder}: none of the tables {', '.join(f'{s}.csv' for s in hl.TABLES)}; "
-                         "expected a leaderboard folder")  # fmt: skip
-    lines = [INTRO, "## Does IHPSO's adaptivity help?", ""]
-    lines += episode_findings(tables) + evaluation_findings(tables, folder)
-    lines += ["", "### Under each terminal cost", ""]
-    lines += terminal_cost_findings(folder)
-    lines += ["", "The full study: [leaderboards/ctg-sensitivity/sensitivity.md](../leaderboards/ctg-sensitivity/sensitivity.md).", ""]
-    lines += ["## Learned planners against swarm planners, on cost and on compute", ""]
-    lines += [*rl_findings(folder), ""]
+    found = collect(folder) if found is None else found
+    link = link_base(folder)
+    lines = [INTRO, f"**In short.** {readme_headline(found)}", "", "## 1. Does IHPSO's adaptivity help?", ""]
+    lines += [*adaptivity_table(found["adaptivity"]), "", ADAPTIVITY_NOTE.format(alpha=ALPHA), ""]
+    lines += ["### Identical MPC windows (fixed budget and fixed target)", ""]
+    lines += window_lines(found["windows"], link)
+    lines += ["## 2. Learned planners against swarm planners, on cost and on decision time", ""]
+    lines += [*learned_table(found["learned"]), ""]
+    lines += ["Each learned planner paired with the table's best swarm planner (per seed, per member on a suite; "
+              "bootstrap 95 % interval of the mean difference, Wilcoxon p), under each terminal cost of the swarm "
+              "planner; a learned planner has none.", ""]  # fmt: skip
+    lines += [*learned_pair_table(found["learned_pairs"]), ""]
+    lines += [f"## 3. The {SUCCESS_BAR:.0%} bar", "",
+              f"The MPC planners (paper planners, reference optimisers, IHPSO ablations; value terminal cost) "
+              f"that reach the goal in fewer than {SUCCESS_BAR:.0%} of a table's episodes or pass the goal in a failure:", ""]  # fmt: skip
+    lines += [*bar_lines(found["bar"]), ""]
+    lines += [f"The terminal-cost study: [ctg-sensitivity/sensitivity.md]({link}/ctg-sensitivity/sensitivity.md).", ""]
     # headline.py's own title names the folder's path, which differs between checkouts: replaced.
-    details = hl.headline(folder, list(tables)).split("\n", 1)[1]
-    lines += ["## The tables behind the findings", details.replace("\n## ", "\n### "), "", REPRODUCE]
+    details = hl.headline(folder, list(found["tables"])).split("\n", 1)[1]
+    lines += ["## 4. The tables behind the findings", details.replace("\n## ", "\n### "), "", REPRODUCE]
     return "\n".join(lines)
 
 
@@ -254,13 +641,14 @@ def with_headline(readme: str, paragraph: str) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python benchmarks/results_page.py", description=__doc__.splitlines()[0])
-    parser.add_argument("--folder", type=Path, default=ROOT / "leaderboards", help="leaderboard folder")
+    parser.add_argument("--folder", type=Path, default=DEFAULT_FOLDER, help="leaderboard v3 folder")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md", help="the results page")
     parser.add_argument("--readme", type=Path, default=ROOT / "README.md", help="the README holding the headline")
     parser.add_argument("--check", action="store_true", help="compare instead of writing; exit 1 on a difference")
     args = parser.parse_args(argv)
-    text = page(args.folder) + "\n"
-    readme = with_headline(args.readme.read_text(), readme_headline(hl.read_tables(args.folder, hl.TABLES), args.folder))
+    found = collect(args.folder)
+    text = page(args.folder, found) + "\n"
+    readme = with_headline(args.readme.read_text(), readme_headline(found))
     stale = [p for p, new in ((args.out, text), (args.readme, readme)) if not p.is_file() or p.read_text() != new]
     if args.check:
         for p in stale:

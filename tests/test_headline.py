@@ -83,24 +83,45 @@ def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
     assert "| sb3:ppo-paper | RL group | 2 | " in text and "| 1 [" in text and "| 3000 |" in text
 
 
+PUBLISHED_V3 = load("results_page").DEFAULT_FOLDER
+
+
+@pytest.mark.skipif(not PUBLISHED_V3.is_dir(), reason="leaderboard v3 is not published yet (leaderboards/v3)")
 def test_the_results_page_and_the_readme_headline_are_what_the_published_tables_give():
-    """docs/results.md and the README's headline paragraph are regenerated from leaderboards/ without a difference."""
+    """docs/results.md and the README's headline paragraph are regenerated from leaderboards/v3 without a difference."""
     assert load("results_page").main(["--check"]) == 0
 
 
-def test_results_page_check_fails_on_a_stale_page(tmp_path):
+@pytest.fixture
+def v3_folder(folder, tmp_path):
+    """The tiny leaderboard laid out as a v3 folder: its table named as the paper's, its episodes exported."""
+    import shutil
+
+    out, episodes, _ = folder
+    v3 = tmp_path / "v3"
+    shutil.copytree(out, v3)
+    shutil.copy(v3 / "tiny.csv", v3 / "paper-2022-sec5.csv")
+    (v3 / "rows").mkdir(exist_ok=True)
+    episodes.to_parquet(v3 / "rows" / "leaderboard-episodes.parquet")
+    return v3
+
+
+def test_results_page_check_fails_on_a_stale_page(v3_folder, tmp_path):
     results_page = load("results_page")
     out, readme = tmp_path / "results.md", tmp_path / "README.md"
     out.write_text("stale\n")
-    readme.write_text(f"x\n{results_page.README_START}\nold\n{results_page.README_END}\n")
-    assert results_page.main(["--check", "--out", str(out), "--readme", str(readme)]) == 1
-    assert results_page.main(["--out", str(out), "--readme", str(readme)]) == 0
-    assert results_page.main(["--check", "--out", str(out), "--readme", str(readme)]) == 0
-    assert "old" not in readme.read_text() and out.read_text().startswith("# Results")
+    readme.write_text(f"x\n{results_page.README_START}\nSTALE-HEADLINE\n{results_page.README_END}\n")
+    flags = ["--folder", str(v3_folder), "--out", str(out), "--readme", str(readme)]
+    assert results_page.main(["--check", *flags]) == 1
+    assert results_page.main(flags) == 0
+    assert results_page.main(["--check", *flags]) == 0
+    text = out.read_text()
+    assert "STALE-HEADLINE" not in readme.read_text() and text.startswith("# Results")
+    # The tiny episodes are not on the paper scenario: IHPSO against HPSO from the table, no form pairing.
+    assert "| `paper-2022-sec5` | " in text and "## 1. Does IHPSO's adaptivity help?" in text
+    assert "IHPSO needs significantly fewer evaluations to the same target in " in text and " of 1 studies" in text
 
 
-def test_results_page_refuses_a_readme_without_the_headline_block(tmp_path):
-    results_page = load("results_page")
-    (tmp_path / "README.md").write_text("no block\n")
+def test_results_page_refuses_a_readme_without_the_headline_block():
     with pytest.raises(SystemExit, match=r"no .* block to write the headline into"):
-        results_page.main(["--out", str(tmp_path / "r.md"), "--readme", str(tmp_path / "README.md")])
+        load("results_page").with_headline("no block\n", "paragraph")
