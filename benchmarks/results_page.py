@@ -98,7 +98,7 @@ def episode_rows(folder: Path) -> pd.DataFrame:
 def selection(episodes: pd.DataFrame, stem: str) -> pd.DataFrame:
     """The episodes a table counts: a suite's members by its seed rule or one scenario (``ctg.within``).
 
-    DECISION: a table whose name is neither a suite nor a scenario of the rows gets no episodes
+    DECISION (docs/publishing.md §5.5): a table whose name is neither a suite nor a scenario of the rows gets no episodes
     (its pairings read "-"), rather than stopping the page.
     """
     try:
@@ -129,7 +129,7 @@ def interval(value: float, low: float, high: float, digits: int = 3) -> str:
 def direction(median: float, p: float) -> int:
     """-1 when the first of a pair is significantly cheaper, +1 when costlier, 0 otherwise.
 
-    DECISION: the direction is the paired median difference's, as the signed-rank test is about
+    DECISION (docs/publishing.md §5.5): the direction is the paired median difference's, as the signed-rank test is about
     the typical pair (one member where a planner loiters can move the mean against most pairs).
     """
     if p is None or math.isnan(p) or p >= ALPHA or median == 0 or math.isnan(median):
@@ -145,7 +145,7 @@ def verdict(sign: int, first: str, second: str) -> str:
 def flown(pair: dict | None, units: int) -> bool:
     """Whether a form's pairing covers the table: at least half of the value form's ``units``.
 
-    DECISION: a form flown on at least half of the table's pairing units counts (its coverage is
+    DECISION (docs/publishing.md §5.5): a form flown on at least half of the table's pairing units counts (its coverage is
     printed beside it, so a publication still missing a few episodes shows them); below half it
     was flown for another selection (the suite's five seeds of a fixed member, seen from that
     member's own 20-seed table) and the table is "value form only".
@@ -262,7 +262,7 @@ def window_studies(folder: Path) -> dict[str, pd.DataFrame]:
 def window_verdict(row: pd.Series) -> int:
     """-1 when IHPSO is significantly better on the comparison, +1 when HPSO is, 0 otherwise.
 
-    DECISION: the side winning more pairs is the better one (a fixed-target comparison ties on
+    DECISION (docs/publishing.md §5.5): the side winning more pairs is the better one (a fixed-target comparison ties on
     many windows, where the median difference is 0 although one side wins more pairs).
     """
     if math.isnan(row["pvalue"]) or row["pvalue"] >= ALPHA or row["reference_better"] == row["other_better"]:
@@ -364,7 +364,7 @@ def group_entry(table: pd.DataFrame, group: pd.Series) -> dict:
 def learned_entries(table: pd.DataFrame, rl: pd.DataFrame | None) -> list[dict]:
     """The cheapest distilled network, the cheapest RL group, the best paper swarm planner and IHPSO.
 
-    DECISION: "cheapest" and "best" are by IQM total cost (robust to the odd failed episode), among
+    DECISION (docs/publishing.md §5.5): "cheapest" and "best" are by IQM total cost (robust to the odd failed episode), among
     the policies covering every member of a suite table; decision time is milliseconds per step
     (the tables' ``planning_seconds`` and the RL table's ``decision_seconds`` are both the mean
     wall clock per action).
@@ -401,7 +401,7 @@ def learned_table(entries: dict[str, list[dict]]) -> list[str]:
 def relabel_group(episodes: pd.DataFrame, group: pd.Series | None) -> pd.DataFrame:
     """``episodes`` with the RL group's run policies labelled by the group (paired as one planner).
 
-    DECISION: a group's cost on a seed is the mean over its runs (``ctg.paired``'s pivot averages them).
+    DECISION (docs/publishing.md §5.5): a group's cost on a seed is the mean over its runs (``ctg.paired``'s pivot averages them).
     """
     if group is None:
         return episodes
@@ -557,9 +557,14 @@ def readme_headline(found: dict) -> str:
     paper = rows.get(ADAPTIVITY_TABLES[0])
     if paper is not None:
         first += f", while spending {hl.percent(paper[0]['evals_share'])} of HPSO's evaluations per step on the paper scenario"
-    fewer, _, n = window_counts(found["windows"])
-    first += (f"; on identical MPC windows it needs fewer evaluations to the same target in {fewer} of {n} studies."
-              if n else ".")  # fmt: skip
+    fewer, same_j, n = window_counts(found["windows"])
+    if n:
+        first += (f"; on identical MPC windows it needs fewer evaluations to the same target in {fewer} of {n} "
+                  f"studies and reaches a J no different from HPSO's at the same budget in {same_j} of {n}")  # fmt: skip
+        # Said only where the counts say it: most studies save evaluations and most find J alike.
+        first += ", so its adaptivity saves evaluations rather than buying cheaper paths." if 2 * min(fewer, same_j) > n else "."
+    else:
+        first += "."
     distilled = {k: v for k, v in found["learned_pairs"].items() if policy_family(k[1]) == IMITATION}
     signs = [direction(p["value"]["median"], p["value"]["p"]) for p in distilled.values() if "value" in p]
     speed = []
@@ -570,8 +575,13 @@ def readme_headline(found: dict) -> str:
     if not signs or not speed:
         return first
     swarm = "the best of the paper's swarm planners"
+    marks = [robustness(value_sign(p), p) for p in distilled.values()]
+    held = sum(m == "**robust**" for m in marks)
+    checked = sum(m in ("**robust**", "not robust") for m in marks)
+    across = (f"; that verdict is the same under every terminal cost of the swarm planner on {held} of the "
+              f"{checked} tables flown under all of them" if checked else "")  # fmt: skip
     second = (f"{tally(signs, 'The cheapest distilled network', swarm)} "
-              f"(paired per seed or member, value terminal cost), and it decides {hl.number(min(speed), 2)} to "
+              f"(paired per seed or member, value terminal cost{across}), and it decides {hl.number(min(speed), 2)} to "
               f"{hl.number(max(speed), 2)} times faster per step.")  # fmt: skip
     return f"{first} {second}"
 
