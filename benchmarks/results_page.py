@@ -551,7 +551,8 @@ def readme_headline(found: dict) -> str:
     rows = found["adaptivity"]
     robust = sum(robustness(value_sign(p), p) == "**robust**" for _, p in rows.values())
     checked = sum(robustness(value_sign(p), p) in ("**robust**", "not robust") for _, p in rows.values())
-    forms = f"; the verdict holds under every terminal cost on {robust} of the {checked} tables flown under all of them"
+    forms = (f"; tested per form without that correction, the pair gets the same verdict under every terminal cost "
+             f"on {robust} of the {checked} tables flown under all of them")  # fmt: skip
     first = (f"In leaderboard v3, {tally([r['sign'] for r, _ in rows.values()], 'IHPSO', 'HPSO')} (paired "
              f"Wilcoxon, Holm p < {ALPHA:g}{forms if checked else ''})")  # fmt: skip
     paper = rows.get(ADAPTIVITY_TABLES[0])
@@ -618,9 +619,11 @@ compares a re-run with the published episodes.
 ADAPTIVITY_NOTE = (
     "Δ, its bootstrap interval and the Holm-corrected Wilcoxon p are the table's (paired per seed, per member "
     "on a suite); the verdict is the median difference's direction where p < {alpha:g}. *Under every terminal "
-    "cost*: the same pairing recomputed from the episode rows under each form (`value`, the default; `NAME-ctg-dubins`; "
-    "`NAME-ctg-distance`): **robust** when each other form gives the verdict with p < {alpha:g} (or no "
-    "difference under each), *value form only* where the other forms were not flown on the table."
+    "cost*: the same pair recomputed from the episode rows under each form (`value`, the default; `NAME-ctg-dubins`; "
+    "`NAME-ctg-distance`), each tested alike (unadjusted Wilcoxon p): **robust** when every form gives the value "
+    "form's verdict (the same direction at p < {alpha:g}, or no difference under each), *value form only* where "
+    "the other forms were not flown on the table. The Holm verdict, corrected over every policy of the table, is "
+    "the stricter of the two, so a table can read *no significant difference* and **robust** at once."
 )
 
 
