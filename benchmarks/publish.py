@@ -441,9 +441,14 @@ def install_folder(out: Path, target: Path, log: Path | None = None) -> list[Pat
     log = REPO / log if log is not None else None
     if log is not None and log.is_file():
         shutil.copyfile(log, staging / "compute.jsonl")
-    if target.exists():
-        shutil.rmtree(target)
+    previous = target.with_name(target.name + ".previous")
+    if previous.exists():
+        shutil.rmtree(previous)
+    if target.exists():  # moved aside, not removed, until the new folder is in place
+        target.rename(previous)
     staging.rename(target)
+    if previous.exists():
+        shutil.rmtree(previous)
     return sorted(p for p in target.rglob("*") if p.is_file())
 
 
@@ -1224,6 +1229,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                                  "status": 1 if differing else 0, "commit": commit()})  # fmt: skip
             if differing:
                 print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
+                if pub.rows is not None:  # v3 rebuilds from the committed checkpoint (docs/publishing.md §5.5)
+                    print(f"(the rows are {pub.rows}: if the store holds rows the checkpoint lacks, run --checkpoint "
+                          "and commit it before the tables part)", file=sys.stderr)  # fmt: skip
                 return 1
             print("tables rebuilt from the rows equal the store's (apart from the date line)")
     if args.dry_run and args.version == "v3":

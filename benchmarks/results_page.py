@@ -63,8 +63,11 @@ OTHER_FORMS = tuple(f for f in ctg.FORMS if f != "value")
 # --- reading ------------------------------------------------------------------------------------
 
 
-def episode_paths(folder: Path) -> list[Path]:
-    """The episode files behind ``folder``: its exported rows, else its checkpoint's chunks.
+def episode_paths(folder: Path, rows: Path | None = None) -> list[Path]:
+    """The episode files behind ``folder``: ``rows`` where given, else its exported rows, else its checkpoint's chunks.
+
+    ``rows`` is an export stem or a checkpoint folder (as ``uav-bench leaderboard --rows`` takes it),
+    for a folder rebuilt elsewhere (``--rows`` of this script).
 
     A rebuilt or provisional folder holds ``rows/leaderboard-episodes.parquet``; the published v3
     folder does not, and its rows are the chunks of ``<folder>-checkpoint`` beside it (the chunks
@@ -75,6 +78,11 @@ def episode_paths(folder: Path) -> list[Path]:
     """
     from uav_penetration_env.benchmark.rows import ROW_FORMATS, checkpoint_stems, row_path
 
+    if rows is not None:
+        given = [row_path(s, "episodes", ext) for s in checkpoint_stems(rows) for ext in ROW_FORMATS]
+        if not any(p.is_file() for p in given):
+            raise SystemExit(f"--rows {rows}: no episodes table; expected an export stem or a checkpoint folder")
+        return [p for p in given if p.is_file()]
     exported = folder / "rows" / "leaderboard-episodes.parquet"
     if exported.is_file():
         return [exported]
@@ -86,13 +94,13 @@ def episode_paths(folder: Path) -> list[Path]:
     raise SystemExit(f"{folder}: no episode rows; expected {exported} or a checkpoint folder {checkpoint}/manifest.json")
 
 
-def episode_rows(folder: Path) -> pd.DataFrame:
+def episode_rows(folder: Path, rows: Path | None = None) -> pd.DataFrame:
     """The episodes behind ``folder`` with ``planner`` and ``form`` columns (``ctg.read_part``; bare = ``value``).
 
     Raises:
         SystemExit: no episode rows (:func:`episode_paths`).
     """
-    return ctg.read_part(episode_paths(folder), "value")
+    return ctg.read_part(episode_paths(folder, rows), "value")
 
 
 def selection(episodes: pd.DataFrame, stem: str) -> pd.DataFrame:
@@ -218,6 +226,17 @@ def robustness(sign: int, pairs: dict[str, dict]) -> str:
     return "**robust**" if held else "not robust"
 
 
+def robustness_cell(pairs: dict[str, dict], first: str, second: str) -> str:
+    """:func:`robustness` with the verdict that holds, e.g. ``**robust**: HPSO cheaper under every form``."""
+    sign = value_sign(pairs)
+    mark = robustness(sign, pairs)
+    if mark == "**robust**":
+        return f"{mark}: {verdict(sign, first, second)} under every form"
+    if mark == "not robust":
+        return f"{mark} (value form: {verdict(sign, first, second)})"
+    return mark
+
+
 def form_medians(pairs: dict[str, dict]) -> str:
     """Per form: the paired median and Wilcoxon p, with the coverage where short of the value form's."""
     units = pairs["value"]["n"] if "value" in pairs else 0
@@ -244,7 +263,7 @@ def adaptivity_table(rows: dict[str, tuple[dict, dict[str, dict]]]) -> list[str]
                      f"{hl.number(r['hpso_mean'], 4)} ({hl.number(r['hpso_iqm'], 4)})",
                      interval(r["delta"], r["low"], r["high"]), hl.pvalue(r["p"]),
                      verdict(r["sign"], "IHPSO", "HPSO"), hl.percent(r["evals_share"]),
-                     robustness(value_sign(pairs), pairs), form_medians(pairs)])  # fmt: skip
+                     robustness_cell(pairs, "IHPSO", "HPSO"), form_medians(pairs)])  # fmt: skip
     return [hl.markdown(header, body)]
 
 
@@ -262,10 +281,15 @@ def window_studies(folder: Path) -> dict[str, pd.DataFrame]:
 def window_verdict(row: pd.Series) -> int:
     """-1 when IHPSO is significantly better on the comparison, +1 when HPSO is, 0 otherwise.
 
-    DECISION (docs/publishing.md §5.5): the side winning more pairs is the better one (a fixed-target comparison ties on
-    many windows, where the median difference is 0 although one side wins more pairs).
+    DECISION (docs/publishing.md §5.5): the direction is the paired median difference's (``median_difference``
+    is HPSO − IHPSO, so a positive one favours IHPSO), as for the episode tables; where that median is 0
+    (a fixed-target comparison ties on many windows), the side winning more pairs.
     """
-    if math.isnan(row["pvalue"]) or row["pvalue"] >= ALPHA or row["reference_better"] == row["other_better"]:
+    if math.isnan(row["pvalue"]) or row["pvalue"] >= ALPHA:
+        return 0
+    if row["median_difference"] != 0:
+        return -1 if row["median_difference"] > 0 else 1
+    if row["reference_better"] == row["other_better"]:
         return 0
     return -1 if row["reference_better"] > row["other_better"] else 1
 
@@ -303,7 +327,9 @@ def window_lines(studies: dict[str, pd.DataFrame], link: str) -> list[str]:
                 continue
             r = s.loc[comparison]
             cells.append(f"{words[window_verdict(r)]}: medians {hl.number(r['reference_median'], 5)} vs "
-                         f"{hl.number(r['other_median'], 5)}, p {hl.pvalue(r['pvalue'])}, {int(r['pairs'])} pairs")  # fmt: skip
+                         f"{hl.number(r['other_median'], 5)}, paired median HPSO − IHPSO "
+                         f"{signed(r['median_difference'], 3)}, pairs won {int(r['reference_better'])} vs "
+                         f"{int(r['other_better'])}, p {hl.pvalue(r['pvalue'])}, {int(r['pairs'])} pairs")  # fmt: skip
         body.append(cells)
     fewer, same_j, n = window_counts(studies)
     tolerance = ", ".join(f"[{stem}]({link}/{stem}-fixed-target.md)" for stem in studies)
@@ -346,7 +372,7 @@ def planner_entry(table: pd.DataFrame, name: str, role: str) -> dict:
     return {"role": role, "name": name, "success": r["success_rate"], "iqm": r["total_cost_iqm"],
             "low": r["total_cost_iqm_ci_low"], "high": r["total_cost_iqm_ci_high"],
             "ms": 1000 * r["planning_seconds"], "delta": r["delta_mean"], "dlow": r["delta_mean_ci_low"],
-            "dhigh": r["delta_mean_ci_high"], "p": r["pvalue_holm"]}  # fmt: skip
+            "dhigh": r["delta_mean_ci_high"], "median": r["median_difference"], "p": r["pvalue_holm"]}  # fmt: skip
 
 
 def group_entry(table: pd.DataFrame, group: pd.Series) -> dict:
@@ -358,7 +384,7 @@ def group_entry(table: pd.DataFrame, group: pd.Series) -> dict:
     success = runs["successes"].sum() / runs["episodes"].sum() if len(runs) else math.nan
     return {"role": "RL agent group", "name": str(group["group"]), "success": success, "iqm": group["iqm"],
             "low": group["iqm_ci_low"], "high": group["iqm_ci_high"], "ms": 1000 * group["decision_seconds"],
-            "delta": math.nan, "dlow": math.nan, "dhigh": math.nan, "p": math.nan}  # fmt: skip
+            "delta": math.nan, "dlow": math.nan, "dhigh": math.nan, "median": math.nan, "p": math.nan}  # fmt: skip
 
 
 def learned_entries(table: pd.DataFrame, rl: pd.DataFrame | None) -> list[dict]:
@@ -387,14 +413,17 @@ def learned_entries(table: pd.DataFrame, rl: pd.DataFrame | None) -> list[dict]:
 def learned_table(entries: dict[str, list[dict]]) -> list[str]:
     """The learned-planner table: per scenario table, each entry's success, IQM, decision time and Δ vs IHPSO."""
     header = ["table", "role", "policy", "success", "IQM [95 % CI]", "decision [ms/step]",
-              "Δ vs IHPSO [95 % CI]", "Holm p"]  # fmt: skip
+              "Δ vs IHPSO: mean [95 % CI]", "median", "Holm p", "verdict vs IHPSO"]  # fmt: skip
     body = []
     for stem, rows in entries.items():
         for r in rows:
-            delta = "-" if math.isnan(r["delta"]) else interval(r["delta"], r["dlow"], r["dhigh"])
+            compared = not math.isnan(r["delta"])
+            delta = interval(r["delta"], r["dlow"], r["dhigh"]) if compared else "-"
+            sign = direction(r["median"], r["p"]) if compared else 0
             body.append([f"`{stem}`", r["role"], f"`{r['name']}`", hl.percent(r["success"]),
                          f"{hl.number(r['iqm'], 4)} [{hl.number(r['low'], 4)}, {hl.number(r['high'], 4)}]",
-                         hl.number(r["ms"], 3), delta, hl.pvalue(r["p"])])  # fmt: skip
+                         hl.number(r["ms"], 3), delta, signed(r["median"], 3) if compared else "-",
+                         hl.pvalue(r["p"]), verdict(sign, r["role"], "IHPSO") if compared else "-"])  # fmt: skip
     return [hl.markdown(header, body)]
 
 
@@ -426,7 +455,7 @@ def learned_pair_table(pairs: dict[tuple[str, str, str], dict[str, dict]]) -> li
                          f"{signed(p['median'], 2)}, {hl.pvalue(p['p'])} ({p['n']} {p['unit']}s)")  # fmt: skip
         value = by_form.get("value")
         sign = 0 if value is None else direction(value["median"], value["p"])
-        cells += ["-" if value is None else verdict(sign, "learned", "swarm"), robustness(sign, by_form)]
+        cells += ["-" if value is None else verdict(sign, "learned", "swarm"), robustness_cell(by_form, "learned", "swarm")]
         body.append(cells)
     return [hl.markdown(header, body)]
 
@@ -494,7 +523,7 @@ def bar_lines(results: dict[str, tuple[list[str], list[str], int, int]]) -> list
 # --- the page -------------------------------------------------------------------------------------
 
 
-def collect(folder: Path) -> dict:
+def collect(folder: Path, rows: Path | None = None) -> dict:
     """Everything the page and the headline print, read and computed once from ``folder``.
 
     Raises:
@@ -504,7 +533,7 @@ def collect(folder: Path) -> dict:
     if not tables:
         raise SystemExit(f"{folder}: none of the tables {', '.join(f'{s}.csv' for s in hl.TABLES)}; "
                          "expected a leaderboard folder")  # fmt: skip
-    episodes = episode_rows(folder)
+    episodes = episode_rows(folder, rows)
     adaptivity = {}
     for stem in ADAPTIVITY_TABLES:
         r = ihpso_vs_hpso(tables[stem]) if stem in tables else None
@@ -546,22 +575,34 @@ def tally(signs: Sequence[int], first: str, second: str) -> str:
             f"neither on {neither} of {len(signs)} tables")  # fmt: skip
 
 
+def pace(ratios: Sequence[float]) -> str:
+    """``decides A to B times faster`` (or slower) for the swarm planner's over the learned planner's decision times."""
+    low, high = min(ratios), max(ratios)
+    if low >= 1:
+        return f"decides {hl.number(low, 2)} to {hl.number(high, 2)} times faster"
+    if high <= 1:
+        return f"decides {hl.number(1 / high, 2)} to {hl.number(1 / low, 2)} times slower"
+    return f"decides between {hl.number(1 / low, 2)} times slower and {hl.number(high, 2)} times faster"
+
+
 def readme_headline(found: dict) -> str:
     """The README's headline paragraph: each question answered in a sentence or two, with its numbers."""
     rows = found["adaptivity"]
-    robust = sum(robustness(value_sign(p), p) == "**robust**" for _, p in rows.values())
-    checked = sum(robustness(value_sign(p), p) in ("**robust**", "not robust") for _, p in rows.values())
-    forms = (f"; tested per form without that correction, the pair gets the same verdict under every terminal cost "
-             f"on {robust} of the {checked} tables flown under all of them")  # fmt: skip
-    first = (f"In leaderboard v3, {tally([r['sign'] for r, _ in rows.values()], 'IHPSO', 'HPSO')} (paired "
+    marks = [(value_sign(p), robustness(value_sign(p), p)) for _, p in rows.values()]
+    checked = sum(mark in ("**robust**", "not robust") for _, mark in marks)
+    robust = [sign for sign, mark in marks if mark == "**robust**"]
+    hpso, ihpso, neither = sum(s == 1 for s in robust), sum(s == -1 for s in robust), sum(s == 0 for s in robust)
+    forms = (f"; tested per form without that correction, HPSO is cheaper under every terminal cost on {hpso}, "
+             f"IHPSO on {ihpso} and neither on {neither} of the {checked} tables flown under all of them")  # fmt: skip
+    first = (f"{tally([r['sign'] for r, _ in rows.values()], 'IHPSO', 'HPSO')} (paired "
              f"Wilcoxon, Holm p < {ALPHA:g}{forms if checked else ''})")  # fmt: skip
     paper = rows.get(ADAPTIVITY_TABLES[0])
     if paper is not None:
         first += f", while spending {hl.percent(paper[0]['evals_share'])} of HPSO's evaluations per step on the paper scenario"
     fewer, same_j, n = window_counts(found["windows"])
     if n:
-        first += (f"; on identical MPC windows it needs fewer evaluations to the same target in {fewer} of {n} "
-                  f"studies and reaches a J no different from HPSO's at the same budget in {same_j} of {n}")  # fmt: skip
+        first += (f"; on identical MPC windows it needs significantly fewer evaluations to the same target in {fewer} "
+                  f"of {n} studies, with no significant difference in J at the same budget in {same_j} of {n}")  # fmt: skip
         # Said only where the counts say it: most studies save evaluations and most find J alike.
         first += ", so its adaptivity saves evaluations rather than buying cheaper paths." if 2 * min(fewer, same_j) > n else "."
     else:
@@ -582,8 +623,7 @@ def readme_headline(found: dict) -> str:
     across = (f"; that verdict is the same under every terminal cost of the swarm planner on {held} of the "
               f"{checked} tables flown under all of them" if checked else "")  # fmt: skip
     second = (f"{tally(signs, 'The cheapest distilled network', swarm)} "
-              f"(paired per seed or member, value terminal cost{across}), and it decides {hl.number(min(speed), 2)} to "
-              f"{hl.number(max(speed), 2)} times faster per step.")  # fmt: skip
+              f"(paired per seed or member, value terminal cost{across}), and it {pace(speed)} per step.")  # fmt: skip
     return f"{first} {second}"
 
 
@@ -610,6 +650,8 @@ REPRODUCE = """\
 ```bash
 uav-bench leaderboard --rows leaderboards/v3-checkpoint --out /tmp/rebuilt   # the tables from the committed rows alone
 python benchmarks/results_page.py --check          # this page and the README's headline against the tables
+cp leaderboards/v3/compute.jsonl /tmp/rebuilt/     # this page's numbers from the rebuilt tables (links aside)
+python benchmarks/results_page.py --folder /tmp/rebuilt --rows leaderboards/v3-checkpoint --out /tmp/results.md --readme /tmp/README.md
 ```
 
 docs/publishing.md §5 describes the v3 publication; `benchmarks/reproduce_published.py STORE`
@@ -619,7 +661,8 @@ compares a re-run with the published episodes.
 ADAPTIVITY_NOTE = (
     "Δ, its bootstrap interval and the Holm-corrected Wilcoxon p are the table's (paired per seed, per member "
     "on a suite); the verdict is the median difference's direction where p < {alpha:g}. *Under every terminal "
-    "cost*: the same pair recomputed from the episode rows under each form (`value`, the default; `NAME-ctg-dubins`; "
+    "cost*: the same pair recomputed from the episode rows (a suite's members by its seed rule, as the terminal-cost "
+    "table counts them) under each form (`value`, the default; `NAME-ctg-dubins`; "
     "`NAME-ctg-distance`), each tested alike (unadjusted Wilcoxon p): **robust** when every form gives the value "
     "form's verdict (the same direction at p < {alpha:g}, or no difference under each), *value form only* where "
     "the other forms were not flown on the table. The Holm verdict, corrected over every policy of the table, is "
@@ -641,7 +684,11 @@ def page(folder: Path, found: dict | None = None) -> str:
     lines += window_lines(found["windows"], link)
     lines += ["## 2. Learned planners against swarm planners, on cost and on decision time", ""]
     lines += [*learned_table(found["learned"]), ""]
-    lines += ["Each learned planner paired with the table's best swarm planner (per seed, per member on a suite; "
+    lines += ["The best swarm planner is the paper planner with the lowest IQM among those covering every member "
+              "(the RL tables of §4 name the one with the lowest mean, docs/rl-statistics.md §2, which can differ). "
+              "The verdict vs IHPSO is the paired median's direction at Holm p < 0.05 (the mean can point the other "
+              "way when one failed episode pulls it).", "",
+              "Each learned planner paired with the table's best swarm planner (per seed, per member on a suite; "
               "bootstrap 95 % interval of the mean difference, Wilcoxon p), under each terminal cost of the swarm "
               "planner; a learned planner has none.", ""]  # fmt: skip
     lines += [*learned_pair_table(found["learned_pairs"]), ""]
@@ -670,8 +717,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md", help="the results page")
     parser.add_argument("--readme", type=Path, default=ROOT / "README.md", help="the README holding the headline")
     parser.add_argument("--check", action="store_true", help="compare instead of writing; exit 1 on a difference")
+    parser.add_argument("--rows", type=Path, default=None,
+                        help="the episode rows (export stem or checkpoint folder) of a folder rebuilt elsewhere")  # fmt: skip
     args = parser.parse_args(argv)
-    found = collect(args.folder)
+    found = collect(args.folder, args.rows)
     text = page(args.folder, found) + "\n"
     readme = with_headline(args.readme.read_text(), readme_headline(found))
     stale = [p for p, new in ((args.out, text), (args.readme, readme)) if not p.is_file() or p.read_text() != new]

@@ -269,7 +269,7 @@ def test_v3_installs_into_its_own_folder_without_the_exported_rows(tmp_path, mon
         "compute.jsonl", "ctg-sensitivity/sensitivity.md", "index.html", "uavpen-v1.csv"
     ]  # fmt: skip
     assert (tmp_path / "leaderboards" / "paper-2022-sec5.md").read_text() == "v2"
-    assert not (tmp_path / "leaderboards" / "v3.installing").exists()
+    assert not (tmp_path / "leaderboards" / "v3.installing").exists() and not (tmp_path / "leaderboards" / "v3.previous").exists()
     assert (target / "compute.jsonl").read_text() == log.read_text()
     assert publish.publications()["v3"].target == Path("leaderboards/v3")
 

@@ -44,6 +44,11 @@ def test_episode_rows_reads_the_exported_rows_else_the_checkpoint_chunks_else_re
     assert list(rp.episode_rows(folder).policy) == ["cmaes"]  # the exported rows come first
     with pytest.raises(SystemExit, match=r"other: no episode rows; expected .*other/rows/leaderboard-episodes\.parquet"):
         rp.episode_rows(tmp_path / "other")
+    # a folder rebuilt elsewhere: its rows named (a checkpoint folder, or an export stem)
+    assert list(rp.episode_rows(tmp_path / "other", rows=checkpoint).policy) == ["ihpso", "hpso-ctg-dubins", "greedy"]
+    assert list(rp.episode_rows(tmp_path / "other", rows=folder / "rows" / "leaderboard").policy) == ["cmaes"]
+    with pytest.raises(SystemExit, match=r"--rows .*nothing: no episodes table"):
+        rp.episode_rows(folder, rows=tmp_path / "nothing")
 
 
 def test_direction_verdict_and_flown():
@@ -94,17 +99,23 @@ def test_pairs_by_form_pairs_a_learned_planner_under_every_form_and_robustness_c
 
 
 def test_window_verdicts_and_counts():
-    def study(budget_p, target_p, target_better):
+    def study(budget_p, target_p, target_better, target_median=200.0):
+        # median_difference is HPSO - IHPSO, paired: positive favours IHPSO
         return pd.DataFrame({
             "comparison": ["fixed budget: J", "fixed target: evaluations"], "pvalue": [budget_p, target_p],
             "reference_better": [5, target_better[0]], "other_better": [4, target_better[1]],
             "reference_median": [1.0, 3000.0], "other_median": [1.1, 3200.0], "pairs": [9, 9],
+            "median_difference": [0.1, target_median],
         }).set_index("comparison")  # fmt: skip
 
-    studies = {"a": study(0.5, 0.001, (7, 2)), "b": study(0.01, 0.001, (2, 7)), "c": study(0.2, 0.3, (5, 4))}
+    studies = {"a": study(0.5, 0.001, (7, 2)), "b": study(0.01, 0.001, (2, 7), -200.0), "c": study(0.2, 0.3, (5, 4))}
     assert rp.window_verdict(studies["a"].loc["fixed target: evaluations"]) == -1
-    assert rp.window_verdict(studies["b"].loc["fixed budget: J"]) == -1  # IHPSO wins 5 of the 9 pairs
+    assert rp.window_verdict(studies["b"].loc["fixed budget: J"]) == -1  # HPSO's J higher in the typical pair
     assert rp.window_verdict(studies["b"].loc["fixed target: evaluations"]) == 1
+    # the paired median decides against the pair wins; a zero median falls back to the wins
+    assert rp.window_verdict(study(0.5, 0.001, (2, 7), 100.0).loc["fixed target: evaluations"]) == -1
+    assert rp.window_verdict(study(0.5, 0.001, (2, 7), 0.0).loc["fixed target: evaluations"]) == 1
+    assert rp.window_verdict(study(0.5, 0.001, (4, 4), 0.0).loc["fixed target: evaluations"]) == 0
     assert rp.window_counts(studies) == (1, 2, 3)
     text = "\n".join(rp.window_lines(studies, "../lb"))
     assert "in 1 of 3 studies" in text and "in 2 of 3." in text and "[a](../lb/a-fixed-target.md)" in text
@@ -119,6 +130,7 @@ def test_learned_entries_pick_the_cheapest_complete_members_and_the_rl_group():
         "episodes": [4] * 7, "planning_seconds": [0.002, 0.001, 0.08, 0.07, 0.03, 0.0003, 0.0003],
         "delta_mean": [0.5, -0.5, -1.5, -1.0, math.nan, 8.5, 9.5], "delta_mean_ci_low": [0.1] * 7,
         "delta_mean_ci_high": [0.9] * 7, "pvalue_holm": [0.04] * 7,
+        "median_difference": [0.4, -0.4, -1.4, -0.9, math.nan, 8.0, 9.0],
     }).set_index("policy")  # fmt: skip
     rl = pd.DataFrame({
         "group": ["sb3:x", "sb3:y", "ihpso+sb3:z", "greedy"], "kind": ["RL group", "RL group", "RL group", "reference"],
@@ -132,6 +144,8 @@ def test_learned_entries_pick_the_cheapest_complete_members_and_the_rl_group():
     group = entries[1]
     assert group["success"] == 7 / 8 and group["iqm"] == 20.5 and math.isnan(group["delta"])
     assert entries[0]["ms"] == 2.0 and entries[2]["delta"] == -1.5
+    text = "\n".join(rp.learned_table({"s": entries}))
+    assert "| IHPSO cheaper |" in text and "| best swarm planner cheaper |" in text  # verdicts from the medians
     relabelled = rp.relabel_group(episodes([("sb3:x-s0", "s", 0, 1.0), ("sb3:x-s1", "s", 0, 3.0), ("hpso", "s", 0, 2.0)]),
                                   rp.best_rl_group(rl))  # fmt: skip
     assert list(relabelled.planner) == ["sb3:x", "sb3:x", "hpso"]

@@ -185,3 +185,21 @@ def test_chunks_of_two_stores_and_bad_manifests_are_refused_in_one_line(exported
     with pytest.raises(RowsError, match="names no chunk"):
         checkpoint_stems(bad)
     assert checkpoint_stems(published) == [published]  # a plain stem stands for itself
+
+
+def test_chunks_keep_a_numeric_column_numeric_where_one_piece_has_it_all_null(tmp_path):
+    """A column NULL throughout one piece (no RL episode there) reads as object; joined, it is float again."""
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.rows import read_chunks, row_path, write_table
+
+    pieces = {"a": (1, [None, None]), "b": (2, [1000.0, None])}
+    for name, (run_id, timesteps) in pieces.items():
+        episodes = pd.DataFrame({"episode_id": [2 * run_id - 1, 2 * run_id], "run_id": [run_id] * 2,
+                                 "scenario_hash": ["h", "h"], "train_timesteps": timesteps})  # fmt: skip
+        write_table(episodes, row_path(tmp_path / name, "episodes", "parquet"), "parquet")
+        write_table(pd.DataFrame({"run_id": [run_id]}), row_path(tmp_path / name, "runs", "parquet"), "parquet")
+    assert pd.read_parquet(row_path(tmp_path / "a", "episodes", "parquet")).train_timesteps.dtype == object
+    joined = read_chunks([tmp_path / "a", tmp_path / "b"]).episodes
+    assert joined.train_timesteps.dtype == "float64" and list(joined.episode_id) == [1, 2, 3, 4]
+    assert joined.train_timesteps.isna().tolist() == [True, True, False, True]

@@ -251,7 +251,9 @@ def read_chunks(stems: Sequence[str | Path]) -> ResultTables:
             continue
         # An empty piece (a chunk without window runs) has untyped columns that would widen the rest's.
         filled = [f for f in present if not f.empty] or present[:1]
-        frame = pd.concat(filled, ignore_index=True) if len(filled) > 1 else filled[0]
+        # A column all NULL in one piece reads as object there, and the concatenation would keep the
+        # object type where the store reads numbers: infer it again, as one export would have typed it.
+        frame = pd.concat(filled, ignore_index=True).infer_objects() if len(filled) > 1 else filled[0]
         key = _ORDER[table][0]
         if table != "tracks" and key in frame.columns and frame[key].duplicated().any():
             repeated = int(frame.loc[frame[key].duplicated(), key].iloc[0])

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     check_writable_folder(Path(args.out), "--out")
     # Pieces of one export are recorded as their common folder (a checkpoint), one stem as itself.
     source = (
-        (args.rows[0] if len(args.rows) == 1 else os.path.commonpath(args.rows))
+        (args.rows[0] if len(args.rows) == 1 else os.path.commonpath([os.path.abspath(r) for r in args.rows]))
         if args.rows
         else args.store or DEFAULT_STORE
     )
