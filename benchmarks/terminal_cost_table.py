@@ -51,10 +51,10 @@ ALPHA = 0.05
 
 def read_part(paths: list[Path], bare_form: str) -> pd.DataFrame:
     """The episodes of one part with ``planner`` and ``form`` columns (baselines get form ``-``)."""
+    from uav_penetration_env.benchmark.rows import concat_pieces
+
     frames = [pd.read_parquet(p) if p.suffix == ".parquet" else pd.read_csv(p) for p in paths]
-    # An empty file (a checkpoint chunk of window runs only) has untyped columns that would make the rest object.
-    frames = [f for f in frames if not f.empty] or frames[:1]
-    e = pd.concat(frames, ignore_index=True)[["policy", "scenario", "seed", "outcome", "total_cost"]]
+    e = concat_pieces(frames)[["policy", "scenario", "seed", "outcome", "total_cost"]]
     e = e.drop_duplicates(["policy", "scenario", "seed"], keep="last")
     e["form"] = e.policy.str.extract(r"-ctg-(\w+)$")[0]
     e["planner"] = e.policy.str.replace(r"-ctg-\w+$", "", regex=True)

@@ -195,6 +195,22 @@ _ORDER = {"episodes": ["episode_id"], "runs": ["run_id"], "window_runs": ["windo
 CHECKPOINT_MANIFEST = "manifest.json"
 
 
+def concat_pieces(frames: Sequence[pd.DataFrame]) -> pd.DataFrame:
+    """One table from its pieces (checkpoint chunks of one export), typed as one export would be.
+
+    An empty piece (a chunk without window runs, or of window runs only) has untyped columns that
+    would turn the others' numbers into objects, so it is left out (unless all are empty); a column
+    all NULL in one piece reads as object there, so the joined columns' types are inferred again.
+
+    Raises:
+        ValueError: no pieces.
+    """
+    filled = [f for f in frames if not f.empty] or list(frames[:1])
+    if not filled:
+        raise ValueError("concat_pieces: no pieces; expected at least one table")
+    return pd.concat(filled, ignore_index=True).infer_objects() if len(filled) > 1 else filled[0]
+
+
 def checkpoint_stems(path: str | Path) -> list[Path]:
     """The stems ``path`` stands for: a checkpoint folder's chunks in its manifest's order, else ``[path]``.
 
@@ -249,11 +265,7 @@ def read_chunks(stems: Sequence[str | Path]) -> ResultTables:
         if table == "tracks" and len(present) < len(frames):
             joined[table] = None  # some piece has no steps: no failure kinds, as for one such stem
             continue
-        # An empty piece (a chunk without window runs) has untyped columns that would widen the rest's.
-        filled = [f for f in present if not f.empty] or present[:1]
-        # A column all NULL in one piece reads as object there, and the concatenation would keep the
-        # object type where the store reads numbers: infer it again, as one export would have typed it.
-        frame = pd.concat(filled, ignore_index=True).infer_objects() if len(filled) > 1 else filled[0]
+        frame = concat_pieces(present)
         key = _ORDER[table][0]
         if table != "tracks" and key in frame.columns and frame[key].duplicated().any():
             repeated = int(frame.loc[frame[key].duplicated(), key].iloc[0])
