@@ -15,7 +15,7 @@ It reads, when present:
   to choose others);
 - their RL tables ``<stem>-rl.csv``;
 - every fixed-target study in the folder: ``<stem>-fixed-target.csv`` (ERT),
-  ``-fixed-target-paired.csv`` and ``-fixed-target-traces.csv``;
+  ``-fixed-target-windows.csv`` (``-fixed-target-paired.csv`` in v2 and v3) and ``-fixed-target-traces.csv``;
 - ``compute.jsonl``, the publication driver's log of every attempt, with the exported rows
   (``rows/leaderboard-*``) and the RL programme's snapshot (``rl/``) for its compute table
   (docs/publishing.md §2).
@@ -57,6 +57,8 @@ def number(value: float, digits: int = 3) -> str:
     """``value`` with ``digits`` significant digits; ``-`` for a missing value."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
+    if math.isinf(value):
+        return "∞" if value > 0 else "-∞"
     if abs(value) >= 10 ** digits:  # 10000 evaluations, not 1e+04
         return f"{value:.0f}"
     return f"{value:.{digits}g}"
@@ -162,8 +164,16 @@ def evaluations_section(tables: dict[str, pd.DataFrame], folder: Path) -> list[s
         header = ["optimizer", "runs", "evals/run", f"of {BASELINE}'s", "stopped early", "switches/run",
                   "reverse/run", "median J"]  # fmt: skip
         lines += [markdown(header, rows), ""]
-        paired_path = folder / f"{stem}-fixed-target-paired.csv"
-        if paired_path.is_file():
+        windows_path = folder / f"{stem}-fixed-target-windows.csv"
+        paired_path = folder / f"{stem}-fixed-target-paired.csv"  # v2 and v3: the retired pairing
+        if windows_path.is_file():
+            compared = pd.read_csv(windows_path)
+            for r in compared[compared["other"] == BASELINE].itertuples():
+                target = f" Δ={r.precision:g}" if r.comparison.startswith("fixed target") else ""
+                lines.append(f"- {r.comparison}{target}, {r.other} vs {r.reference}: median {number(r.median, 4)} "
+                             f"[{number(r.ci_low, 4)}, {number(r.ci_high, 4)}] over {r.units} windows, {r.other} "
+                             f"better on {r.other_better} and {r.reference} on {r.reference_better}, p {pvalue(r.pvalue)}")  # fmt: skip
+        elif paired_path.is_file():
             paired = pd.read_csv(paired_path)
             paired = paired[paired["other"] == BASELINE]
             for r in paired.itertuples():

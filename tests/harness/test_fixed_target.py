@@ -12,6 +12,7 @@ from conftest import tiny_scenario
 
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark import fixedtarget as ft
+from uav_penetration_env.benchmark import fixedtarget_retired as ft_retired
 from uav_penetration_env.benchmark.store import ResultsStore
 
 
@@ -69,14 +70,87 @@ def test_ert_table_from_window_rows_by_hand():
     assert table.loc[("b", 0.1), "ert"] == (300 + 100) / 2
     assert table.loc[("b", 0.01), "ert"] == (100 + 400) / 1  # seed 0 never reached 1.01, spent 400
     assert table.loc[("b", 0.1), "ert_ratio"] == pytest.approx(200 / 250)
-    paired = ft.paired_table(rows, "a").set_index("comparison")
-    budget = paired.loc["fixed budget: J"]
+    retired = ft_retired.paired_table(rows, "a").set_index("comparison")  # the v2/v3 rule, kept to rebuild them
+    budget = retired.loc["fixed budget: J"]
     # b at a's nfev (300, 400): seed 0 → 1.1 (entry at 300), seed 1 → 1.0; a's finals 1.05, 1.08.
     assert (budget["reference_median"], budget["other_median"]) == (pytest.approx(1.065), pytest.approx(1.05))
     assert (budget["reference_better"], budget["other_better"], budget["pairs"]) == (1, 1, 2)
-    target = paired.loc["fixed target: evaluations"]
+    target = retired.loc["fixed target: evaluations"]
     # Worse final per seed: 1.1 (seed 0: a 200, b 300), 1.08 (seed 1: a 300, b 100).
     assert (target["reference_median"], target["other_median"]) == (250.0, 200.0)
+
+
+def _window_row(optimizer, step, seed, history, nfev, max_evals=400):
+    return {
+        "scenario": "s", "scenario_hash": "ab", "source_policy": "greedy", "source_policy_hash": "g",
+        "episode_seed": 0, "step": step, "optimizer": optimizer, "seed": seed, "max_evals": max_evals,
+        "fun": history[-1], "nfev": nfev[-1], "history": json.dumps(history), "history_nfev": json.dumps(nfev),
+    }  # fmt: skip
+
+
+def test_window_comparison_by_hand_with_windows_as_units():
+    """Two windows, one seed each: the per-window log10 ERT ratios and budget gaps computed by hand."""
+    rows = pd.DataFrame(
+        [
+            # Window 1: f_best = 1.0 (b). Δ=0.1 target 1.1: a at 200, b at 100 → log10(100/200).
+            _window_row("a", 1, 0, [5.0, 1.05, 1.05], [100, 200, 300]),
+            _window_row("b", 1, 0, [1.0], [100]),
+            # Window 2: f_best = 2.0 (a). Δ=0.1 target 2.2: a at 100, b at 300 → log10(300/100).
+            _window_row("a", 2, 0, [2.0], [100]),
+            _window_row("b", 2, 0, [4.0, 3.0, 2.1], [100, 200, 300]),
+        ]
+    )
+    table = ft.window_comparisons(rows, "a", precisions=(0.1, 0.01), n_resamples=200).set_index(["comparison", "precision"], drop=False)
+    loose = table.loc[(ft.FIXED_TARGET, 0.1)]
+    assert loose["units"] == 2 and (loose["other_better"], loose["reference_better"]) == (1, 1)
+    assert loose["median"] == pytest.approx((math.log10(0.5) + math.log10(3.0)) / 2, rel=1e-12)
+    # Δ=0.01: window 1's target 1.01: only b (a ended at 1.05) → −∞; window 2's 2.02: only a → +∞.
+    tight = table.loc[(ft.FIXED_TARGET, 0.01)]
+    assert (tight["other_better"], tight["reference_better"], tight["undefined"]) == (1, 1, 0)
+    assert tight["median"] == 0.0  # −∞ and +∞ in the middle: the midpoint of a symmetric split
+    budget = table[table["comparison"] == ft.FIXED_BUDGET].iloc[0]
+    # Window 1: b at a's 300 evaluations is 1.0, a's final 1.05 → −0.05; window 2: b at 100 is 4.0 − 2.0 = +2.0.
+    assert budget["median"] == pytest.approx((-0.05 + 2.0) / 2, rel=1e-12)
+    assert (budget["other_better"], budget["reference_better"]) == (1, 1)
+
+
+def test_a_long_search_sets_the_targets_but_is_not_compared():
+    # The long search (budget 4000) found 0.5: at Δ=0.1 the target is 0.55, which neither compared run reached.
+    rows = pd.DataFrame(
+        [
+            _window_row("a", 1, 0, [5.0, 1.0], [100, 200]),
+            _window_row("b", 1, 0, [1.0], [100]),
+            _window_row("a", 1, 0, [5.0, 0.5], [100, 4000], max_evals=4000),
+        ]
+    )
+    table = ft.window_comparisons(rows, "a", precisions=(0.1,), n_resamples=50)
+    assert set(table["other"]) == {"b"}
+    target = table[table["comparison"] == ft.FIXED_TARGET].iloc[0]
+    assert (target["units"], target["undefined"]) == (0, 1)  # neither reached f_best + 10 %: left out, counted
+    compared, budget = ft.compared_runs(rows, "a")
+    assert budget == 400 and len(compared) == 2
+
+
+def test_the_pairs_own_finals_no_longer_decide_the_fixed_target():
+    """The review's case: a stops early and finishes worse; b keeps improving to the budget.
+
+    Under the retired rule the target is a's worse final, which b passes early but a reaches first
+    only where b finishes worse; with targets from f_best, b reaches the tight targets and a never does.
+    """
+    rows = pd.DataFrame(
+        [
+            row
+            for step in range(1, 7)
+            for row in (
+                _window_row("a", step, 0, [3.0, 1.01], [100, 200]),  # stops at 200 evaluations, at 1.01
+                _window_row("b", step, 0, [3.0, 1.02, 1.0], [100, 150, 400]),  # slower to 1.02, but ends at 1.0
+            )
+        ]
+    )
+    table = ft.window_comparisons(rows, "a", precisions=(1e-3,), n_resamples=100)
+    target = table[table["comparison"] == ft.FIXED_TARGET].iloc[0]
+    assert target["median"] == -math.inf and target["other_better"] == 6  # only b reached 1.0 + 0.001
+    assert target["pvalue"] == pytest.approx(2 / 2**6)  # six windows, all one sign: the exact two-sided p
 
 
 def test_runtime_ecdf_is_monotone_and_ends_at_the_success_share():
@@ -146,9 +220,7 @@ def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
     out = folder / "out"
     assert run_cli("leaderboard", "--store", store, "--out", out, "--reference", "greedy") == 0
     page = (out / "tiny-fixed-target.md").read_text()
-    assert (
-        "Expected running time" in page and "fixed budget: J" in page and "fixed target: evaluations" in page
-    )
+    assert "Expected running time" in page and "Windows as units" in page and "fixed target Δ=1e-03" in page
     table = pd.read_csv(out / "tiny-fixed-target.csv")
     assert sorted(set(table["optimizer"])) == ["hpso", "ihpso"] and len(table) == 2 * len(
         ft.TARGET_PRECISIONS
@@ -156,13 +228,21 @@ def test_leaderboard_and_plot_add_the_fixed_target_files(window_store):
     assert (table["successes"] <= table["runs"]).all() and (table["runs"] == 4).all()
     # At the loosest target (f* + 10 %|f*|) the run that found f* solved it, so some optimiser has a finite ERT.
     assert np.isfinite(table[table["precision"] == 0.1]["ert"]).any()
-    # The page's other two tables as rows: the paired comparisons (reference greedy is absent from the
-    # window runs, so the first optimiser, hpso, is the reference) and the state machines.
-    paired = pd.read_csv(out / "tiny-fixed-target-paired.csv")
-    assert set(paired["reference"]) == {"hpso"} and set(paired["other"]) == {"ihpso"}
-    assert sorted(paired["comparison"]) == ["fixed budget: J", "fixed target: evaluations"]
-    assert (paired["pairs"] == 4).all()
-    assert (paired["reference_better"] + paired["other_better"] <= paired["pairs"]).all()
+    # The page's other tables as rows: the comparisons over windows (reference greedy is absent from the
+    # window runs, so the first optimiser, hpso, is the reference), the ERT per window and the state machines.
+    compared = pd.read_csv(out / "tiny-fixed-target-windows.csv")
+    assert set(compared["reference"]) == {"hpso"} and set(compared["other"]) == {"ihpso"}
+    assert sorted(compared["comparison"]) == [ft.FIXED_BUDGET] + [ft.FIXED_TARGET] * len(ft.TARGET_PRECISIONS)
+    assert ((compared["units"] + compared["undefined"]) == 2).all()  # two windows
+    assert (compared["reference_better"] + compared["other_better"] <= compared["units"]).all()
+    per_window = pd.read_csv(out / "tiny-fixed-target-window-ert.csv")
+    assert len(per_window) == 2 * 2 * len(ft.TARGET_PRECISIONS) and (per_window["runs"] == 2).all()
+    assert not (out / "tiny-fixed-target-paired.csv").exists()
+    retired = folder / "retired"
+    assert run_cli("leaderboard", "--store", store, "--out", retired, "--reference", "greedy",
+                   "--fixed-target-rule", "worse-final") == 0  # fmt: skip
+    assert (retired / "tiny-fixed-target-paired.csv").is_file() and not (retired / "tiny-fixed-target-windows.csv").exists()
+    assert run_cli("leaderboard", "--store", store, "--out", folder / "bad", "--fixed-target-rule", "pairs") == 2
     traces = pd.read_csv(out / "tiny-fixed-target-traces.csv").set_index("optimizer")
     with ResultsStore(store) as s:
         rows = s.window_runs()
@@ -220,10 +300,10 @@ def test_report_shows_the_fixed_target_tables_and_writes_their_pages(window_stor
     section = section[: section.index("</section>")]
     # The three tables, with the reference ihpso paired against hpso on both comparisons.
     assert "tiny (reference ihpso)" in section
-    for title in ("Expected running time (ERT)", "Paired per (window, seed) against ihpso", "state machines"):
+    for title in ("Expected running time (ERT)", "Windows as units, against ihpso", "state machines"):
         assert title in section
-    assert "fixed budget: J" in section and "fixed target: evaluations" in section
-    assert section.count("<tr>") == 1 + 2 * len(ft.TARGET_PRECISIONS) + 1 + 2 + 1 + 2  # headers + rows
+    assert "fixed budget" in section and "fixed target Δ=1e-04" in section
+    assert section.count("<tr>") == 1 + 2 * len(ft.TARGET_PRECISIONS) + 1 + (len(ft.TARGET_PRECISIONS) + 1) + 1 + 2
     # Each of the 4 (window, seed) runs of each optimiser is counted in the ERT rows' "solved" cell.
     assert section.count("/4</td>") == 2 * len(ft.TARGET_PRECISIONS)
 

@@ -1,8 +1,8 @@
 """Fixed-target and fixed-budget comparison of optimisers on identical MPC windows (api.md §4.8).
 
 The COCO view of "fewer iterations": on each window (a stored MPC state, ``window_runs`` rows of
-``uav-bench windows``) the reference cost f* is the best cost any run of any optimiser found; the
-targets are f* + Δ·|f*| (:data:`TARGET_PRECISIONS`). A run's *runtime* for a target is the number
+``uav-bench windows``) the reference cost f_best is the best cost any run of any optimiser found,
+at any budget (:func:`window_best`); the targets are f_best + Δ·|f_best| (:data:`TARGET_PRECISIONS`). A run's *runtime* for a target is the number
 of evaluations at the first ``history`` entry at or below it (from ``history_nfev``), infinite if it
 never got there. Per optimiser and target:
 
@@ -11,13 +11,12 @@ never got there. Per optimiser and target:
 * the runtime ECDF: the share of (run, target) pairs solved within x evaluations,
   :func:`runtime_ecdf`, which ends at the success share.
 
-Paired per (window, seed), each other optimiser against a reference (IHPSO by default):
-
-* fixed budget: its J at the reference's evaluation count (:func:`value_at_budget`) against the
-  reference's final J;
-* fixed target: the evaluations each needed to reach the worse of the two final costs.
-
-Both are tested with the two-sided Wilcoxon signed-rank test (:mod:`~uav_penetration_env.benchmark.stats`).
+Each other optimiser against a reference (IHPSO by default), with the window as the unit of
+replication (:func:`window_comparisons`): the per-window log10 ERT ratio at each target and the
+per-window fixed-budget J difference, each summarised by its median over windows, a bootstrap
+interval over windows and the Wilcoxon signed-rank test over windows. The targets come from every
+run on the window (a dedicated long search included), never from the compared pair alone; the
+retired v2/v3 rule (the worse of a pair's two finals) lives in :mod:`~.fixedtarget_retired`.
 """
 
 from __future__ import annotations
@@ -36,7 +35,7 @@ from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.rows import ResultTables, store_tables
 from uav_penetration_env.types import FloatArray
 
-TARGET_PRECISIONS = (1e-1, 1e-2, 1e-3, 1e-4)  # Δ: targets f* + Δ |f*| (DECISION api.md §4.8)
+TARGET_PRECISIONS = (1e-1, 1e-2, 1e-3, 1e-4)  # Δ: targets f_best + Δ |f_best| (DECISION api.md §4.8)
 WINDOW_KEY = ["scenario_hash", "source_policy_hash", "episode_seed", "step"]
 
 
@@ -100,7 +99,36 @@ def _parsed(rows: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
-def target_runs(rows: pd.DataFrame, precisions: Sequence[float] = TARGET_PRECISIONS) -> pd.DataFrame:
+def window_best(rows: pd.DataFrame) -> pd.Series:
+    """f_best per window: the best ``fun`` any run of any optimiser, at any budget, found on it.
+
+    A dedicated long search (``uav-bench windows --optimizers cma-es --max-evals 200000`` on the
+    same windows) lowers it for every optimiser alike, so no compared pair sets its own targets.
+
+    Returns:
+        Indexed by :data:`WINDOW_KEY`.
+    """
+    return pd.to_numeric(rows["fun"]).astype(np.float64).groupby([rows[k] for k in WINDOW_KEY]).min()
+
+
+def compared_runs(rows: pd.DataFrame, reference: str) -> tuple[pd.DataFrame, int]:
+    """The runs a study compares: those at the reference's budget (``max_evals``), and that budget.
+
+    DECISION (api.md §4.8): runs at any other budget (a long search for f_best, a longer study)
+    enter f_best only; the compared optimisers share one budget, so an ERT is never pooled over
+    runs that could spend different amounts. Without the reference, the most common budget.
+    """
+    budgets = pd.to_numeric(rows["max_evals"]).astype(np.int64)
+    mine = budgets[rows["optimizer"] == reference]
+    if rows.empty:
+        return rows, 0
+    budget = int((mine if not mine.empty else budgets).mode().min())
+    return rows[budgets == budget], budget
+
+
+def target_runs(
+    rows: pd.DataFrame, precisions: Sequence[float] = TARGET_PRECISIONS, *, f_best: pd.Series | None = None
+) -> pd.DataFrame:
     """The runtime of every window run for every target.
 
     One row per (window run, target): ``optimizer``, the window key, ``seed``, ``precision``,
@@ -108,26 +136,48 @@ def target_runs(rows: pd.DataFrame, precisions: Sequence[float] = TARGET_PRECISI
 
     Args:
         rows: ``window_runs`` rows (one scenario, one budget).
-        precisions: the Δ of the targets f* + Δ|f*|, f* the best ``fun`` of the window over every row.
+        precisions: the Δ of the targets f_best + Δ|f_best|.
+        f_best: per window (:func:`window_best`), when it comes from more runs than ``rows`` (a
+            long search); default: the best ``fun`` of the window over ``rows``.
     """
     frame = _parsed(rows)
-    best = frame.groupby(WINDOW_KEY)["fun"].transform("min")
+    best = (window_best(frame) if f_best is None else f_best).rename("f_best")
+    keyed = frame.join(best, on=WINDOW_KEY)
     out = []
-    for (_, run), f_star in zip(frame.iterrows(), best, strict=True):
+    for run in keyed.itertuples(index=False):
         for precision in precisions:
-            target = f_star + precision * abs(f_star)
+            target = run.f_best + precision * abs(run.f_best)
             out.append(
                 {
-                    "optimizer": run["optimizer"],
-                    **{key: run[key] for key in WINDOW_KEY},
-                    "seed": int(run["seed"]),
+                    "optimizer": run.optimizer,
+                    **{key: getattr(run, key) for key in WINDOW_KEY},
+                    "seed": int(run.seed),
                     "precision": precision,
                     "target": target,
-                    "runtime": runtime_to_target(run["history"], run["history_nfev"], target),
-                    "nfev": run["nfev"],
+                    "runtime": runtime_to_target(run.history, run.history_nfev, target),
+                    "nfev": run.nfev,
                 }
             )
     return pd.DataFrame(out)
+
+
+def window_ert_table(targets: pd.DataFrame) -> pd.DataFrame:
+    """ERT per (optimiser, window, target precision) over the window's seeds, from :func:`target_runs`.
+
+    Returns:
+        Columns ``optimizer``, the window key, ``precision``, ``runs``, ``successes``, ``ert``.
+    """
+    rows = []
+    for key, group in targets.groupby(["optimizer", *WINDOW_KEY, "precision"], sort=True):
+        rows.append(
+            {
+                **dict(zip(["optimizer", *WINDOW_KEY, "precision"], key, strict=True)),
+                "runs": len(group),
+                "successes": int(np.isfinite(group["runtime"]).sum()),
+                "ert": ert(group["runtime"], group["nfev"]),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def ert_table(targets: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
@@ -161,88 +211,127 @@ def ert_table(targets: pd.DataFrame, reference: str | None = None) -> pd.DataFra
     return table.reset_index(drop=True)
 
 
-def _paired_test(a: np.ndarray, b: np.ndarray) -> dict[str, float]:
-    """Median of a − b, wins, and the two-sided Wilcoxon signed-rank test (stats.wilcoxon_vs_reference)."""
-    finite = np.isfinite(a) & np.isfinite(b)
-    test = stats.wilcoxon_vs_reference(
-        pd.DataFrame({"other": b[finite], "reference": a[finite]}), "reference"
-    )
-    row = test.loc["other"]
-    return {
-        "pairs": int(finite.sum()),
-        "reference_better": int(np.sum(a[finite] < b[finite])),
-        "other_better": int(np.sum(a[finite] > b[finite])),
-        "median_difference": float(row["median_difference"]),
-        "wilcoxon_statistic": float(row["statistic"]),
-        "pvalue": float(row["pvalue"]),
-    }
+def window_comparisons(
+    rows: pd.DataFrame,
+    reference: str,
+    precisions: Sequence[float] = TARGET_PRECISIONS,
+    *,
+    f_best: pd.Series | None = None,
+    seed: int = 0,
+    n_resamples: int = 10_000,
+) -> pd.DataFrame:
+    """Every other optimiser against ``reference`` with windows as the unit of replication (api.md §4.8).
 
+    Per window (a stored MPC state, every seed of it pooled):
 
-def paired_table(rows: pd.DataFrame, reference: str) -> pd.DataFrame:
-    """Fixed-budget and fixed-target comparisons of every other optimiser with ``reference``, per (window, seed).
+    * fixed target, per Δ: d = log10(ERT_other / ERT_ref) at the target f_best + Δ|f_best| of the
+      window (:func:`window_ert_table`); ``+inf`` when only the reference reached it, ``-inf`` when
+      only the other did, undefined (left out, counted) when neither did;
+    * fixed budget: d = the mean over seeds of the other's best-so-far J at the reference run's
+      evaluation count of the same seed, minus the reference's final J.
+
+    Each set of per-window values is summarised by :func:`~..stats.unit_comparison`: the median
+    over windows with its percentile-bootstrap interval (resampling windows) and the two-sided
+    Wilcoxon signed-rank test over windows. The p values are raw: the correction belongs to the
+    family a publication's protocol declares (docs/publishing.md §6).
+
+    Args:
+        rows: ``window_runs`` rows of one scenario (every budget: runs at another budget than the
+            reference's, e.g. a dedicated long search, only lower f_best).
+        reference: the optimiser the others are compared with.
+        precisions: the Δ of the targets.
+        f_best: per window (:func:`window_best`), when more runs than ``rows`` set it (default:
+            every row of ``rows``).
+        seed: the bootstraps' base seed (each comparison draws from :func:`~..stats.label_seed`).
+        n_resamples: bootstrap resamples.
 
     Returns:
-        One row per (other optimiser, comparison): ``comparison`` is ``fixed budget: J`` (the
-        other's J at the reference's ``nfev`` minus the reference's final J) or ``fixed target:
-        evaluations`` (to the worse of the two final costs, other minus reference), with
-        ``reference_median``, ``other_median``, and the columns of the paired test (``pairs``,
-        ``reference_better``, ``other_better``, ``median_difference`` other − reference,
-        ``wilcoxon_statistic``, ``pvalue``). Empty when ``reference`` has no rows.
+        One row per (other, comparison, Δ): ``reference``, ``other``, ``comparison`` (``fixed
+        target: log10 ERT ratio`` or ``fixed budget: J``), ``precision`` (NaN for the budget),
+        ``budget``, then :func:`~..stats.unit_comparison`'s columns (``units`` = windows,
+        ``median``, ``ci_low``, ``ci_high``, ``other_better``, ``reference_better``,
+        ``undefined``, ``statistic``, ``pvalue``). Empty when the reference has no rows.
     """
     frame = _parsed(rows)
-    keyed = frame.set_index([*WINDOW_KEY, "seed"])
-    ref = keyed[keyed["optimizer"] == reference]
+    compared, budget = compared_runs(frame, reference)
+    if compared.empty:
+        return pd.DataFrame(columns=COMPARISON_COLUMNS)
+    best = window_best(frame) if f_best is None else f_best
+    per_window = window_ert_table(target_runs(compared, precisions, f_best=best))
+    ert = per_window.set_index(["optimizer", *WINDOW_KEY, "precision"])["ert"]
     out = []
-    for other in sorted(set(frame["optimizer"]) - {reference}):
-        mine = keyed[keyed["optimizer"] == other]
-        shared = ref.index.intersection(mine.index)
-        if len(shared) == 0:
+    for other in sorted(set(compared["optimizer"]) - {reference}):
+        windows = _shared_windows(compared, reference, other)
+        if not windows:
             continue
-        a_final = ref.loc[shared, "fun"].to_numpy(dtype=np.float64)
-        budgets = ref.loc[shared, "nfev"].to_numpy(dtype=np.float64)
-        b_budget = np.array(
-            [
-                value_at_budget(h, n, budget)
-                for h, n, budget in zip(
-                    mine.loc[shared, "history"], mine.loc[shared, "history_nfev"], budgets, strict=True
-                )
-            ]
-        )
-        b_final = mine.loc[shared, "fun"].to_numpy(dtype=np.float64)
-        targets = np.maximum(a_final, b_final)
-        a_evals = np.array(
-            [
-                runtime_to_target(h, n, t)
-                for h, n, t in zip(
-                    ref.loc[shared, "history"], ref.loc[shared, "history_nfev"], targets, strict=True
-                )
-            ]
-        )
-        b_evals = np.array(
-            [
-                runtime_to_target(h, n, t)
-                for h, n, t in zip(
-                    mine.loc[shared, "history"], mine.loc[shared, "history_nfev"], targets, strict=True
-                )
-            ]
-        )
-        for comparison, a, b in (
-            ("fixed budget: J", a_final, b_budget),
-            ("fixed target: evaluations", a_evals, b_evals),
-        ):
-            out.append(
-                {
-                    "reference": reference,
-                    "other": other,
-                    "comparison": comparison,
-                    "reference_median": float(np.median(a[np.isfinite(a)]))
-                    if np.isfinite(a).any()
-                    else np.nan,
-                    "other_median": float(np.median(b[np.isfinite(b)])) if np.isfinite(b).any() else np.nan,
-                    **_paired_test(a, b),
-                }
+        for precision in precisions:
+            mine = np.array([ert.loc[(other, *w, precision)] for w in windows])
+            theirs = np.array([ert.loc[(reference, *w, precision)] for w in windows])
+            label = f"{reference}|{other}|target|{precision!r}"
+            summary = stats.unit_comparison(
+                _log_ratio(mine, theirs), seed=stats.label_seed(seed, label, 20), n_resamples=n_resamples
             )
-    return pd.DataFrame(out)
+            out.append(_comparison_row(reference, other, FIXED_TARGET, precision, budget, summary))
+        differences = _budget_differences(compared, reference, other, windows)
+        summary = stats.unit_comparison(
+            differences, seed=stats.label_seed(seed, f"{reference}|{other}|budget", 21), n_resamples=n_resamples
+        )
+        out.append(_comparison_row(reference, other, FIXED_BUDGET, math.nan, budget, summary))
+    return pd.DataFrame(out, columns=COMPARISON_COLUMNS)
+
+
+FIXED_TARGET = "fixed target: log10 ERT ratio"
+FIXED_BUDGET = "fixed budget: J"
+COMPARISON_COLUMNS = [
+    "reference", "other", "comparison", "precision", "budget", "units", "median", "ci_low", "ci_high",
+    "other_better", "reference_better", "undefined", "statistic", "pvalue",
+]  # fmt: skip
+
+
+def _comparison_row(
+    reference: str, other: str, comparison: str, precision: float, budget: int, summary: dict[str, float]
+) -> dict[str, Any]:
+    return {
+        "reference": reference, "other": other, "comparison": comparison, "precision": precision,
+        "budget": budget, **summary,
+    }  # fmt: skip
+
+
+def _log_ratio(mine: np.ndarray, theirs: np.ndarray) -> np.ndarray:
+    """log10(mine / theirs) over the extended reals; NaN where both are infinite (neither solved)."""
+    out = np.full(mine.shape, np.nan)
+    both = np.isfinite(mine) & np.isfinite(theirs)
+    out[both] = np.log10(mine[both] / theirs[both])
+    out[np.isinf(mine) & np.isfinite(theirs)] = math.inf  # only the reference solved: the other is slower
+    out[np.isfinite(mine) & np.isinf(theirs)] = -math.inf
+    return out
+
+
+def _shared_windows(frame: pd.DataFrame, reference: str, other: str) -> list[tuple[Any, ...]]:
+    """The windows both optimisers ran on, in a fixed order."""
+    keys = [
+        set(map(tuple, frame.loc[frame["optimizer"] == name, WINDOW_KEY].itertuples(index=False)))
+        for name in (reference, other)
+    ]
+    return sorted(keys[0] & keys[1])
+
+
+def _budget_differences(
+    frame: pd.DataFrame, reference: str, other: str, windows: list[tuple[Any, ...]]
+) -> np.ndarray:
+    """Per window: mean over shared seeds of (other's J at the reference run's nfev − reference's final J)."""
+    keyed = frame.set_index([*WINDOW_KEY, "seed"])
+    ref, mine = keyed[keyed["optimizer"] == reference], keyed[keyed["optimizer"] == other]
+    out = []
+    for window in windows:
+        a, b = ref.loc[window], mine.loc[window]
+        seeds = a.index.intersection(b.index)
+        gaps = [
+            value_at_budget(b.loc[s, "history"], b.loc[s, "history_nfev"], a.loc[s, "nfev"]) - a.loc[s, "fun"]
+            for s in seeds
+        ]
+        out.append(float(np.mean(gaps)) if gaps else math.nan)
+    return np.asarray(out, dtype=np.float64)
 
 
 def trace_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -272,27 +361,49 @@ def _number(value: Any, digits: int = 4) -> str:
     return format_number(value, digits)
 
 
-def fixed_target_frames(rows: pd.DataFrame, reference: str) -> tuple[str, dict[str, pd.DataFrame]]:
+FIXED_TARGET_RULES = ("coco", "worse-final")  # the default first; worse-final: v2/v3 only (fixedtarget_retired)
+
+
+def _comparisons(rows: pd.DataFrame, reference: str, rule: str) -> pd.DataFrame:
+    """The comparison rows of ``rule``: :func:`window_comparisons`, or the retired pairing."""
+    if rule not in FIXED_TARGET_RULES:
+        raise ValueError(f"rule: got {rule!r}, expected one of {', '.join(FIXED_TARGET_RULES)}")
+    if rule == "worse-final":
+        from uav_penetration_env.benchmark.fixedtarget_retired import paired_table
+
+        return paired_table(rows, reference)
+    return window_comparisons(rows, reference)
+
+
+def _study(rows: pd.DataFrame, reference: str) -> tuple[str, pd.DataFrame, pd.DataFrame]:
+    """The reference used, the pooled ERT table and the trace table of the compared runs."""
+    ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
+    frame = _parsed(rows)
+    compared, _ = compared_runs(frame, ref)
+    table = ert_table(target_runs(compared, f_best=window_best(frame)), ref)
+    return ref, table, trace_table(compared)
+
+
+def fixed_target_frames(
+    rows: pd.DataFrame, reference: str, rule: str = "coco"
+) -> tuple[str, dict[str, pd.DataFrame]]:
     """The three tables of one scenario's window runs, formatted for display (the HTML report).
 
-    The content of :func:`fixed_target_markdown`'s tables: the ERT per target precision, the paired
-    fixed-budget and fixed-target comparisons with the reference, and the evaluations and state
-    machines per optimiser.
+    The content of :func:`fixed_target_markdown`'s tables: the ERT per target precision, the
+    comparisons with the reference (windows as units, or the retired pairing) and the evaluations
+    and state machines per optimiser.
 
     Args:
         rows: the scenario's ``window_runs`` rows.
-        reference: the optimiser the others are paired with (the first name if it has no rows).
+        reference: the optimiser the others are compared with (the first name if it has no rows).
+        rule: ``coco`` (default) or ``worse-final`` (:data:`FIXED_TARGET_RULES`).
 
     Returns:
-        (the reference used, {title: DataFrame of display strings}); the paired table is empty when
-        no other optimiser shares a (window, seed) with the reference.
+        (the reference used, {title: DataFrame of display strings}); the comparison table is empty
+        when no other optimiser shares a window with the reference.
     """
-    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue
-
-    ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
-    ert = ert_table(target_runs(rows), ref)
-    paired = paired_table(rows, ref)
-    traces = trace_table(rows)
+    ref, ert, traces = _study(rows, reference)
+    comparisons = _comparisons(rows, ref, rule)
     ert_frame = pd.DataFrame(
         {
             "Δ": [f"{value:.0e}" for value in ert["precision"]],
@@ -302,20 +413,12 @@ def fixed_target_frames(rows: pd.DataFrame, reference: str) -> tuple[str, dict[s
             f"ERT / {ref}": [_number(value, 3) for value in ert["ert_ratio"]],
         }
     )
-    paired_frame = pd.DataFrame(
-        [
-            {
-                "comparison": r.comparison,
-                "other": r.other,
-                f"{ref} median": _number(r.reference_median, 6),
-                "other median": _number(r.other_median, 6),
-                "median Δ (other − ref)": _number(r.median_difference, 4),
-                f"{ref} better / other better": f"{r.reference_better} / {r.other_better} of {r.pairs}",
-                "p": format_pvalue(r.pvalue),
-            }
-            for r in paired.itertuples()
-        ]
-    )
+    if rule == "worse-final":
+        from uav_penetration_env.benchmark.fixedtarget_retired import paired_frame
+
+        title, compared = f"Paired per (window, seed) against {ref}", paired_frame(comparisons, ref)
+    else:
+        title, compared = f"Windows as units, against {ref}", _comparison_frame(comparisons, ref)
     trace_frame = pd.DataFrame(
         {
             "optimizer": traces["optimizer"].astype(str),
@@ -329,31 +432,82 @@ def fixed_target_frames(rows: pd.DataFrame, reference: str) -> tuple[str, dict[s
     )
     return ref, {
         "Expected running time (ERT) to the targets f* + Δ|f*|": ert_frame,
-        f"Paired per (window, seed) against {ref}": paired_frame,
+        title: compared,
         "Evaluations and the optimisers' state machines": trace_frame,
     }
 
 
+def _comparison_cells(r: Any) -> list[str]:
+    """One comparison row's display cells (:data:`COMPARISON_HEADER`)."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue
+
+    what = f"fixed target Δ={r.precision:.0e}" if r.comparison == FIXED_TARGET else "fixed budget"
+    statistic = "log10 ERT ratio" if r.comparison == FIXED_TARGET else "J at ref's evaluations − ref's J"
+    return [
+        what, str(r.other), statistic, _number(r.median, 4), f"[{_number(r.ci_low, 4)}, {_number(r.ci_high, 4)}]",
+        f"{r.other_better} / {r.reference_better} of {r.units}" + (f" ({r.undefined} unsolved by both)" if r.undefined else ""),
+        format_pvalue(r.pvalue),
+    ]  # fmt: skip
+
+
+COMPARISON_HEADER = ["comparison", "other", "per-window statistic", "median", "95 % CI", "other better / ref better", "p"]
+
+
+def _comparison_frame(comparisons: pd.DataFrame, ref: str) -> pd.DataFrame:
+    return pd.DataFrame([_comparison_cells(r) for r in comparisons.itertuples()], columns=COMPARISON_HEADER)
+
+
+def _comparison_lines(comparisons: pd.DataFrame, ref: str) -> list[str]:
+    """The windows-as-units section (none without a shared window)."""
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+
+    if comparisons.empty:
+        return []
+    lines = [
+        f"## Windows as units, against {ref}",
+        "",
+        "Each window (one MPC state, all its seeds) is one unit of replication. Fixed target: per window, "
+        f"log10(ERT of the other / ERT of {ref}) at f_best + Δ|f_best| (+∞: only {ref} reached it, −∞: only the "
+        "other; a window neither reached is left out and counted). Fixed budget: per window, the mean over seeds "
+        f"of the other's best-so-far J at {ref}'s evaluation count of the same seed, minus {ref}'s final J. "
+        "Median over windows, percentile-bootstrap 95 % interval over windows, two-sided Wilcoxon signed-rank "
+        "test over windows; p values are raw (a publication's protocol declares its family and correction). "
+        "Negative: the other is faster / cheaper.",
+        "",
+    ]
+    body = [_comparison_cells(r) for r in comparisons.itertuples()]
+    return [*lines, markdown_table(COMPARISON_HEADER, body, ["l", "l", "l", "r", "r", "r", "r"]), ""]
+
+
 def fixed_target_markdown(
-    rows: pd.DataFrame, reference: str, name: str, command: str, date: str = ""
+    rows: pd.DataFrame, reference: str, name: str, command: str, date: str = "", rule: str = "coco"
 ) -> tuple[str, dict[str, pd.DataFrame]]:
     """The Markdown page and the CSV tables of one scenario's window runs.
 
+    Args:
+        rows: the scenario's ``window_runs`` rows.
+        reference: the optimiser the others are compared with (the first name if it has no rows).
+        name: the scenario's name (the page's title).
+        command: the command line recorded in the page.
+        date: the page's date.
+        rule: ``coco`` (default: targets per window, windows as units) or ``worse-final`` (the
+            retired pairing of v2 and v3, :mod:`~.fixedtarget_retired`).
+
     Returns:
-        (the page, {CSV file suffix: table}): ``""`` the ERT rows (:func:`ert_table`),
-        ``"-paired"`` the paired comparisons (:func:`paired_table`, empty without pairs) and
-        ``"-traces"`` the evaluations and state machines (:func:`trace_table`).
+        (the page, {CSV file suffix: table}): ``""`` the pooled ERT rows (:func:`ert_table`); under
+        ``coco`` ``"-windows"`` the comparisons (:func:`window_comparisons`) and ``"-window-ert"``
+        the ERT per (optimiser, window, Δ) (:func:`window_ert_table`); under ``worse-final``
+        ``"-paired"``; and ``"-traces"`` the evaluations and state machines (:func:`trace_table`).
+        A comparison table is empty without a shared window.
 
     The page's date line (``- Date: DATE, by `COMMAND```) is its only line that depends on when and
     from which source (store or exported rows) it was built.
     """
-    ref = reference if reference in set(rows["optimizer"]) else sorted(set(rows["optimizer"]))[0]
-    targets = target_runs(rows)
-    table = ert_table(targets, ref)
-    paired = paired_table(rows, ref)
-    traces = trace_table(rows)
+    ref, table, traces = _study(rows, reference)
+    comparisons = _comparisons(rows, ref, rule)
     windows = rows.drop_duplicates(WINDOW_KEY)
     budgets = sorted(set(pd.to_numeric(rows["max_evals"]).astype(int)))
+    best = "f*" if rule == "worse-final" else "f_best"
     lines = [
         f"# Fixed-target and fixed-budget comparison: {name}",
         "",
@@ -367,15 +521,26 @@ def fixed_target_markdown(
         f"{', '.join(map(str, sorted(set(windows['step'].astype(int)))))}), "
         f"{rows['seed'].nunique()} seeds, budget {', '.join(f'{b:,}' for b in budgets)} evaluations; reference {ref}.",
         "",
-        "## Expected running time (ERT) to the targets f* + Δ|f*|",
+        f"## Expected running time (ERT) to the targets {best} + Δ|{best}|",
         "",
-        "f* is the best cost any run found on the window. ERT = (evaluations of the successful runs to the "
+        f"{best} is the best cost any run found on the window"
+        + ("" if rule == "worse-final" else " (every optimiser and budget, long searches included)")
+        + ". ERT = (evaluations of the successful runs to the "
         "target + evaluations of the unsuccessful runs) / successes, over every window and seed; ∞: no run "
         f"reached it. Ratio: ERT / {ref}'s ERT.",
         "",
     ]
-    lines += _ert_lines(table) + _paired_lines(paired, ref) + _trace_lines(traces)
-    return "\n".join(lines), {"": table, "-paired": paired, "-traces": traces}
+    if rule == "worse-final":
+        from uav_penetration_env.benchmark.fixedtarget_retired import paired_lines
+
+        lines += _ert_lines(table) + paired_lines(comparisons, ref) + _trace_lines(traces)
+        return "\n".join(lines), {"": table, "-paired": comparisons, "-traces": traces}
+    frame = _parsed(rows)
+    compared, _ = compared_runs(frame, ref)
+    per_window = window_ert_table(target_runs(compared, f_best=window_best(frame)))
+    lines += _ert_lines(table) + _comparison_lines(comparisons, ref) + _trace_lines(traces)
+    return "\n".join(lines), {"": table, "-windows": comparisons, "-window-ert": per_window, "-traces": traces}
+
 
 def _ert_lines(table: pd.DataFrame) -> list[str]:
     """The ERT table's Markdown (its heading and explanation precede it on the page)."""
@@ -386,30 +551,6 @@ def _ert_lines(table: pd.DataFrame) -> list[str]:
         for row in table.itertuples()
     ]
     return [markdown_table(["Δ", "optimizer", "solved", "ERT [evals]", "ratio"], body, ["r", "l", "r", "r", "r"]), ""]
-
-
-def _paired_lines(paired: pd.DataFrame, ref: str) -> list[str]:
-    """The paired fixed-budget and fixed-target section (none without pairs)."""
-    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_table
-
-    if paired.empty:
-        return []
-    lines = [
-        f"## Paired per (window, seed) against {ref}",
-        "",
-        f"Fixed budget: the other optimiser's best-so-far J at {ref}'s evaluation count of the same run, "
-        f"against {ref}'s final J. Fixed target: evaluations each needed to reach the worse of the two final "
-        "costs. Δ = other − reference (positive: the other is costlier / slower); two-sided Wilcoxon "
-        "signed-rank test.",
-        "",
-    ]
-    body = [
-        [str(r.comparison), str(r.other), _number(r.reference_median, 6), _number(r.other_median, 6),
-         _number(r.median_difference, 4), f"{r.reference_better} / {r.other_better} of {r.pairs}", format_pvalue(r.pvalue)]
-        for r in paired.itertuples()
-    ]  # fmt: skip
-    header = ["comparison", "other", f"{ref} median", "other median", "median Δ", f"{ref} better / other better", "p"]
-    return [*lines, markdown_table(header, body, ["l", "l", "r", "r", "r", "r", "r"]), ""]
 
 
 def _trace_lines(traces: pd.DataFrame) -> list[str]:
@@ -427,16 +568,23 @@ def _trace_lines(traces: pd.DataFrame) -> list[str]:
 
 
 def write_fixed_target(
-    store_path: str | Path | ResultTables, out_dir: str | Path, *, reference: str = "ihpso", command: str = ""
+    store_path: str | Path | ResultTables,
+    out_dir: str | Path,
+    *,
+    reference: str = "ihpso",
+    command: str = "",
+    rule: str = "coco",
 ) -> list[Path]:
     """Write a scenario's fixed-target page and its tables, per scenario whose window runs the store holds.
 
-    Per scenario: ``<stem>-fixed-target.md`` (the page), ``<stem>-fixed-target.csv`` (ERT per
-    optimiser and target precision, :func:`ert_table`), ``<stem>-fixed-target-paired.csv`` (the
-    paired fixed-budget and fixed-target comparisons, :func:`paired_table`; absent when no other
-    optimiser shares a (window, seed) with the reference) and ``<stem>-fixed-target-traces.csv``
+    Per scenario: ``<stem>-fixed-target.md`` (the page), ``<stem>-fixed-target.csv`` (pooled ERT
+    per optimiser and target precision, :func:`ert_table`), ``<stem>-fixed-target-windows.csv``
+    (the comparisons with windows as units, :func:`window_comparisons`; absent when no other
+    optimiser shares a window with the reference), ``<stem>-fixed-target-window-ert.csv`` (ERT per
+    optimiser, window and Δ, :func:`window_ert_table`) and ``<stem>-fixed-target-traces.csv``
     (evaluations and state machines per optimiser, :func:`trace_table`), so every number on the page
-    is also a row a script can read.
+    is also a row a script can read. Under ``rule="worse-final"`` (v2 and v3 only) the comparisons
+    are the retired ``-fixed-target-paired.csv`` and there is no per-window ERT file.
 
     The stem is the scenario's leaderboard stem (:func:`~.leaderboard.scenario_groups`), or its
     sanitised name when the store has no episodes of that scenario hash.
@@ -446,10 +594,11 @@ def write_fixed_target(
         out_dir: output folder (created if needed).
         reference: the optimiser the others are paired with (default IHPSO; the first name if absent).
         command: the command line recorded in the page.
+        rule: ``coco`` or ``worse-final`` (:data:`FIXED_TARGET_RULES`).
 
     Returns:
-        The written paths (per scenario, sorted by stem: the Markdown, then the ERT, paired and
-        traces CSVs); none without window runs.
+        The written paths (per scenario, sorted by stem: the Markdown, then the CSVs); none without
+        window runs.
     """
     from uav_penetration_env.atomic import atomic_path, write_text_atomic
     from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
@@ -469,7 +618,7 @@ def write_fixed_target(
     date = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
     for stem, group in by_stem:
         markdown, csv_tables = fixed_target_markdown(
-            group, reference, str(group["scenario"].iloc[0]), command, date
+            group, reference, str(group["scenario"].iloc[0]), command, date, rule=rule
         )
         written.append(write_text_atomic(out_dir / f"{stem}-fixed-target.md", markdown))
         for suffix, frame in csv_tables.items():

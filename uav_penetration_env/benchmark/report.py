@@ -78,6 +78,7 @@ class ReportContext:
     figures: Sequence[Path] = ()
     reference: str = "ihpso"
     min_seeds: int = 1
+    fixed_target_rule: str = "coco"
     _store: ResultsStore | None = field(default=None, repr=False)
 
     @property
@@ -217,6 +218,7 @@ def write_report(
     figures: Sequence[str | Path] = (),
     reference: str = "ihpso",
     min_seeds: int = 1,
+    fixed_target_rule: str = "coco",
 ) -> Path:
     """Write ``out_dir/index.html`` for a results store, atomically.
 
@@ -228,6 +230,7 @@ def write_report(
         reference: the optimiser the fixed-target section pairs the others with.
         min_seeds: 3-D views only for scenarios flown with at least this many seeds (at most
             ``MAX_3D_VIEWS`` of them, those with the most episodes first).
+        fixed_target_rule: the window comparisons' rule (:data:`~.fixedtarget.FIXED_TARGET_RULES`).
 
     Returns:
         The path of ``index.html``.
@@ -245,6 +248,7 @@ def write_report(
         figures=[Path(f) for f in figures if str(f).endswith(".png")],
         reference=reference,
         min_seeds=min_seeds,
+        fixed_target_rule=fixed_target_rule,
     )
     try:
         page = render_report(context)
@@ -516,15 +520,16 @@ def _fixed_target(context: ReportContext) -> str:
 
     parts = [
         "<p>From <code>uav-bench windows</code>: every optimiser rerun on the same stored MPC window "
-        "states, many seeds (api.md §4.8). f* is the best cost any run found on a window; the targets "
-        "are f* + Δ|f*|. ERT = (evaluations of the successful runs to the target + evaluations of the "
-        "unsuccessful runs) / successes. Paired: fixed budget = the other's best-so-far J at the "
-        "reference's evaluation count against the reference's final J; fixed target = evaluations each "
-        "needed to reach the worse of the two final costs; two-sided Wilcoxon signed-rank test.</p>"
+        "states, many seeds (api.md §4.8). f_best is the best cost any run (long searches included) found "
+        "on a window; the targets are f_best + Δ|f_best|. ERT = (evaluations of the successful runs to the "
+        "target + evaluations of the unsuccessful runs) / successes. Windows are the units: per window, "
+        "log10(ERT other / ERT reference) at each target, and the other's best-so-far J at the "
+        "reference's evaluation count minus the reference's final J; median over windows, bootstrap "
+        "interval over windows, two-sided Wilcoxon signed-rank test over windows (raw p).</p>"
     ]
     for scenario_hash, group in rows.groupby("scenario_hash", sort=True):
         name = context.scenarios.get(scenario_hash, (str(group["scenario"].iloc[0]), ""))[0]
-        reference, frames = fixed_target_frames(group, context.reference)
+        reference, frames = fixed_target_frames(group, context.reference, context.fixed_target_rule)
         parts.append(f"<h3>{html.escape(str(name))} (reference {html.escape(reference)})</h3>")
         for title, frame in frames.items():
             if not frame.empty:

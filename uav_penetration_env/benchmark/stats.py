@@ -17,6 +17,7 @@ transformations and is what ``rliable`` reports for IQM.
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -276,6 +277,109 @@ def wilcoxon_vs_reference(table: pd.DataFrame, reference: str) -> pd.DataFrame:
     return frame
 
 
+def label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
+    """A bootstrap seed for one label and statistic that does not depend on which other labels exist.
+
+    Args:
+        seed: the table's base seed.
+        label: the policy, method or comparison the interval belongs to (its SHA-256 enters the seed).
+        purpose: a small integer per statistic, so two intervals of one label draw apart.
+    """
+    digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
+    return np.random.SeedSequence([int(seed), digest, purpose])
+
+
+def extended_median(values: ArrayLike, *, axis: int = -1) -> float | np.ndarray:
+    """The median over the extended reals: ``±inf`` are ordinary values at the ends of the order.
+
+    An even count averages the two middle values (``inf`` with a finite value is ``inf``); two
+    middle values of opposite infinite sign give 0, the midpoint of a symmetric split.
+
+    Args:
+        values: any shape, no NaN.
+        axis: the axis reduced.
+
+    Raises:
+        ValueError: a NaN value.
+    """
+    x = np.sort(np.asarray(values, dtype=np.float64), axis=axis)
+    if np.isnan(x).any():
+        raise ValueError("values: got NaN, expected numbers or ±inf")
+    n = x.shape[axis]
+    if n == 0:
+        return float("nan")
+    low = np.take(x, (n - 1) // 2, axis=axis)
+    high = np.take(x, n // 2, axis=axis)
+    opposite = np.isinf(low) & np.isinf(high) & (np.sign(low) != np.sign(high))
+    with np.errstate(invalid="ignore"):
+        middle = np.where(opposite, 0.0, (low + high) / 2.0)
+    return float(middle) if np.ndim(middle) == 0 else middle
+
+
+def unit_comparison(
+    differences: ArrayLike,
+    *,
+    seed: RNGLike,
+    n_resamples: int = 10_000,
+    confidence: float = 0.95,
+) -> dict[str, float]:
+    """Paired differences over units of replication (windows, maps): median, its interval and a test.
+
+    Each value is one unit's difference other − reference; ``+inf`` means only the reference
+    succeeded on that unit, ``-inf`` only the other (fixed-target runtimes, api.md §4.8); NaN units
+    (neither succeeded) are left out and counted.
+
+    * ``median``: :func:`extended_median` of the differences;
+    * ``ci_low``, ``ci_high``: percentile bootstrap of that median over the units (resampled with
+      replacement, ``n_resamples`` times); the bounds are order statistics of the resampled medians
+      (``lower`` and ``higher`` quantiles), so they stay defined with infinite values;
+    * ``statistic``, ``pvalue``: the two-sided Wilcoxon signed-rank test over the units, an infinite
+      difference ranked above every finite one (it is replaced by ±(1 + the largest finite
+      magnitude), which keeps every rank); zero differences are dropped (scipy's ``wilcox``); all
+      zero gives p = 1;
+    * ``units``, ``other_better`` (difference < 0), ``reference_better`` (> 0), ``undefined`` (NaN).
+
+    Args:
+        differences: (n,) one value per unit.
+        seed: the bootstrap's seed (anything :func:`numpy.random.default_rng` accepts).
+        n_resamples: bootstrap resamples.
+        confidence: the interval's level in (0, 1).
+    """
+    d = np.asarray(differences, dtype=np.float64).ravel()
+    defined = d[~np.isnan(d)]
+    out = {
+        "units": int(defined.size),
+        "other_better": int(np.sum(defined < 0)),
+        "reference_better": int(np.sum(defined > 0)),
+        "undefined": int(d.size - defined.size),
+        "median": float("nan"),
+        "ci_low": float("nan"),
+        "ci_high": float("nan"),
+        "statistic": float("nan"),
+        "pvalue": float("nan"),
+    }
+    if defined.size == 0:
+        return out
+    out["median"] = float(extended_median(defined))
+    if defined.size >= 2:
+        rng = np.random.default_rng(seed)
+        resampled = defined[rng.integers(0, defined.size, size=(int(n_resamples), defined.size))]
+        medians = extended_median(resampled, axis=1)
+        alpha = (1.0 - confidence) / 2.0
+        out["ci_low"] = float(np.quantile(medians, alpha, method="lower"))
+        out["ci_high"] = float(np.quantile(medians, 1.0 - alpha, method="higher"))
+    nonzero = defined[defined != 0.0]
+    if nonzero.size == 0:
+        out["statistic"], out["pvalue"] = 0.0, 1.0
+        return out
+    finite = nonzero[np.isfinite(nonzero)]
+    cap = 1.0 + (float(np.max(np.abs(finite))) if finite.size else 0.0)
+    ranked = np.where(np.isinf(nonzero), np.sign(nonzero) * cap, nonzero)
+    result = stats.wilcoxon(ranked, alternative="two-sided")
+    out["statistic"], out["pvalue"] = float(result.statistic), float(result.pvalue)
+    return out
+
+
 def minimum_wilcoxon_pvalue(n_pairs: int) -> float:
     """The smallest two-sided exact Wilcoxon p-value attainable with ``n_pairs`` non-zero pairs: 2 / 2^n.
 
@@ -287,11 +391,14 @@ def minimum_wilcoxon_pvalue(n_pairs: int) -> float:
 __all__ = [
     "FriedmanResult",
     "bootstrap_ci",
+    "extended_median",
     "friedman_ranks",
     "holm",
     "iqm",
+    "label_seed",
     "minimum_wilcoxon_pvalue",
     "paired_difference_ci",
+    "unit_comparison",
     "wilcoxon_vs_reference",
     "wilson_interval",
 ]

@@ -30,6 +30,7 @@ BUILTIN_COMMANDS = (
     "suite",
     "compile",
     "store",
+    "protocol",
 )
 
 

@@ -315,6 +315,32 @@ def add_replace_out_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_fixed_target_rule_argument(parser: argparse.ArgumentParser) -> None:
+    """``--fixed-target-rule``: how the window studies are compared (api.md §4.8); checked by :func:`fixed_target_rule`."""
+    parser.add_argument(
+        "--fixed-target-rule",
+        default="coco",
+        metavar="RULE",
+        help="the window comparisons: coco (default: targets per window from every run, windows as units) or "
+        "worse-final (retired: the pair's worse final as target; only to rebuild leaderboards v2 and v3)",
+    )
+
+
+def fixed_target_rule(args: argparse.Namespace) -> str:
+    """The checked ``--fixed-target-rule`` (one of :data:`~..fixedtarget.FIXED_TARGET_RULES`).
+
+    Raises:
+        CLIError: another value.
+    """
+    from uav_penetration_env.benchmark.fixedtarget import FIXED_TARGET_RULES
+
+    if args.fixed_target_rule not in FIXED_TARGET_RULES:
+        raise CLIError(
+            f"--fixed-target-rule: got {args.fixed_target_rule!r}, expected one of {', '.join(FIXED_TARGET_RULES)}"
+        )
+    return str(args.fixed_target_rule)
+
+
 def check_writable_folder(path: Path, flag: str, value: str | Path | None = None) -> None:
     """Create ``path`` if needed and check a file can be written there.
 

@@ -17,6 +17,7 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_STORE,
     CLIError,
     Command,
+    add_fixed_target_rule_argument,
     add_replace_out_argument,
     add_store_argument,
     check_out_folder,
@@ -24,6 +25,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    fixed_target_rule,
     path_argument,
     record_out_folder,
     reference_names,
@@ -51,6 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--suite", help="one table over all the store's scenarios, named SUITE (blocks = scenario x seed)"
     )
+    add_fixed_target_rule_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
     from uav_penetration_env.benchmark.rows import RowsError, read_chunks
 
+    rule = fixed_target_rule(args)
     if args.rows is not None and args.store is not None:
         raise CLIError("--rows and --store: give one source of results, not both")
     if args.rows is not None:
@@ -106,7 +110,11 @@ def run(args: argparse.Namespace) -> int:
         []
         if args.suite
         else write_fixed_target(
-            store, Path(args.out), reference=args.reference or "ihpso", command=command_line(args)
+            store,
+            Path(args.out),
+            reference=args.reference or "ihpso",
+            command=command_line(args),
+            rule=rule,
         )
     )
     record_out_folder(Path(args.out), source)

@@ -19,6 +19,7 @@ from uav_penetration_env.benchmark.commands.common import (
     DEFAULT_OUT,
     CLIError,
     Command,
+    add_fixed_target_rule_argument,
     add_replace_out_argument,
     add_store_argument,
     check_out_folder,
@@ -26,6 +27,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     command_line,
     existing_store,
+    fixed_target_rule,
     path_argument,
     record_out_folder,
     reference_names,
@@ -53,6 +55,7 @@ def write_results(
     altitude: float | None = None,
     min_seeds: int = 1,
     extra_figures: Sequence[Path] = (),
+    fixed_target_rule: str = "coco",
 ) -> Written:
     """Write the leaderboards, the figures and ``out/index.html`` of ``store``.
 
@@ -67,6 +70,7 @@ def write_results(
         min_seeds: per-scenario figures and 3-D views only for scenarios flown with at least this
             many seeds (``write_figures``).
         extra_figures: PNG files drawn elsewhere (e.g. learning curves, ``plot --models``) to embed too.
+        fixed_target_rule: the window comparisons' rule (:data:`~..fixedtarget.FIXED_TARGET_RULES`).
 
     Returns:
         The written paths.
@@ -78,7 +82,7 @@ def write_results(
 
     tables = write_leaderboards(store, out, reference=reference, command=command)
     # Window runs (uav-bench windows): the fixed-target pages beside the leaderboards (api.md §4.8).
-    fixed_target = write_fixed_target(store, out, reference=reference, command=command)
+    fixed_target = write_fixed_target(store, out, reference=reference, command=command, rule=fixed_target_rule)
     figures = write_figures(store, out, formats=formats, altitude=altitude, min_seeds=min_seeds)
     page = write_report(
         store,
@@ -87,6 +91,7 @@ def write_results(
         figures=[*figures, *extra_figures],
         reference=reference,
         min_seeds=min_seeds,
+        fixed_target_rule=fixed_target_rule,
     )
     return Written(tables=tables, figures=figures, report=page, fixed_target=fixed_target)
 
@@ -120,6 +125,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_altitude_argument(parser)
     add_min_seeds_argument(parser)
+    add_fixed_target_rule_argument(parser)
     parser.add_argument(
         "--figures",
         nargs="+",
@@ -143,6 +149,7 @@ def _readable_png(path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Write the tables, figures and page; print the summary and where they are."""
+    rule = fixed_target_rule(args)
     store = existing_store(args.store)
     from uav_penetration_env.benchmark.rows import store_tables
 
@@ -165,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
         altitude=args.altitude,
         min_seeds=args.min_seeds,
         extra_figures=extra,
+        fixed_target_rule=rule,
     )
     record_out_folder(out, store)
     print_written(written, out)

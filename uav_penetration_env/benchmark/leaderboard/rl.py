@@ -20,7 +20,6 @@ whose label has no ``-sN`` is a group of one.
 
 from __future__ import annotations
 
-import hashlib
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -39,6 +38,7 @@ from uav_penetration_env.benchmark.leaderboard.formatting import (
 )
 from uav_penetration_env.benchmark.leaderboard.groups import prepare_episodes
 from uav_penetration_env.benchmark.leaderboard.table import relative_gaps
+from uav_penetration_env.benchmark.stats import label_seed
 
 TRAINING_SEED = re.compile(r"-s\d+$")
 SWARM_FAMILY = "paper planners (MPC)"
@@ -125,12 +125,6 @@ def run_scores(episodes: pd.DataFrame, method: Method, column: str = "total_cost
     run = "label" if method.grouped else _seed_column(rows)
     table = rows.groupby([run, task])[column].mean().unstack(task).sort_index()
     return table.dropna(axis=1 if method.grouped else 0, how="any")
-
-
-def label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
-    """A bootstrap seed for one method and statistic that does not depend on the other methods present."""
-    digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
-    return np.random.SeedSequence([int(seed), digest, purpose])
 
 
 def _estimate(table: pd.DataFrame, statistic: str, seed: np.random.SeedSequence, n: int) -> rl_stats.Estimate:

@@ -47,7 +47,8 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
 )
 from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables
 from uav_penetration_env.benchmark.leaderboard.rl import rl_markdown, rl_table
-from uav_penetration_env.benchmark.leaderboard.table import CONFIDENCE, _label_seed, leaderboard_table
+from uav_penetration_env.benchmark.leaderboard.table import CONFIDENCE, leaderboard_table
+from uav_penetration_env.benchmark.stats import label_seed
 
 if TYPE_CHECKING:  # imported where used: the suites package reads YAML and builds scenarios
     from uav_penetration_env.suites import Suite, SuiteMember
@@ -148,7 +149,7 @@ def equal_weight_table(
         low, high = stats.bootstrap_ci(
             success,
             np.mean,
-            seed=_label_seed(seed, str(label), 7),
+            seed=label_seed(seed, str(label), 7),
             n_resamples=n_resamples,
             confidence=CONFIDENCE,
         )

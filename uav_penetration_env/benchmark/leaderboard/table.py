@@ -11,7 +11,6 @@ label)``, so a policy's intervals do not depend on which other policies are in t
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from typing import Any
 
@@ -37,12 +36,6 @@ GAP_COLUMNS = (
 )
 
 BestKnownLookup = Callable[[str], "float | None"]
-
-
-def _label_seed(seed: int, label: str, purpose: int) -> np.random.SeedSequence:
-    """A bootstrap seed for one policy and statistic that does not depend on which other policies exist."""
-    digest = int.from_bytes(hashlib.sha256(label.encode()).digest()[:8], "little")
-    return np.random.SeedSequence([int(seed), digest, purpose])
 
 
 def leaderboard_table(
@@ -214,10 +207,10 @@ def _policy_row(
         "success_rate_ci_high": success_ci[1],
         "total_cost_mean": float(cost.mean()) if n else np.nan,
     }
-    low, high = stats.bootstrap_ci(cost, np.mean, seed=_label_seed(seed, label, 0), n_resamples=n_resamples)
+    low, high = stats.bootstrap_ci(cost, np.mean, seed=stats.label_seed(seed, label, 0), n_resamples=n_resamples)
     row["total_cost_mean_ci_low"], row["total_cost_mean_ci_high"] = low, high
     row["total_cost_iqm"] = stats.iqm(cost) if n else np.nan
-    low, high = stats.bootstrap_ci(cost, stats.iqm, seed=_label_seed(seed, label, 1), n_resamples=n_resamples)
+    low, high = stats.bootstrap_ci(cost, stats.iqm, seed=stats.label_seed(seed, label, 1), n_resamples=n_resamples)
     row["total_cost_iqm_ci_low"], row["total_cost_iqm_ci_high"] = low, high
     row.update({column.out: aggregate(column, valid) for column in aggregated_columns("means")})
     row["friedman_rank"] = float(friedman.ranks.get(label, np.nan))
@@ -286,10 +279,10 @@ def _gaps(gaps: np.ndarray, label: str, seed: int, n_resamples: int) -> dict[str
     if not gaps.size:
         return dict.fromkeys(GAP_COLUMNS, np.nan)
     mean_low, mean_high = stats.bootstrap_ci(
-        gaps, np.mean, seed=_label_seed(seed, label, 3), n_resamples=n_resamples
+        gaps, np.mean, seed=stats.label_seed(seed, label, 3), n_resamples=n_resamples
     )
     iqm_low, iqm_high = stats.bootstrap_ci(
-        gaps, stats.iqm, seed=_label_seed(seed, label, 4), n_resamples=n_resamples
+        gaps, stats.iqm, seed=stats.label_seed(seed, label, 4), n_resamples=n_resamples
     )
     row = {
         "gap_mean": float(gaps.mean()),
@@ -335,7 +328,7 @@ def _versus_reference(
     a, b = pairs[label].to_numpy(dtype=np.float64), pairs[ref].to_numpy(dtype=np.float64)
     test = tests.loc[label]
     low, high = (
-        stats.paired_difference_ci(a, b, seed=_label_seed(seed, label, 2), n_resamples=n_resamples)
+        stats.paired_difference_ci(a, b, seed=stats.label_seed(seed, label, 2), n_resamples=n_resamples)
         if len(pairs)
         else (np.nan, np.nan)
     )
