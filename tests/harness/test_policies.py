@@ -98,7 +98,8 @@ def test_mpc_plans_on_the_box_and_warm_starts_from_the_shifted_plan(env):
     expected_x0 = np.vstack([plan[1:], np.zeros((1, 3))]).reshape(-1)
     np.testing.assert_array_equal(spy.calls[1]["x0"], expected_x0)
     record = policy.last_record
-    assert record["nfev"] == 1 and record["planning_seconds"] >= record["objective_seconds"] > 0
+    # The harness times the whole act() (planning_seconds, api.md §4.12); the planner records its objective's share.
+    assert record["nfev"] == 1 and record["objective_seconds"] > 0 and "planning_seconds" not in record
 
 
 def test_mpc_applies_zeros_without_a_finite_plan(env):

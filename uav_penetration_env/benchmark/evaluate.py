@@ -33,6 +33,7 @@ import pandas as pd
 
 from uav_penetration_env import __version__
 from uav_penetration_env.benchmark import workers
+from uav_penetration_env.benchmark.clock import timed
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
 from uav_penetration_env.benchmark.plugins import has_address_repr, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
@@ -120,20 +121,21 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         env = UAVPenetrationEnv(scenario)
         env_seed, policy_seed = episode_seeds(task.seed, scenario.hash)
         observation, info = env.reset(seed=env_seed)
-        policy.reset(env.model, policy_seed)
+        _, setup = timed(policy.reset, env.model, policy_seed)  # per-map setup (V, weights, ...), api.md §4.12
         steps.append(start_row(info))  # step 0: the start state, so no reader replays the reset
         states = [info["state"]]
         done = False
         while not done:
-            tick = time.perf_counter()
-            action = np.asarray(policy.act(observation, info), dtype=np.float64)
-            planning = time.perf_counter() - tick
-            record = {"planning_seconds": planning, **(getattr(policy, "last_record", None) or {})}
+            decided, clock = timed(policy.act, observation, info)
+            action = np.asarray(decided, dtype=np.float64)
+            record = {**(getattr(policy, "last_record", None) or {}),
+                      "planning_seconds": clock.wall, "planning_cpu_seconds": clock.cpu}  # fmt: skip
             observation, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
             steps.append(step_row(info, action, record))
             states.append(info["state"])
         row.update(summarise(EpisodeSteps(steps[1:], np.array(states), info, truncated)))
+        row.update({"setup_seconds": setup.wall, "setup_cpu_seconds": setup.cpu})
         metadata = getattr(policy, "metadata", None)
         if isinstance(metadata, Mapping):
             row.update({k: v for k, v in metadata.items() if k in ("train_timesteps", "train_seconds")})

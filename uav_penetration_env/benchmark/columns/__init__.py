@@ -36,7 +36,14 @@ from uav_penetration_env.benchmark.columns.glossary import (
     glossary_page,
 )
 from uav_penetration_env.benchmark.columns.layout import aggregated_columns, leaderboard_columns, legend_lines
-from uav_penetration_env.benchmark.columns.registry import EPISODE, RL_GROUP, STATISTICS, STEP, WINDOW_RUN
+from uav_penetration_env.benchmark.columns.registry import (
+    EPISODE,
+    MEASURED,
+    RL_GROUP,
+    STATISTICS,
+    STEP,
+    WINDOW_RUN,
+)
 from uav_penetration_env.benchmark.columns.values import (
     numeric_columns,
     sql_types,
@@ -49,6 +56,7 @@ __all__ = [
     "AGGREGATES",
     "EPISODE",
     "GLOSSARY_PAGE_HEADER",
+    "MEASURED",
     "RL_GROUP",
     "SECTIONS",
     "STATISTICS",

@@ -130,6 +130,7 @@ STEP: tuple[Column, ...] = (
     _step("action_dtheta", "REAL", "pitch change of the action [rad] (NULL at the start)", Action(2)),
     _step("nfev", "INTEGER", "objective evaluations spent planning the action (0 without an optimiser)", Planner("nfev", int, 0)),
     _step("planning_seconds", "REAL", "wall-clock seconds the policy took to act", Planner("planning_seconds", float)),
+    _step("planning_cpu_seconds", "REAL", "CPU seconds of the process while the policy acted (api.md §4.12)", Planner("planning_cpu_seconds", float)),
     _step("objective_seconds", "REAL", "seconds of the planning spent inside rollout_cost", Planner("objective_seconds", float, 0.0)),
     _step("plan_cost", "REAL", "the planner's best window cost J^(H) for the action", Planner("plan_cost")),
     _step("history", "TEXT", "JSON list: the optimiser's best-so-far after each iteration", Planner("history")),
@@ -179,6 +180,9 @@ EPISODE: tuple[Column, ...] = (
     _episode("planning_seconds", "REAL", "mean wall-clock seconds per action", _mean("planning_seconds"),
              Board("planning [s/step]", "mean wall-clock seconds per action (machine-dependent; not a benchmark score)", digits=3)),
     _episode("objective_seconds", "REAL", "mean seconds per step spent inside rollout_cost", _mean("objective_seconds")),
+    _episode("planning_cpu_seconds", "REAL", "mean CPU seconds per action (api.md §4.12)", _mean("planning_cpu_seconds")),
+    _episode("setup_seconds", "REAL", "wall-clock seconds of the policy's reset: its per-map setup in this episode (value function, weights; loaded when cached, api.md §4.12)"),
+    _episode("setup_cpu_seconds", "REAL", "CPU seconds of the policy's reset (api.md §4.12)"),
     _episode("episode_seconds", "REAL", "wall-clock seconds of the whole episode"),
     _episode("weights", "TEXT", "the cost weights (w1, w2, w3)"),
     _episode("profile", "TEXT", "the scenario profile: benchmark or paper"),
@@ -191,6 +195,13 @@ EPISODE: tuple[Column, ...] = (
     _episode("error", "TEXT NOT NULL DEFAULT ''", "the exception and traceback when the planner raised, else empty", lambda s: ""),
     _episode("run_id", "INTEGER", "the `runs` row (provenance) of the sweep that wrote the episode"),
     _episode("finished", "TEXT", "UTC time the episode finished (ISO 8601)"),
+)  # fmt: skip
+
+# Columns measured on the machine (durations and times of day): the same seeds give other values on
+# another run, so comparisons of two runs (resume, parallel vs sequential, reproduction) leave them out.
+MEASURED = (
+    "planning_seconds", "planning_cpu_seconds", "objective_seconds", "setup_seconds", "setup_cpu_seconds",
+    "episode_seconds", "finished",
 )  # fmt: skip
 
 STATISTICS: tuple[Column, ...] = (

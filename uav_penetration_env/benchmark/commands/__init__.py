@@ -31,6 +31,7 @@ BUILTIN_COMMANDS = (
     "compile",
     "store",
     "protocol",
+    "timing",
 )
 
 
