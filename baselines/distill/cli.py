@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from baselines.distill.config import DEFAULT_SCENARIOS, DistillConfig
+from baselines.distill.config import DEFAULT_SCENARIOS, DEFAULT_VALIDATION, DistillConfig
 from uav_penetration_env.benchmark.commands.common import CLIError, path_argument
 
 DEFAULTS = DistillConfig()
@@ -26,8 +26,13 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
     add("--out", type=path_argument, required=True, help="the run folder (round data, networks, policy.npz + policy.json)")
     add("--rounds", type=int, default=DEFAULTS.rounds, help=f"DAgger rounds after behaviour cloning (default: {DEFAULTS.rounds})")
     add("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS),
-        help="training scenarios: names, random:SEED, random:A-B, YAML paths; never a held-out or suite seed "
+        help="training scenarios: names, random:SEED, random:A-B, YAML paths; never a published table's map "
         f"(default: {' '.join(DEFAULT_SCENARIOS)})")
+    add("--validation", nargs="*", default=list(DEFAULT_VALIDATION),
+        help="scenarios the rounds are selected on, apart from the training ones and every published table "
+        f"(default: {' '.join(DEFAULT_VALIDATION)}; none: the training scenarios)")
+    add("--allow-published-maps", action="store_true", help="train or validate on a published table's map "
+        "(only to reproduce the v3 networks; their results there are in sample)")
     add("--difficulty", type=float, default=DEFAULTS.difficulty, help="difficulty of the random: forms (default: 0.5)")
     add("--episodes", type=int, default=DEFAULTS.episodes, help="episodes per scenario and round (default: 1)")
     add("--beta0", type=float, default=DEFAULTS.beta0, help=f"expert's share of the steps, beta_k = beta0 * decay^k (default: {DEFAULTS.beta0})")
@@ -39,7 +44,7 @@ def add_distill_arguments(parser: argparse.ArgumentParser) -> None:
     add("--loss", default=DEFAULTS.loss, help="mse: the normalised action's channels alike; mse-std: each divided by "
         f"its spread in the round-0 labels (default: {DEFAULTS.loss})")
     add("--select", default=DEFAULTS.select, help="the policy is the round with the best mean validation cost on the "
-        f"training scenarios (best) or the last round (last; default: {DEFAULTS.select})")
+        f"--validation scenarios (best) or the last round (last; default: {DEFAULTS.select})")
     add("--head", default=DEFAULTS.head, help="action: the network regresses the whole action; turn: it chooses one "
         "of the lattice's five turns, flown with the lattice's speed and terrain-following pitch (docs/rl.md §4.8); "
         "turn-value: the turn head as a residual on the value-greedy rule (needs --features value; docs/rl.md §4.9; "
@@ -66,7 +71,8 @@ def distill_command(args: argparse.Namespace) -> int:
         rounds=args.rounds, episodes=args.episodes, beta0=args.beta0, decay=args.decay, hidden=tuple(args.hidden),
         epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate, seed=args.seed,
         torch_threads=args.torch_threads, loss=args.loss, select=args.select, head=args.head,
-        ignore=tuple(args.ignore), features=tuple(args.features),
+        ignore=tuple(args.ignore), features=tuple(args.features), validation=tuple(args.validation),
+        allow_published_maps=bool(args.allow_published_maps),
     )  # fmt: skip
     try:
         config = checked(config)

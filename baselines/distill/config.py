@@ -27,8 +27,12 @@ RESERVED_SEEDS: dict[str, range] = {
     "the learning curves": range(20000, 20020),
     "the suite uavpen-v1": range(30000, 30220),
     "the tuning validation": range(40000, 40050),
+    "the held-out set uavpen-heldout-v2": range(70000, 70050),
 }
-DEFAULT_SCENARIOS = ("paper", "random:50000-50019")
+# DECISION (docs/rl.md §4.4): procedural maps only, apart from every published table (the paper
+# scenario is a member of uavpen-v1): training on 40 maps, round selection on 20 others.
+DEFAULT_SCENARIOS = ("random:50000-50039",)
+DEFAULT_VALIDATION = ("random:60000-60019",)
 LOSSES = ("mse", "mse-std")
 SELECTIONS = ("best", "last")
 HEADS = ("action", "turn", "turn-value")  # what the network's outputs mean (baselines.distill.heads)
@@ -68,6 +72,12 @@ class DistillConfig:
         features: inputs appended to the observation (names of
             :data:`baselines.distill.features.FEATURE_SETS`, e.g. ``value``: the cost-to-go field
             around the pose; docs/rl.md §4.9).
+        validation: scenario specs the rounds' networks are flown on to select one (``select
+            best``), apart from the training scenarios; empty: the training scenarios (the rule
+            of the v3 networks).
+        allow_published_maps: train or validate on the map of a published table (only to
+            reproduce the v3 networks, which were trained on the paper scenario; their results on
+            those tables are in sample).
 
     DECISION (docs/rl.md §4.1): beta_k = beta0 * decay**k with beta0 = 1 and decay = 0.5, Ross,
     Gordon & Bagnell's schedule beta_i = p**(i-1) with p = 1/2: round 0 is the expert alone
@@ -75,11 +85,11 @@ class DistillConfig:
     16, so the data soon come from the learner's own state distribution while the first refits,
     from a weak network, still see mostly the expert's route.
 
-    DECISION (docs/rl.md §4.4): the default training scenarios are the paper scenario and the
-    procedural scenarios of seeds 50000-50019 at difficulty 0.5, one episode each per round: the
-    paper scenario is the one the greedy floor is measured on, the procedural ones (disjoint from
-    every evaluation seed, :data:`RESERVED_SEEDS`) give the network other terrain and radar
-    layouts, so it is not a lookup table of one route.
+    DECISION (docs/rl.md §4.4): the default training scenarios are the procedural scenarios of
+    seeds 50000-50039 at difficulty 0.5, one episode each per round, and the rounds are selected
+    on seeds 60000-60019: no map of a published table (:mod:`uav_penetration_env.suites.published`,
+    checked by :func:`checked`), so every published result of a network is out of sample; 40
+    layouts of terrain and radars keep it from being a lookup table of one route.
     """
 
     out: Path = Path("results/distill/run")
@@ -101,7 +111,10 @@ class DistillConfig:
     head: str = "action"
     ignore: tuple[str, ...] = ()
     features: tuple[str, ...] = ()
+    validation: tuple[str, ...] = DEFAULT_VALIDATION
+    allow_published_maps: bool = False
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
+    _validation_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
     def beta(self, round_index: int) -> float:
         """The probability that the expert flies a step of round ``round_index`` (1 in round 0)."""
@@ -127,6 +140,8 @@ class DistillConfig:
             **({"head": self.head} if self.head != "action" else {}),
             **({"ignore": list(self.ignore)} if self.ignore else {}),
             **({"features": list(self.features)} if self.features else {}),
+            # Validation maps select the round; folders made before them (validated on the training maps) continue.
+            **({"validation": list(self.validation)} if self.validation else {}),
         }
 
 
@@ -180,8 +195,8 @@ def ignored_slots(names: tuple[str, ...], width: int = OBSERVATION_SIZE) -> np.n
     return mask
 
 
-def _check_seeds(spec: str) -> None:
-    """Refuse a procedural training scenario whose seed a published result is measured on."""
+def _check_seeds(spec: str, flag: str = "--scenarios") -> None:
+    """Refuse a procedural training or validation scenario whose seed a published result is measured on."""
     if not spec.startswith(RANDOM_PREFIX):
         return
     seeds = random_seeds(spec)
@@ -189,8 +204,8 @@ def _check_seeds(spec: str) -> None:
         clash = [s for s in seeds if s in reserved]
         if clash:
             raise ValueError(
-                f"--scenarios: got {spec!r}, whose seed {clash[0]} belongs to {what} "
-                f"({reserved.start}-{reserved.stop - 1}); train on other seeds, e.g. random:50000-50019"
+                f"{flag}: got {spec!r}, whose seed {clash[0]} belongs to {what} "
+                f"({reserved.start}-{reserved.stop - 1}); use other seeds, e.g. random:50000-50039"
             )
 
 
@@ -213,15 +228,35 @@ def checked(config: DistillConfig) -> DistillConfig:
         raise ValueError(f"--expert: got {config.expert!r}, expected a policy spec or a Policy object")
     if not config.scenarios:
         raise ValueError("--scenarios: got none, expected one or more scenario specs")
-    scenarios: list[Scenario] = []
-    for spec in config.scenarios:
-        if isinstance(spec, Scenario):
-            scenarios.append(spec)
-            continue
-        _check_seeds(spec)
-        try:
-            scenarios.extend(resolve_scenarios(spec, config.difficulty))
-        except Exception as error:  # the catalogue's errors name the scenario; the flag is ours
-            raise ValueError(f"--scenarios: {error}") from None
+    scenarios = _resolved(config.scenarios, config.difficulty, "--scenarios")
+    validation = _resolved(config.validation, config.difficulty, "--validation")
+    if not config.allow_published_maps:
+        from uav_penetration_env.suites.published import check_unpublished
+
+        check_unpublished(scenarios, "--scenarios")
+        check_unpublished(validation, "--validation")
+    shared = {s.map_hash for s in scenarios} & {s.map_hash for s in validation}
+    if shared:
+        name = next(s.name for s in validation if s.map_hash in shared)
+        raise ValueError(f"--validation: {name!r} is also a training map; expected maps apart from --scenarios")
     names = tuple(s if isinstance(s, str) else s.name for s in config.scenarios)
-    return dataclasses.replace(config, out=Path(config.out), scenarios=names, _scenario_objects=tuple(scenarios))
+    return dataclasses.replace(
+        config, out=Path(config.out), scenarios=names, _scenario_objects=tuple(scenarios),
+        validation=tuple(s if isinstance(s, str) else s.name for s in config.validation),
+        _validation_objects=tuple(validation),
+    )  # fmt: skip
+
+
+def _resolved(specs: tuple[Any, ...], difficulty: float, flag: str) -> list[Scenario]:
+    """Scenario objects of ``specs`` (names, ``random:`` forms, YAML paths or objects), reserved seeds refused."""
+    out: list[Scenario] = []
+    for spec in specs:
+        if isinstance(spec, Scenario):
+            out.append(spec)
+            continue
+        _check_seeds(spec, flag)
+        try:
+            out.extend(resolve_scenarios(spec, difficulty))
+        except Exception as error:  # the catalogue's errors name the scenario; the flag is ours
+            raise ValueError(f"{flag}: {error}") from None
+    return out

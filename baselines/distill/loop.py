@@ -48,13 +48,16 @@ class _Context:
     def __init__(self, config: DistillConfig) -> None:
         self.config = config
         self.scenarios = config._scenario_objects or ()
+        # The maps the rounds are selected on: the validation maps, or (folders made before them) the training maps.
+        self.validation = config._validation_objects or self.scenarios
         self.expert = _make_expert(config.expert)
-        self._envs: dict[int, UAVPenetrationEnv] = {}
+        self._envs: dict[tuple[str, int], UAVPenetrationEnv] = {}
 
-    def env(self, index: int) -> UAVPenetrationEnv:
-        if index not in self._envs:
-            self._envs[index] = UAVPenetrationEnv(self.scenarios[index])
-        return self._envs[index]
+    def env(self, index: int, validation: bool = False) -> UAVPenetrationEnv:
+        key = ("validation" if validation else "training", index)
+        if key not in self._envs:
+            self._envs[key] = UAVPenetrationEnv((self.validation if validation else self.scenarios)[index])
+        return self._envs[key]
 
 
 def _make_expert(expert: Any) -> Any:
@@ -68,7 +71,9 @@ def _make_expert(expert: Any) -> Any:
 def run_key(config: DistillConfig) -> dict[str, Any]:
     """What a run folder was made with: the config's key and the training scenarios' hashes."""
     scenarios = config._scenario_objects or ()
-    return {"format": FORMAT, **config.key(), "scenario_hashes": [s.hash for s in scenarios]}
+    validation = config._validation_objects or ()
+    return {"format": FORMAT, **config.key(), "scenario_hashes": [s.hash for s in scenarios],
+            **({"validation_hashes": [s.hash for s in validation]} if validation else {})}  # fmt: skip
 
 
 def _check_key(folder: RunFolder, key: dict[str, Any]) -> None:
@@ -198,14 +203,17 @@ def run_round(context: _Context, folder: RunFolder, key: dict[str, Any], k: int,
 
 
 def validate(context: _Context, arrays: dict[str, np.ndarray]) -> list[dict[str, Any]]:
-    """The network alone on each training scenario (one episode, no expert): its cost per scenario.
+    """The network alone on each validation scenario (one episode, no expert): its cost per scenario.
 
-    The same seeds for every round, so the rounds' networks are compared on the same starts.
+    The same seeds for every round, so the rounds' networks are compared on the same starts. The
+    validation scenarios are apart from the training ones and from every published table
+    (:class:`~baselines.distill.config.DistillConfig`); a folder made before they existed
+    validates on its training scenarios.
     """
     rows = []
-    for i, scenario in enumerate(context.scenarios):
+    for i, scenario in enumerate(context.validation):
         seeds = np.random.SeedSequence([context.config.seed, VALIDATION_STREAM, i])
-        row = fly_learner(context.env(i), learner_of(arrays), seeds)
+        row = fly_learner(context.env(i, validation=True), learner_of(arrays), seeds)
         rows.append({"scenario": scenario.name, **row})
     return rows
 
@@ -214,7 +222,7 @@ def select_round(rounds: list[dict[str, Any]], rule: str) -> int:
     """The round whose network becomes the policy: the last, or the lowest mean validation cost.
 
     DECISION (docs/rl.md §4.5): by default the round with the lowest mean validation cost (total
-    J + failure penalty, the tuning objective of §1.1) over the training scenarios, ties to the
+    J + failure penalty, the tuning objective of §1.1) over the validation scenarios, ties to the
     later round, as Ross et al. return the best of the rounds' policies on validation: the last
     refit is the one network never flown before it is chosen, and one refit can break a route
     the previous network flew (measured in §4.6). The held-out scenarios are never used to choose.

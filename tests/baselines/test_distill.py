@@ -53,7 +53,7 @@ class LinearExpert:
 def tiny_config(out, **changes):
     base = dict(
         out=out, expert=LinearExpert(), scenarios=(tiny_scenario(),), rounds=1, epochs=5,
-        batch_size=64, hidden=(32, 32), beta0=0.0, seed=3,
+        batch_size=64, hidden=(32, 32), beta0=0.0, seed=3, validation=(),
     )  # fmt: skip
     return DistillConfig(**{**base, **changes})
 

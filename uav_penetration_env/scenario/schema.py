@@ -585,6 +585,21 @@ class Scenario(Checked):
         return from_mapping(cls, data)
 
     @cached_property
+    def map_hash(self) -> str:
+        """16 hex digits of the map alone: area, terrain, radars, start and goal (and the files read).
+
+        Two scenarios that differ only in their name, profile, cost weights, normalisation, airframe
+        or time limits share it (the paper scenario and its second weighting do): what a planner
+        trained on one has seen of the other (docs/publishing.md §6, learned planners out of sample).
+        """
+        data = self.to_dict()
+        payload: Any = {key: data[key] for key in ("map", "start", "goal", "terrain", "radars")}
+        if self.input_digests:
+            payload = [payload, dict(self.input_digests)]
+        text = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @cached_property
     def hash(self) -> str:
         """A 16-hex-digit content hash of every field (weights and normalisation included).
 
