@@ -623,7 +623,28 @@ def _part(row: pd.Series) -> str:
     """One answer as ``TABLE +0.26 [...], Holm p 0.097 (verdict)``, or ``TABLE not flown``."""
     if not row["units"]:
         return f"`{row['table']}` not flown"
-    return f"`{row['table']}` {_difference(row)} ({row['verdict']})"
+    verdict = str(row["verdict"]).replace(" better", " cheaper") if row["measure"] == "total_cost" else row["verdict"]
+    return f"`{row['table']}` {_difference(row)} ({verdict})"
+
+
+def robustness_sentence(answers: pd.DataFrame) -> str:
+    """The exploratory per-form family in one sentence: the tables where every form gives HPSO cheaper.
+
+    DECISION (docs/publishing.md §6): a table's adaptivity answer is robust to the terminal cost when
+    each form's comparison, on the same units as the primary answer and Holm-corrected over forms x
+    tables, gives the same verdict; it is exploratory (the family is ``adaptivity-by-terminal-cost``).
+    """
+    family = answers[(answers["family"] == "adaptivity-by-terminal-cost") & (answers["units"] > 0)]
+    if family.empty:
+        return ""
+    family = family.assign(table_id=family["id"].str.split("-", n=2).str[2])
+    verdicts = family.groupby("table_id", sort=False)["verdict"].agg(list)
+    robust = [t for t, v in verdicts.items() if all(x.startswith("hpso") and x.endswith("better") for x in v)]
+    tables = dict(zip(family["table_id"], family["table"], strict=False))
+    named = ", ".join(f"`{tables[t]}`" for t in robust) or "no table"
+    return (f" Exploratory, under each of the {family['id'].str.split('-').str[1].nunique()} terminal costs "
+            f"(Holm over forms x tables): HPSO is cheaper under every form on {named}, of the "
+            f"{len(verdicts)} tables; elsewhere at least one form shows no significant difference.")
 
 
 def readme_headline(found: dict) -> str:
@@ -654,6 +675,7 @@ def readme_headline(found: dict) -> str:
                   f"HPSO reaches the target with fewer evaluations on most windows in {hpso_first} of {len(windows)} "
                   f"studies (significantly after Holm in {significant}; Holm p "
                   f"{', '.join(f'{p:.3g}' for p in windows['pvalue_adjusted'])}).")  # fmt: skip
+    first += robustness_sentence(found["reread"])
     learned = [a for a in answers.index if a.startswith("learned-")]
     if not learned:
         return first
