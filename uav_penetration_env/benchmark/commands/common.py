@@ -315,6 +315,33 @@ def add_replace_out_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def result_tables(args: argparse.Namespace, default_store: Path | None = None) -> Any:
+    """The row tables of ``--rows STEM ...`` (exported rows or checkpoint folders) or ``--store PATH``.
+
+    Args:
+        args: the parsed flags (``rows``: a list of stems or None; ``store``: a path or None).
+        default_store: the store read when neither is given (None: one of them is required).
+
+    Returns:
+        The :class:`~uav_penetration_env.benchmark.rows.ResultTables`.
+
+    Raises:
+        CLIError: both given, neither (without a default), unreadable rows or a missing store.
+    """
+    from uav_penetration_env.benchmark.rows import RowsError, read_chunks, store_tables
+
+    if args.rows is not None and args.store is not None:
+        raise CLIError("--rows and --store: give one source of results, not both")
+    if args.rows is not None:
+        try:
+            return read_chunks(args.rows)
+        except RowsError as error:
+            raise CLIError(str(error)) from None
+    if args.store is None and default_store is None:
+        raise CLIError("--rows, --store: expected one source of results (exported rows or a checkpoint folder, or a store)")
+    return store_tables(existing_store(args.store if args.store is not None else default_store))
+
+
 def add_fixed_target_rule_argument(parser: argparse.ArgumentParser) -> None:
     """``--fixed-target-rule``: how the window studies are compared (api.md §4.8); checked by :func:`fixed_target_rule`."""
     parser.add_argument(

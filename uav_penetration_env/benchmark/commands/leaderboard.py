@@ -24,11 +24,11 @@ from uav_penetration_env.benchmark.commands.common import (
     check_reference,
     check_writable_folder,
     command_line,
-    existing_store,
     fixed_target_rule,
     path_argument,
     record_out_folder,
     reference_names,
+    result_tables,
 )
 
 
@@ -59,22 +59,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Write the tables; print a compact summary of each and their paths."""
     from uav_penetration_env.benchmark.leaderboard import write_leaderboards
-    from uav_penetration_env.benchmark.rows import RowsError, read_chunks
 
     rule = fixed_target_rule(args)
-    if args.rows is not None and args.store is not None:
-        raise CLIError("--rows and --store: give one source of results, not both")
-    if args.rows is not None:
-        try:
-            store = read_chunks(args.rows)
-        except RowsError as error:
-            raise CLIError(str(error)) from None
-    else:
-        store = existing_store(args.store if args.store is not None else DEFAULT_STORE)
-
-    from uav_penetration_env.benchmark.rows import ResultTables, store_tables
-
-    tables = store if isinstance(store, ResultTables) else store_tables(store)
+    tables = result_tables(args, DEFAULT_STORE)
     if args.reference is not None:  # an explicit name must exist; the default may be absent
         check_reference(args.reference, reference_names(tables))
     store = tables  # read once: the tables below are computed from these rows

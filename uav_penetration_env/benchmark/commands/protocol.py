@@ -15,8 +15,8 @@ from uav_penetration_env.benchmark.commands.common import (
     Command,
     add_store_argument,
     check_writable_folder,
-    existing_store,
     path_argument,
+    result_tables,
 )
 
 
@@ -42,34 +42,24 @@ def run(args: argparse.Namespace) -> int:
         protocol = load_protocol(args.protocol)
     except ProtocolError as error:
         raise CLIError(str(error)) from None
-    if (args.rows is None) == (args.store is None):
-        raise CLIError("--rows, --store: give one source of rows (exported rows or a checkpoint folder, or a store)")
     from uav_penetration_env.benchmark.protocol import primary_answers, success_bar
     from uav_penetration_env.benchmark.protocol_page import answers_markdown
-    from uav_penetration_env.benchmark.rows import RowsError, read_chunks, store_tables
 
-    if args.rows is not None:
-        try:
-            tables = read_chunks(args.rows)
-        except RowsError as error:
-            raise CLIError(str(error)) from None
-        source = " ".join(str(r) for r in args.rows)
-    else:
-        tables = store_tables(existing_store(args.store))
-        source = str(args.store)
+    tables = result_tables(args)
+    source = " ".join(str(r) for r in args.rows) if args.rows is not None else str(args.store)
     answers = primary_answers(protocol, tables.episodes, tables.window_runs)
     success = success_bar(protocol, tables.episodes)
     page = answers_markdown(protocol, answers, success, f"`{source}`")
     print(page)
     if args.out is not None:
-        from uav_penetration_env.atomic import atomic_path, write_text_atomic
+        from uav_penetration_env.atomic import write_text_atomic
+        from uav_penetration_env.benchmark.rows import write_table
 
         out = Path(args.out)
         check_writable_folder(out, "--out")
         write_text_atomic(out / "protocol-answers.md", page + "\n")
         for name, frame in (("protocol-answers.csv", answers), ("protocol-success.csv", success)):
-            with atomic_path(out / name) as temporary:
-                frame.to_csv(temporary, index=False, lineterminator="\n")
+            write_table(frame, out / name, "csv")
         print(f"wrote {out / 'protocol-answers.md'}, protocol-answers.csv and protocol-success.csv")
     return 0
 

@@ -74,13 +74,12 @@ def run(args: argparse.Namespace) -> int:
           "decisions interleaved on the first planner's states; 95 % bootstrap intervals over maps "
           "(over steps with one map)")  # fmt: skip
     if args.out is not None:
-        from uav_penetration_env.atomic import atomic_path
+        from uav_penetration_env.benchmark.rows import write_table
 
         out = Path(args.out)
         for name, frame in (("timing.csv", table.assign(command=command_line(args))),
                             ("timing-setups.csv", setups), ("timing-steps.csv", steps)):  # fmt: skip
-            with atomic_path(out / name) as temporary:
-                frame.to_csv(temporary, index=False, lineterminator="\n")
+            write_table(frame, out / name, "csv")
         print(f"wrote {out / 'timing.csv'}, timing-setups.csv and timing-steps.csv")
     return 0
 
