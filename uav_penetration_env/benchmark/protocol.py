@@ -241,6 +241,55 @@ class Protocol:
         return tuple(c for family in self.families for c in family.comparisons)
 
 
+def _bootstrap(data: Any, where: str) -> tuple[int, int]:
+    """(resamples, seed) of the ``bootstrap`` block."""
+    boot = _keys(data, ("resamples", "seed"), where, required=("resamples", "seed"))
+    out = []
+    for key, least in (("resamples", 100), ("seed", 0)):
+        value = boot[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            raise ProtocolError(f"{where}.{key}: got {value!r}, expected an integer >= {least}")
+        out.append(int(value))
+    return out[0], out[1]
+
+
+def _success(data: Any, seed_sets: Mapping[str, tuple[int, ...]], where: str) -> SuccessBar:
+    """The ``success`` block."""
+    bar = _keys(data, SUCCESS_KEYS, where, required=SUCCESS_KEYS)
+    for key in ("tables", "planners"):
+        if not isinstance(bar[key], list) or not bar[key]:
+            raise ProtocolError(f"{where}.{key}: got {bar[key]!r}, expected a non-empty list")
+    tables = []
+    for i, entry in enumerate(bar["tables"]):
+        at = f"{where}.tables[{i}]"
+        entry = _keys(entry, ("table", "seeds"), at, required=("table", "seeds"))
+        tables.append((_name(entry["table"], f"{at}.table"), _seed_set(entry["seeds"], seed_sets, f"{at}.seeds")))
+    return SuccessBar(
+        bound=_fraction(bar["bound"], f"{where}.bound"),
+        confidence=_fraction(bar["confidence"], f"{where}.confidence"),
+        tables=tuple(tables),
+        planners=tuple(_name(p, f"{where}.planners") for p in bar["planners"]),
+    )
+
+
+def _family(raw: Any, seed_sets: Mapping[str, tuple[int, ...]], where: str) -> Family:
+    """One entry of ``families``."""
+    raw = _keys(raw, FAMILY_KEYS, where, required=FAMILY_KEYS)
+    if raw["correction"] not in CORRECTIONS:
+        raise ProtocolError(f"{where}.correction: got {raw['correction']!r}, expected one of {', '.join(CORRECTIONS)}")
+    if not isinstance(raw["primary"], bool):
+        raise ProtocolError(f"{where}.primary: got {raw['primary']!r}, expected true or false")
+    if not isinstance(raw["comparisons"], list) or not raw["comparisons"]:
+        raise ProtocolError(f"{where}.comparisons: got {raw['comparisons']!r}, expected a non-empty list")
+    comparisons = tuple(
+        Comparison.from_mapping(c, f"{where}.comparisons[{j}]", seed_sets) for j, c in enumerate(raw["comparisons"])
+    )
+    return Family(
+        _name(raw["name"], f"{where}.name"), _name(raw["question"], f"{where}.question"), raw["primary"],
+        raw["correction"], comparisons,
+    )  # fmt: skip
+
+
 def parse_protocol(data: Any, source: str = "protocol") -> Protocol:
     """Check a protocol's content (the YAML file's mapping) and build it.
 
@@ -248,66 +297,15 @@ def parse_protocol(data: Any, source: str = "protocol") -> Protocol:
         ProtocolError: one line naming the first field that is wrong and what was expected.
     """
     data = _keys(data, PROTOCOL_KEYS, source, required=PROTOCOL_KEYS)
-    boot = _keys(
-        data["bootstrap"], ("resamples", "seed"), f"{source}.bootstrap", required=("resamples", "seed")
-    )
-    for key in ("resamples", "seed"):
-        value = boot[key]
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int)
-            or value < (100 if key == "resamples" else 0)
-        ):
-            raise ProtocolError(
-                f"{source}.bootstrap.{key}: got {value!r}, expected an integer >= {100 if key == 'resamples' else 0}"
-            )
+    resamples, seed = _bootstrap(data["bootstrap"], f"{source}.bootstrap")
     raw_sets = data["seed_sets"]
     if not isinstance(raw_sets, Mapping) or not raw_sets:
         raise ProtocolError(f"{source}.seed_sets: got {raw_sets!r}, expected a mapping of NAME: START:STOP")
     seed_sets = {str(k): _seeds(v, f"{source}.seed_sets.{k}") for k, v in raw_sets.items()}
-    bar = _keys(data["success"], SUCCESS_KEYS, f"{source}.success", required=SUCCESS_KEYS)
-    for key in ("tables", "planners"):
-        if not isinstance(bar[key], list) or not bar[key]:
-            raise ProtocolError(f"{source}.success.{key}: got {bar[key]!r}, expected a non-empty list")
-    tables = []
-    for i, entry in enumerate(bar["tables"]):
-        where = f"{source}.success.tables[{i}]"
-        entry = _keys(entry, ("table", "seeds"), where, required=("table", "seeds"))
-        seeds = _seed_set(entry["seeds"], seed_sets, f"{where}.seeds")
-        tables.append((_name(entry["table"], f"{where}.table"), seeds))
-    success = SuccessBar(
-        bound=_fraction(bar["bound"], f"{source}.success.bound"),
-        confidence=_fraction(bar["confidence"], f"{source}.success.confidence"),
-        tables=tuple(tables),
-        planners=tuple(_name(p, f"{source}.success.planners") for p in bar["planners"]),
-    )
+    success = _success(data["success"], seed_sets, f"{source}.success")
     if not isinstance(data["families"], list) or not data["families"]:
         raise ProtocolError(f"{source}.families: got {data['families']!r}, expected a non-empty list")
-    families = []
-    for i, raw in enumerate(data["families"]):
-        where = f"{source}.families[{i}]"
-        raw = _keys(raw, FAMILY_KEYS, where, required=FAMILY_KEYS)
-        if raw["correction"] not in CORRECTIONS:
-            raise ProtocolError(
-                f"{where}.correction: got {raw['correction']!r}, expected one of {', '.join(CORRECTIONS)}"
-            )
-        if not isinstance(raw["primary"], bool):
-            raise ProtocolError(f"{where}.primary: got {raw['primary']!r}, expected true or false")
-        if not isinstance(raw["comparisons"], list) or not raw["comparisons"]:
-            raise ProtocolError(f"{where}.comparisons: got {raw['comparisons']!r}, expected a non-empty list")
-        comparisons = tuple(
-            Comparison.from_mapping(c, f"{where}.comparisons[{j}]", seed_sets)
-            for j, c in enumerate(raw["comparisons"])
-        )
-        families.append(
-            Family(
-                _name(raw["name"], f"{where}.name"),
-                _name(raw["question"], f"{where}.question"),
-                raw["primary"],
-                raw["correction"],
-                comparisons,
-            )
-        )
+    families = [_family(raw, seed_sets, f"{source}.families[{i}]") for i, raw in enumerate(data["families"])]
     for what, names in (
         ("families[].name", [f.name for f in families]),
         ("comparisons[].id", [c.id for f in families for c in f.comparisons]),
@@ -316,15 +314,13 @@ def parse_protocol(data: Any, source: str = "protocol") -> Protocol:
         if duplicated:
             raise ProtocolError(f"{source}.{what}: {duplicated[0]!r} appears twice, expected unique names")
     if not any(f.primary for f in families):
-        raise ProtocolError(
-            f"{source}.families: no family is primary, expected at least one with primary: true"
-        )
+        raise ProtocolError(f"{source}.families: no family is primary, expected at least one with primary: true")
     return Protocol(
         publication=_name(data["publication"], f"{source}.publication"),
         declared=_name(str(data["declared"]), f"{source}.declared"),
         alpha=_fraction(data["alpha"], f"{source}.alpha"),
-        bootstrap_resamples=int(boot["resamples"]),
-        bootstrap_seed=int(boot["seed"]),
+        bootstrap_resamples=resamples,
+        bootstrap_seed=seed,
         seed_sets=seed_sets,
         success=success,
         families=tuple(families),
