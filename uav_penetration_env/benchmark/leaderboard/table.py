@@ -96,35 +96,24 @@ def leaderboard_table(
     )
     errors = frame.groupby("label")["is_error"].sum()  # a harness error counts whichever seed it hit
     rows = [
-        _policy_row(
-            on_seeds if label in ranked else frame,
-            label,
-            costs,
-            friedman,
-            ref,
-            tests,
-            seed,
-            n_resamples,
-            errors=int(errors[label]),
-        )
+        _policy_row(on_seeds if label in ranked else frame, label, costs, friedman, ref, tests, seed,
+                    n_resamples, errors=int(errors[label]))
         for label in labels
-    ]
+    ]  # fmt: skip
     table = _drop_unrecorded(pd.DataFrame(rows), gaps_recorded=bool(frame["gap"].notna().any()))
     # Stable sort from the alphabetical order: rank first (unranked policies last), then mean cost.
     table = table.sort_values(
         ["friedman_rank", "total_cost_mean"], kind="mergesort", na_position="last"
     ).reset_index(drop=True)
-    table.attrs["friedman"] = friedman
-    table.attrs["reference"] = ref
-    table.attrs["seeds"] = seeds
-    table.attrs["unranked"] = {
+    unranked = {
         label: sorted(int(s) for s in frame.loc[frame["label"] == label, "seed"].unique())
         for label in labels
         if label not in ranked
     }
-    table.attrs["n_resamples"] = int(n_resamples)
     # A suite pairs policies on (scenario, seed) blocks rather than on seeds (see suite_group).
-    table.attrs["blocks"] = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
+    blocks = "(scenario, seed) blocks" if "episode_seed" in frame else "seeds"
+    table.attrs.update(friedman=friedman, reference=ref, seeds=seeds, unranked=unranked,
+                       n_resamples=int(n_resamples), blocks=blocks)  # fmt: skip
     return table
 
 
