@@ -1,7 +1,7 @@
 """Fingerprints of a built member, and the guard that refuses a member that no longer reproduces.
 
 A member's fingerprint (docs/suite.md §2) is frozen when its suite is written
-(:func:`~uav_penetration_env.suites.freeze.freeze_suite`):
+(``uav-bench suite freeze``, :func:`uav_penetration_env.benchmark.suite_freeze.freeze_suite`):
 
 * ``scenario_hash``: :attr:`Scenario.hash` of the built scenario (every field, and the content of
   every file it reads);
