@@ -35,6 +35,8 @@ import uav_penetration_env  # noqa: F401  (registers the ids)
 from uav_penetration_env import PenetrationModel, cache, dem_scenario, paper_scenario, random_scenario
 from uav_penetration_env.build import build_scenario
 from uav_penetration_env.env import batched_info, unbatch, validate_action
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.append(str(ROOT / "tests"))  # appended: tests/optimizers must not shadow optimizers
@@ -199,6 +201,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     compiled = PenetrationModel(paper_scenario())
     oracle = NumpyPenetrationModel(compiled.built)
     start_state = compiled.initial_state()
+    distance = terminal_cost(compiled, Terminal("distance", 0.06))  # the oracle prices it alike
     high = compiled.limits.action_high
     threads = numba.get_num_threads()
     print(f"{'batch':>7}{'numpy':>12}{'1 thread':>12}{'x numpy':>9}{f'{threads} threads':>12}{'x numpy':>9}")
@@ -207,7 +210,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         repeat = max(1, (3 if args.quick else 30) * 100 // batch)
 
         def call(model, sequences=sequences):
-            return lambda: model.rollout_cost(start_state, sequences, step=0, terminal_cost=0.06)
+            return lambda: model.rollout_cost(start_state, sequences, step=0, terminal_cost=distance)
 
         slow = batch * 5 / timed(call(oracle), repeat)
         numba.set_num_threads(1)
@@ -251,8 +254,9 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     rng = np.random.default_rng(0)
     high = model.limits.action_high
     controls = rng.uniform(-high, high, size=(100, 5, 3)) * [1.0, 1.0, 0.3]
+    built = terminal_cost(model, Terminal("distance", 0.06))
     rollout = timed(
-        lambda: model.rollout_cost(state, controls, step=0, terminal_cost=0.06), 20 if args.quick else 300
+        lambda: model.rollout_cost(state, controls, step=0, terminal_cost=built), 20 if args.quick else 300
     )
     env = gym.make("UAVPenetration-v0")
     env_500 = 500 / single_env_rate(env, 500)

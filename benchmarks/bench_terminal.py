@@ -21,7 +21,8 @@ import numba
 import numpy as np
 
 from uav_penetration_env import PenetrationModel, paper_scenario
-from uav_penetration_env.value_function import terminal_cost_for
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost
 
 FORMS = ("none", "distance", "dubins", "value")
 BATCHES = (100, 1000)
@@ -35,7 +36,7 @@ def _spin(stop) -> None:  # a busy process: the contention a training job beside
 
 def rates(model: PenetrationModel, repeat: int, seed: int = 0) -> dict[tuple[str, int], float]:
     """Best-of-``repeat`` particle-steps per second per (form, batch)."""
-    terminals = {form: terminal_cost_for(model, form) for form in FORMS}
+    terminals = {form: terminal_cost(model, Terminal(form)) for form in FORMS}
     rng = np.random.default_rng(seed)
     state = model.initial_state()
     best = {(f, b): np.inf for f in FORMS for b in BATCHES}

@@ -18,7 +18,9 @@ import pandas as pd
 
 from uav_penetration_env.catalogue import resolve_scenario
 from uav_penetration_env.model import PenetrationModel
-from uav_penetration_env.value_function import lattice_action, terminal_cost_for, value_function
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost
+from uav_penetration_env.value_function import lattice_action, value_function
 
 ROWS = Path(__file__).resolve().parents[1] / "leaderboards" / "rows"
 EPISODES = (("ihpso", 0), ("hpso", 1), ("lpso", 1), ("ps2o", 0))
@@ -47,7 +49,7 @@ def main() -> int:
             plans = np.stack([flown, np.array(toward)])
             line = [f"{policy} seed {seed} step {k}: {row.distance_to_goal:.1f} km out at {row.speed:.1f} m/s"]
             for form in ("distance", "value"):
-                cost = model.rollout_cost(state, plans, step=k, terminal_cost=terminal_cost_for(model, form))
+                cost = model.rollout_cost(state, plans, step=k, terminal_cost=terminal_cost(model, Terminal(form)))
                 line.append(f"{form}: flown {cost[0]:.2f}, toward the goal {cost[1]:.2f}")
             print(" | ".join(line))
     return 0

@@ -12,10 +12,9 @@ import math
 
 import numpy as np
 
-from uav_penetration_env import costtogo, rcs
 from uav_penetration_env import observation as layout
+from uav_penetration_env import rcs, terminal_kernels
 from uav_penetration_env.cost import FuelParams
-from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, UAVLimits, X, Y, Z
 from uav_penetration_env.model import FAR_RANGE_RATIO, PenetrationModel, StepResult
 from uav_penetration_env.observation import (
@@ -27,6 +26,7 @@ from uav_penetration_env.observation import (
     TERRAIN_ACROSS_M,
     TERRAIN_AHEAD_M,
 )
+from uav_penetration_env.terminal_kernels import TerminalCost
 from uav_penetration_env.terrain import GridSpec, bilinear, mountain_shape
 from uav_penetration_env.types import FloatArray, IntArray
 
@@ -510,7 +510,7 @@ class NumpyPenetrationModel(PenetrationModel):
                 goal = self.goal[scenario_index]
                 # The Dubins and value forms: the scalar definitions, row by row (model.md §7e).
                 to_go = np.array(
-                    [costtogo.terminal_value.py_func(terminal_cost, s[0], s[1], s[4], goal[0], goal[1]) for s in states]
+                    [terminal_kernels.terminal_value.py_func(terminal_cost, s[0], s[1], s[4], goal[0], goal[1]) for s in states]
                 )
                 total += np.where(flying, weight * to_go, 0.0)
             return total

@@ -25,6 +25,7 @@ from optimizers import available_optimizers, get_optimizer
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark.evaluate import evaluate
 from uav_penetration_env.benchmark.policies import GreedyPolicy
+from uav_penetration_env.terminal_kernels import NO_TERMINAL_COST
 
 SLOW = settings(max_examples=2_500, deadline=None, derandomize=True)
 
@@ -298,8 +299,8 @@ def model_cases(model_step_name: str = "step") -> st.SearchStrategy[tuple[str, s
             NEGATIVE_INTS, st.integers(min_value=K_MAX + 1), FRACTIONAL, BOOLS, st.just(2.0))),
         st.tuples(st.just("rollout_cost"), st.just("discount"), st.one_of(
             st.floats().filter(lambda v: not 0.0 < v <= 1.0), BOOLS, NOT_A_NUMBER)),
-        st.tuples(st.just("rollout_cost"), st.just("terminal_cost"), st.one_of(
-            st.floats(max_value=0.0, exclude_max=True), NON_FINITE, BOOLS, NOT_A_NUMBER)),
+        st.tuples(st.just("rollout_cost"), st.just("terminal_cost"), st.one_of(  # never a bare number
+            st.floats(), NON_FINITE, BOOLS, NOT_A_NUMBER, st.just(0.06))),
         st.tuples(st.just("rollout_cost"), st.just("scenario_index"), BAD_POOL_INDEX),
         st.tuples(st.just("height"), st.just("x_m"), st.one_of(
             NON_FINITE, NON_FINITE.map(lambda v: np.array([0.0, v])), st.just("x"), st.just(np.zeros(3)))),
@@ -320,7 +321,7 @@ def call_model(model, method: str, argument: str, value: object) -> None:
                   "step_index": 0, "scenario_index": None}  # fmt: skip
     elif method == "rollout_cost":
         kwargs = {"state": state, "controls": np.zeros((4, 3, 3)), "step": 0, "discount": 0.9,
-                  "terminal_cost": 0.0, "scenario_index": 0}  # fmt: skip
+                  "terminal_cost": NO_TERMINAL_COST, "scenario_index": 0}  # fmt: skip
     elif method == "height":
         kwargs = {"x_m": np.array([0.0, 1000.0]), "y_m": np.array([0.0, 500.0]), "scenario_index": None}
     else:

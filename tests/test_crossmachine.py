@@ -24,11 +24,11 @@ import pytest
 from uav_penetration_env.benchmark.evaluate import evaluate
 from uav_penetration_env.benchmark.policies import make_policy
 from uav_penetration_env.catalogue import resolve_scenario
-from uav_penetration_env.mpc import MPCSettings
+from uav_penetration_env.mpc import MPCSettings, Terminal
 
 ROWS = Path(__file__).resolve().parents[1] / "leaderboards" / "rows" / "leaderboard-episodes.parquet"
 V2_MPC = MPCSettings(
-    terminal="distance"
+    terminal=Terminal("distance")
 )  # v2's default terminal cost (c_T 0.06), horizon 5, 10 000 evaluations
 SCENARIO = "paper-2022-sec5"
 

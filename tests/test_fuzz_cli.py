@@ -33,7 +33,7 @@ WORK = (
     ("uav_penetration_env.benchmark.bestknown.compute", "update_from_store"),
     ("uav_penetration_env.benchmark.bestknown.record", "replay_record"),
     ("uav_penetration_env.suites", "verify_suite"),
-    ("uav_penetration_env.suites", "freeze_suite"),
+    ("uav_penetration_env.benchmark.suite_freeze", "freeze_suite"),
     ("uav_penetration_env.build", "build_scenario"),
     ("uav_penetration_env.benchmark.replay", "animate_episode"),
     ("uav_penetration_env.benchmark.minari_export", "write_datasets"),

@@ -1,7 +1,8 @@
-"""Imports flow one way (docs/architecture.md): no cycles, and the core never imports the RL extra.
+"""Imports flow one way (docs/architecture.md): no cycles, the core never imports the RL extra or the harness.
 
 scenario -> physics -> model -> env / vector env -> harness; ``optimizers`` stands alone;
-``baselines`` (extra ``rl``) depends on the core, never the reverse. The graph is read from the
+``baselines`` (extra ``rl``) depends on the core, never the reverse; the env core
+(``uav_penetration_env`` outside ``uav_penetration_env.benchmark``) never imports the harness. The graph is read from the
 source with ``ast``, so imports inside functions count as much as those at the top of a module.
 """
 
@@ -18,6 +19,8 @@ BUILD_OUTPUT = {"build", "dist"}  # top-level folders of setuptools' output, cop
 # What the core (and the standalone optimisers) must never import, directly or inside a function.
 RL_ONLY = ("baselines", "torch", "stable_baselines3")
 CORE = ("uav_penetration_env", "optimizers")
+# The harness: the env core (the rest of uav_penetration_env) never imports it, at any depth.
+HARNESS = "uav_penetration_env.benchmark"
 
 
 def module_files(root: Path) -> dict[str, Path]:
@@ -134,7 +137,14 @@ def forbidden_imports(raw: Mapping[str, set[str]]) -> list[str]:
                 problems.append(f"{module} -> {name}")
             if top == "optimizers" and imported_top == "uav_penetration_env":
                 problems.append(f"{module} -> {name}")
+            if top == "uav_penetration_env" and not _in_harness(module) and _in_harness(name):
+                problems.append(f"{module} -> {name}")
     return problems
+
+
+def _in_harness(name: str) -> bool:
+    """Whether a module (or a name defined in one) lies in the harness, ``uav_penetration_env.benchmark``."""
+    return name == HARNESS or name.startswith(f"{HARNESS}.")
 
 
 @pytest.fixture(scope="module")
@@ -164,6 +174,18 @@ def test_no_import_cycle_anywhere_in_the_tree(tree_graph):
 def test_the_core_never_imports_the_rl_extra_and_the_optimisers_stand_alone(tree_graph):
     _, raw = tree_graph
     assert forbidden_imports(raw) == []
+
+
+def test_the_env_core_never_imports_the_harness(tree_graph):
+    """No module of uav_penetration_env outside benchmark/ imports the harness, even inside a function.
+
+    A frozen suite's check replays its stored controls (docs/suite.md §2): it used to fly the
+    harness's greedy floor, from inside ``suites/fingerprint.py``.
+    """
+    _, raw = tree_graph
+    core = {m: names for m, names in raw.items() if m.partition(".")[0] == "uav_penetration_env"}
+    assert "uav_penetration_env.suites.fingerprint" in core and "uav_penetration_env.env" in core
+    assert [line for line in forbidden_imports(core) if f"-> {HARNESS}" in line] == []
 
 
 # --- the checks can fail: a synthetic tree -------------------------------------------------------------
@@ -207,6 +229,10 @@ def test_forbidden_directions_are_reported(tmp_path):
         {
             "uav_penetration_env/__init__.py": "",
             "uav_penetration_env/harness.py": "def load():\n    from baselines import load_policy\n",
+            "uav_penetration_env/suites/__init__.py": "",
+            "uav_penetration_env/suites/check.py": "def replay():\n    from ..benchmark.policies import Greedy\n",
+            "uav_penetration_env/benchmark/__init__.py": "from uav_penetration_env import harness\n",
+            "uav_penetration_env/benchmark/policies.py": "import uav_penetration_env.suites.check\n",
             "optimizers/__init__.py": "import numpy\n",
             "optimizers/pso.py": "import torch.nn\nfrom uav_penetration_env import harness\n",
             "baselines/__init__.py": "import torch\nimport uav_penetration_env\n",  # allowed direction
@@ -217,6 +243,7 @@ def test_forbidden_directions_are_reported(tmp_path):
         "optimizers.pso -> torch.nn",
         "optimizers.pso -> uav_penetration_env.harness",
         "uav_penetration_env.harness -> baselines.load_policy",
+        "uav_penetration_env.suites.check -> uav_penetration_env.benchmark.policies.Greedy",
     ]
 
 

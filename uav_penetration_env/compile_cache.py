@@ -1,8 +1,8 @@
 """Where numba caches the compiled physics, keyed by the compiled sources (model.md §8).
 
 numba invalidates a cached function when its own file changes, but not when a compiled function it
-calls from another file does: a kernel in ``kernels.py`` that inlines ``costtogo.value_lookup``
-keeps running the old lookup after ``costtogo.py`` changes. So the cache lives in a folder named
+calls from another file does: a kernel in ``kernels.py`` that inlines ``terminal_kernels.value_lookup``
+keeps running the old lookup after ``terminal_kernels.py`` changes. So the cache lives in a folder named
 by a digest of every package source that uses numba: any change to any of them starts a fresh
 cache, and no process ever mixes two versions of the physics.
 
@@ -14,7 +14,7 @@ grow with every edit), else ``$UAV_PENETRATION_CACHE/numba/DIGEST`` (the project
 honoured as the parent, ``NUMBA_CACHE_DIR/uav-penetration-DIGEST`` (never pruned: the folder is theirs).
 
 Every module that defines compiled functions imports this one before its first definition
-(``kernels.py``, ``costtogo.py``, ``value_function.py``, ``checks.py``), so the folder is set however
+(``kernels.py``, ``terminal_kernels.py``, ``value_function.py``, ``checks.py``), so the folder is set however
 the package is entered; ``import uav_penetration_env`` alone loads no compiled code (the package's
 exports load on first use).
 """

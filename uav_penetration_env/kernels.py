@@ -41,7 +41,6 @@ import numpy as np
 from numba import njit, prange, vectorize
 
 from uav_penetration_env import compile_cache
-from uav_penetration_env.costtogo import terminal_value
 from uav_penetration_env.observation import (
     ALTITUDE_AGL,
     ALTITUDE_CEILING,
@@ -69,6 +68,7 @@ from uav_penetration_env.observation import (
     TERRAIN_ACROSS_M,
     TERRAIN_AHEAD_M,
 )
+from uav_penetration_env.terminal_kernels import terminal_value
 
 # The compile cache's folder is set by ``compile_cache`` (imported above, before any compiled function).
 COMPILE_CACHE_DIR = compile_cache.COMPILE_CACHE_DIR
@@ -788,7 +788,7 @@ def rollout_batch(arrays, state, controls, step, discount, terminal, p, total):
     """Discounted window costs of (B, H, 3) control sequences from one state (eq. 37, model.md §7-8).
 
     Each row sums gamma^j (J + penalty) until it terminates or the episode reaches K_max, then adds
-    gamma^H times the terminal cost of its end pose (``terminal``, a :class:`costtogo.TerminalCost`:
+    gamma^H times the terminal cost of its end pose (``terminal``, a :class:`terminal_kernels.TerminalCost`:
     none, straight-line or Dubins distance, or the lattice value function; model.md §7e) if it is
     still flying when a window that ends before K_max is over. Writes ``total`` (B,).
     """

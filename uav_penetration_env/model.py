@@ -24,17 +24,15 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from uav_penetration_env import checks, costtogo, kernels
+from uav_penetration_env import checks, kernels, terminal_kernels
 from uav_penetration_env.build import BuiltScenario, build_scenario
 from uav_penetration_env.cost import FuelParams, Normalisation
-from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kernels import FAR_RANGE_RATIO, ModelArrays, ModelConstants, ModelOptions
 from uav_penetration_env.kinematics import UAVLimits, wrap_angle
 from uav_penetration_env.observation import (
@@ -47,6 +45,7 @@ from uav_penetration_env.observation import (
 )
 from uav_penetration_env.radar import fuse, reference_snr
 from uav_penetration_env.scenario import Scenario, ScenarioError
+from uav_penetration_env.terminal_kernels import TerminalCost
 from uav_penetration_env.terrain import GridSpec
 from uav_penetration_env.types import BoolArray, FloatArray, IntArray
 
@@ -625,7 +624,7 @@ class PenetrationModel:
         *,
         step: int,
         discount: float = 1.0,
-        terminal_cost: float | TerminalCost = 0.0,
+        terminal_cost: TerminalCost = terminal_kernels.NO_TERMINAL_COST,
         scenario_index: int = 0,
     ) -> FloatArray:
         """Discounted window cost J^(H) of control sequences flown from one state (eq. 37, model.md §7-8).
@@ -633,17 +632,17 @@ class PenetrationModel:
         Each row accumulates gamma^j (J + penalty) of its transitions exactly as the env scores them,
         stops once it reaches the goal, fails, or the episode reaches K_max, and, if it is still flying
         when the window ends before K_max, adds the terminal cost of its end pose discounted by gamma^H
-        (model.md §7e: a number c_T is the straight-line form ``c_T * d_goal / (v_max dt)``; a
-        :class:`~uav_penetration_env.costtogo.TerminalCost` any form, the lattice value function
-        included; 0 reproduces the env's summed costs).
+        (model.md §7e: a :class:`~uav_penetration_env.terminal_kernels.TerminalCost` built by
+        :func:`uav_penetration_env.terminal.terminal_cost`; the default, the ``none`` form,
+        reproduces the env's summed costs).
 
         Args:
             state: (6,) the current exact state.
             controls: (B, H, 3) control sequences.
             step: k, transitions already made in the episode.
             discount: gamma in (0, 1].
-            terminal_cost: c_T >= 0 per remaining full-speed step (the ``distance`` form), or a
-                :class:`~uav_penetration_env.costtogo.TerminalCost`.
+            terminal_cost: the built terminal cost
+                (``terminal.terminal_cost(model, Terminal(form, scale))``); never a bare number.
             scenario_index: pool index of the scenario flown.
 
         Returns:
@@ -651,18 +650,18 @@ class PenetrationModel:
 
         Raises:
             TypeError: arrays that are not numbers; a non-integer ``step`` or ``scenario_index``; a
-                ``discount`` or ``terminal_cost`` that is not a number.
+                ``discount`` that is not a number; a ``terminal_cost`` that is not a ``TerminalCost``.
             ValueError: ``controls`` not (B, H, 3) with H >= 1, or ``state`` not (6,); a NaN or
                 infinite entry; ``step`` outside [0, K_max]; ``discount`` outside (0, 1];
-                ``terminal_cost`` negative or not finite, or a ``TerminalCost`` of an unknown kind or
-                malformed table; ``scenario_index`` outside the pool.
+                a ``TerminalCost`` of an unknown kind, a negative scale or a malformed table;
+                ``scenario_index`` outside the pool.
         """
         controls = _rollout_controls(controls)
         window = self._rollout_window(state, step, discount, terminal_cost, scenario_index)
         return self._rollout_cost(window[0], controls, *window[1:])
 
     def _rollout_window(
-        self, state: FloatArray, step: int, discount: float, terminal_cost: float | TerminalCost, scenario_index: int
+        self, state: FloatArray, step: int, discount: float, terminal_cost: TerminalCost, scenario_index: int
     ) -> tuple[np.ndarray, int, float, TerminalCost, int]:
         """:meth:`rollout_cost`'s arguments other than the controls, checked and converted."""
         state = checks.finite_array(state, "state", (6,), "a (6,) state of finite numbers")
@@ -676,15 +675,23 @@ class PenetrationModel:
         )
         return state, step, discount, terminal_cost, scenario_index
 
-    def _terminal(self, terminal_cost: float | TerminalCost) -> TerminalCost:
-        """A checked :class:`TerminalCost` from a c_T number (the ``distance`` form) or a TerminalCost."""
-        if isinstance(terminal_cost, TerminalCost):
-            return costtogo.checked_terminal(terminal_cost)
-        scale = checks.real_scalar(terminal_cost, "terminal_cost", 0.0, sys.float_info.max, "a finite number >= 0")
-        limits = self.limits
-        return costtogo.analytic_terminal(
-            "distance", scale, limits.max_step_length, limits.max_step_length / limits.dheading_max
-        )
+    def _terminal(self, terminal_cost: TerminalCost) -> TerminalCost:
+        """``terminal_cost`` checked (:func:`terminal_kernels.checked_terminal`); anything but a TerminalCost is refused.
+
+        DECISION (model.md §7e): a terminal cost is one built object, never a bare number. A number
+        used to mean the ``distance`` form's c_T here while every planner defaulted to ``value``,
+        so the same word named two things; now the form is always written down
+        (``terminal_cost(model, Terminal("distance", 0.06))``).
+
+        Raises:
+            TypeError: ``terminal_cost: got 0.06, expected a TerminalCost (...)``, one line.
+        """
+        if not isinstance(terminal_cost, TerminalCost):
+            raise TypeError(
+                f"terminal_cost: got {terminal_cost!r}, expected a TerminalCost "
+                "(uav_penetration_env.terminal.terminal_cost(model, Terminal(form, scale)))"
+            )
+        return terminal_kernels.checked_terminal(terminal_cost)
 
     def rollout_function(
         self,
@@ -692,7 +699,7 @@ class PenetrationModel:
         *,
         step: int,
         discount: float = 1.0,
-        terminal_cost: float | TerminalCost = 0.0,
+        terminal_cost: TerminalCost = terminal_kernels.NO_TERMINAL_COST,
         scenario_index: int = 0,
     ) -> Callable[[FloatArray], FloatArray]:
         """:meth:`rollout_cost` from one window's state, as a function of the controls alone.
@@ -706,7 +713,7 @@ class PenetrationModel:
             state: (6,) the window's exact state (copied).
             step: k, as :meth:`rollout_cost`.
             discount: gamma, as :meth:`rollout_cost`.
-            terminal_cost: c_T, as :meth:`rollout_cost`.
+            terminal_cost: the built terminal cost, as :meth:`rollout_cost`.
             scenario_index: pool index, as :meth:`rollout_cost`.
 
         Returns:

@@ -5,12 +5,15 @@ cost from the command line (``uav-bench run`` and ``windows`` build their flags 
 keys from its fields) through :func:`~uav_penetration_env.benchmark.policies.make_policy` to the
 planner and its objective. Each field's metadata holds its help text and its domain; the
 dataclass checks every field against it, and :func:`parse_settings` converts text or YAML values
-under the same rules, so a bad value is refused in one place, in one line naming the field.
+under the same rules, so a bad value is refused in one place, in one line naming the setting.
 
-The model never sees this object: ``PenetrationModel.rollout_cost`` takes the window's discount and
-a terminal cost already built from the form (the ``value`` form reads the lattice value function,
-which is built on the model), and ``policies.mpc_objective`` turns the settings into those
-arguments (docs/architecture.md, "The MPC settings").
+The terminal cost is one field, a :class:`Terminal` (its form and its scale c_T), set by two
+flags (``--terminal`` and ``--terminal-cost``, the ``--config`` keys ``terminal`` and
+``terminal_cost``). The model never sees the settings: ``PenetrationModel.rollout_cost`` takes
+the window's discount and a terminal cost built from the :class:`Terminal`
+(:func:`uav_penetration_env.terminal.terminal_cost`: the ``value`` form reads the lattice value
+function, which is built on the model), and ``policies.mpc_objective`` turns the settings into
+those arguments (docs/architecture.md, "The MPC settings").
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from uav_penetration_env.types import TERMINAL_FORMS
 FORMS_TEXT = ", ".join(TERMINAL_FORMS)
 # The forms that read a c_T; the others ('none', 'value') have no scale to set.
 SCALED_FORMS = ("distance", "dubins")
+SCALE_EXPECTED = "a finite number >= 0"
 
 
 class SettingError(ValueError):
@@ -47,6 +51,76 @@ class SettingError(ValueError):
     def body(self) -> str:
         """The message without the field name: ``got VALUE, expected DOMAIN``."""
         return f"got {self.value!r}{self.context}, expected {self.expected}"
+
+
+@dataclass(frozen=True)
+class Terminal:
+    """The terminal cost of MPC windows as a setting: its form and its scale c_T (model.md §7e).
+
+    The one representation of the terminal cost in the settings, the planners and the window
+    runs; :func:`uav_penetration_env.terminal.terminal_cost` builds it on a scenario's model into
+    what ``PenetrationModel.rollout_cost`` reads.
+
+    Attributes:
+        form: what prices the pose a window ends in: ``none`` (nothing: the paper's literal eq. 37,
+            the ``NAME-eq37`` planners), ``distance`` (c_T per straight-line step to the goal),
+            ``dubins`` (c_T per step of the shortest forward path) or ``value`` (the lattice
+            value function).
+        scale: c_T >= 0 [J per remaining step at v_max] of the ``distance`` and ``dubins`` forms;
+            None takes the form's default (``distance``: 0.06; ``dubins``: the scenario's
+            calibrated J per step). Kept as given (it is hashed into the policy key).
+
+    Raises:
+        SettingError: ``terminal: got 'euclid', expected one of none, distance, dubins, value``,
+            or ``terminal_cost: got -1.0, expected None or a finite number >= 0``.
+    """
+
+    form: str = "value"
+    scale: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.form, str) and self.form in TERMINAL_FORMS):
+            raise SettingError("terminal", self.form, f"one of {FORMS_TEXT}")
+        if self.scale is not None and not _is_scale(self.scale):
+            raise SettingError("terminal_cost", self.scale, f"None or {SCALE_EXPECTED}")
+
+    def with_form(self, form: str | None) -> Terminal:
+        """This terminal cost with the form a planner's name fixes (``NAME-ctg-distance``, ``NAME-eq37``).
+
+        ``form`` None (a plain name) keeps it. A form replaces ``form``, and c_T reaches it only
+        if the form has one (``distance``, ``dubins``): ``--terminal-cost 0.3`` then prices every
+        planner whose form reads a c_T.
+        """
+        if form is None:
+            return self
+        return Terminal(form, self.scale if form in SCALED_FORMS else None)
+
+    def check_pair(self) -> None:
+        """Refuse a c_T given with a form that has none (``none``, ``value``): never silently ignored.
+
+        DECISION (api.md §4.1): the pair is checked where a planner is built (``MPCPolicy``), not
+        by the dataclass, since the command line's settings are a request that a name suffix may
+        still change (``--terminal-cost 0.3 --policies hpso-ctg-distance`` under the default
+        ``value`` form is a c_T for the distance planner, not a contradiction).
+
+        Raises:
+            SettingError: ``terminal_cost: got C with the 'FORM' terminal form, expected None (...)``.
+        """
+        if self.scale is not None and self.form not in SCALED_FORMS:
+            raise SettingError(
+                "terminal_cost",
+                self.scale,
+                "None (c_T belongs to the 'distance' and 'dubins' forms: --terminal distance or dubins)",
+                context=f" with the {self.form!r} terminal form",
+            )
+
+
+def _is_scale(value: Any) -> bool:
+    """Whether ``value`` is a c_T: a real number (no bool), finite and >= 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    scale = float(value)
+    return math.isfinite(scale) and scale >= 0.0
 
 
 def _setting(
@@ -70,11 +144,8 @@ class MPCSettings:
         horizon: H, control steps per plan (paper §5: 5).
         discount: gamma of eq. 37, in (0, 1].
         max_evals: objective evaluations per planning step, >= 1 (paper §5: 10 000).
-        terminal: the form of the terminal cost that prices the state a window ends in
-            (model.md §7e: ``none``, the paper's literal eq. 37 and the ``NAME-eq37`` policies;
-            ``distance``; ``dubins``; ``value``, the lattice value function).
-        terminal_cost: c_T of the ``distance`` and ``dubins`` forms; None takes the form's default
-            (``distance``: 0.06; ``dubins``: the scenario's calibrated J per step).
+        terminal: the terminal cost that prices the state a window ends in, its form and c_T
+            (:class:`Terminal`; model.md §7e).
 
     Raises:
         SettingError: (a ``ValueError``) a field outside its domain, naming the field.
@@ -95,21 +166,26 @@ class MPCSettings:
     )
     # DECISION (model.md §7e.4): the lattice value function, chosen on procedural scenarios
     # outside every published table.
-    terminal: str = _setting(
-        "value",
-        str,
-        f"one of {FORMS_TEXT}",
-        lambda v: v in TERMINAL_FORMS,
-        f"form of the MPC terminal cost (docs/model.md §7e): {FORMS_TEXT}",
-    )
-    terminal_cost: float | None = _setting(
-        None,
-        float,
-        "a finite number >= 0",
-        lambda v: math.isfinite(v) and v >= 0.0,
-        "c_T of the distance and dubins terminal forms",
-        optional=True,
-        default_text="0.06 for distance, the scenario's calibrated J per step for dubins",
+    terminal: Terminal = _setting(  # noqa: RUF009  (a dataclasses.field; Terminal is frozen)
+        Terminal(),
+        Terminal,
+        "a Terminal(form, scale)",
+        lambda v: True,  # a Terminal checks itself
+        "the terminal cost of MPC windows (docs/model.md §7e)",
+        keys=(
+            (
+                "terminal",
+                str,
+                f"form of the MPC terminal cost (docs/model.md §7e): {FORMS_TEXT}",
+                "value",
+            ),
+            (
+                "terminal_cost",
+                float,
+                "c_T of the distance and dubins terminal forms",
+                "0.06 for distance, the scenario's calibrated J per step for dubins",
+            ),
+        ),
     )
 
     def __post_init__(self) -> None:
@@ -123,53 +199,76 @@ class MPCSettings:
                 raise SettingError(field.name, value, f"None or {expected}" if optional else expected)
 
     def with_form(self, form: str | None) -> MPCSettings:
-        """The settings of a planner whose name fixes the terminal form (``NAME-ctg-distance``, ``NAME-eq37``).
-
-        ``form`` None (a plain name) keeps these settings. A form replaces ``terminal``, and c_T
-        reaches it only if the form has one (``distance``, ``dubins``): ``--terminal-cost 0.3``
-        then prices every planner whose form reads a c_T.
-        """
-        if form is None:
-            return self
-        scale = self.terminal_cost if form in SCALED_FORMS else None
-        return dataclasses.replace(self, terminal=form, terminal_cost=scale)
+        """The settings of a planner whose name fixes the terminal form (:meth:`Terminal.with_form`)."""
+        terminal = self.terminal.with_form(form)
+        return self if terminal is self.terminal else dataclasses.replace(self, terminal=terminal)
 
     def check_terminal_pair(self) -> None:
-        """Refuse a c_T given with a form that has none (``none``, ``value``): never silently ignored.
+        """Refuse a c_T given with a form that has none (:meth:`Terminal.check_pair`)."""
+        self.terminal.check_pair()
 
-        DECISION (api.md §4.1): the pair is checked where a planner is built (``MPCPolicy``), not
-        by the dataclass, since the command line's settings are a request that a name suffix may
-        still change (``--terminal-cost 0.3 --policies hpso-ctg-distance`` under the default
-        ``value`` form is a c_T for the distance planner, not a contradiction).
+    def with_keys(self, changes: Mapping[str, Any]) -> MPCSettings:
+        """These settings with settings keys replaced, values kept as given (``make_policy``'s ``**changes``).
+
+        DECISION (api.md §4.1): the keywords are the settings keys of the command line and of
+        ``run --config`` (``terminal``: the form's name; ``terminal_cost``: its c_T), not the
+        dataclass's fields, so a script writes what a user types
+        (``make_policy("hpso", terminal="distance", terminal_cost=0.2)``); the two keys build the
+        one :class:`Terminal`, and a whole ``Terminal`` is accepted as ``terminal``.
+
+        Args:
+            changes: settings key (:data:`SETTING_FIELDS`) -> value: ``horizon``, ``discount``,
+                ``max_evals``, ``terminal`` (a form name, or a whole :class:`Terminal`) and
+                ``terminal_cost`` (c_T, or None for the form's default).
 
         Raises:
-            SettingError: ``terminal_cost: got C with the 'FORM' terminal form, expected None (...)``.
+            TypeError: a key that names no setting.
+            SettingError: a value outside its domain.
         """
-        if self.terminal_cost is not None and self.terminal not in SCALED_FORMS:
-            raise SettingError(
-                "terminal_cost",
-                self.terminal_cost,
-                "None (c_T belongs to the 'distance' and 'dubins' forms: --terminal distance or dubins)",
-                context=f" with the {self.terminal!r} terminal form",
-            )
+        unknown = sorted(set(changes) - set(SETTING_FIELDS))
+        if unknown:
+            raise TypeError(f"{unknown[0]}: not an MPC setting, expected one of {', '.join(SETTING_FIELDS)}")
+        fields = {k: v for k, v in changes.items() if k not in ("terminal", "terminal_cost")}
+        if "terminal" in changes or "terminal_cost" in changes:
+            terminal = changes.get("terminal", self.terminal)
+            if isinstance(terminal, Terminal):
+                scale = changes.get("terminal_cost", terminal.scale)
+                fields["terminal"] = terminal if scale is terminal.scale else Terminal(terminal.form, scale)
+            else:
+                fields["terminal"] = Terminal(terminal, changes.get("terminal_cost", self.terminal.scale))
+        return dataclasses.replace(self, **fields) if fields else self
 
 
 def _in_domain(field: dataclasses.Field[Any], value: Any) -> bool:
     """Whether ``value`` has the field's kind (a bool is no number) and lies in its domain."""
     kind = field.metadata["kind"]
-    required = {str: str, int: numbers.Integral, float: numbers.Real}[kind]
+    required = {str: str, int: numbers.Integral, float: numbers.Real, Terminal: Terminal}[kind]
     if isinstance(value, bool) or not isinstance(value, required):
         return False
     return bool(field.metadata["allowed"](value))
 
 
 MPC_DEFAULTS = MPCSettings()
-SETTING_FIELDS = tuple(field.name for field in dataclasses.fields(MPCSettings))
 
 
-def _converted(field: dataclasses.Field[Any], value: Any) -> Any:
-    """``value`` (text from a flag, a YAML scalar) converted to the field's kind, or raise ValueError."""
-    kind = field.metadata["kind"]
+def setting_keys(field: dataclasses.Field[Any]) -> tuple[tuple[str, type, str, str], ...]:
+    """The keys that set one field, each ``(key, kind, help, default text)``: one per field, two for ``terminal``.
+
+    A key is a ``--config`` key and, with dashes, a flag (``max_evals``, ``--max-evals``).
+    """
+    meta = field.metadata
+    if "keys" in meta:
+        return tuple(meta["keys"])
+    default = meta.get("default_text", field.default)
+    return ((field.name, meta["kind"], meta["help"], str(default)),)
+
+
+# Every settings key, in field order: what the command line and ``run --config`` accept.
+SETTING_FIELDS = tuple(key[0] for field in dataclasses.fields(MPCSettings) for key in setting_keys(field))
+
+
+def _converted(kind: type, value: Any) -> Any:
+    """``value`` (text from a flag, a YAML scalar) converted to ``kind``, or raise ValueError."""
     if kind is str:
         return value
     if isinstance(value, bool) or (kind is int and isinstance(value, float) and not value.is_integer()):
@@ -178,32 +277,62 @@ def _converted(field: dataclasses.Field[Any], value: Any) -> Any:
 
 
 def parse_settings(values: Mapping[str, Any], base: MPCSettings = MPC_DEFAULTS) -> MPCSettings:
-    """``base`` with the given fields replaced, each converted to its kind first (``"5"`` -> 5, ``1`` -> 1.0).
+    """``base`` with the given settings replaced, each converted to its kind first (``"5"`` -> 5, ``1`` -> 1.0).
 
     Args:
-        values: field name -> value from a command line or a YAML file; a None value is not given
-            (the field keeps ``base``'s value). Names that are not fields are ignored, so a whole
-            ``argparse`` namespace may be passed.
+        values: settings key (:data:`SETTING_FIELDS`) -> value from a command line or a YAML file;
+            a None value is not given (the setting keeps ``base``'s value). Other names are
+            ignored, so a whole ``argparse`` namespace may be passed. ``terminal`` (the form) and
+            ``terminal_cost`` (c_T) each replace their part of ``base.terminal``.
         base: the settings the values change.
 
     Raises:
         SettingError: the first value that cannot be converted or lies outside its domain, with
             the value as given (``max_evals: got 'lots', expected an integer >= 1``).
     """
-    changes = {}
+    changes: dict[str, Any] = {}
     for field in dataclasses.fields(MPCSettings):
-        value = values.get(field.name)
-        if value is None:
+        given = {}
+        for key, kind, _, _ in setting_keys(field):
+            value = values.get(key)
+            if value is None:
+                continue
+            try:
+                given[key] = _converted(kind, value)
+            except (TypeError, ValueError, OverflowError):
+                raise SettingError(key, value, _expected(field, key)) from None
+        if not given:
             continue
-        try:
-            converted = _converted(field, value)
-            ok = _in_domain(field, converted)
-        except (TypeError, ValueError, OverflowError):
-            ok = False
-        if not ok:
-            raise SettingError(field.name, value, field.metadata["expected"])
+        if field.name == "terminal":
+            if "terminal_cost" in given and not _is_scale(given["terminal_cost"]):
+                raise SettingError("terminal_cost", values["terminal_cost"], SCALE_EXPECTED)
+            changes["terminal"] = Terminal(
+                given.get("terminal", base.terminal.form), given.get("terminal_cost", base.terminal.scale)
+            )
+            continue
+        converted = given[field.name]
+        if not _in_domain(field, converted):
+            raise SettingError(field.name, values[field.name], field.metadata["expected"])
         changes[field.name] = converted
     return dataclasses.replace(base, **changes) if changes else base
 
 
-__all__ = ["MPC_DEFAULTS", "SETTING_FIELDS", "MPCSettings", "SettingError", "parse_settings"]
+def _expected(field: dataclasses.Field[Any], key: str) -> str:
+    """The domain of a settings key, in words."""
+    if key == "terminal":
+        return f"one of {FORMS_TEXT}"
+    if key == "terminal_cost":
+        return SCALE_EXPECTED
+    return str(field.metadata["expected"])
+
+
+__all__ = [
+    "MPC_DEFAULTS",
+    "SCALED_FORMS",
+    "SETTING_FIELDS",
+    "MPCSettings",
+    "SettingError",
+    "Terminal",
+    "parse_settings",
+    "setting_keys",
+]

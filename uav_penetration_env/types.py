@@ -10,5 +10,5 @@ IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
 # The terminal-cost forms of an MPC window (model.md §7e) and their codes in the compiled kernels
-# (costtogo.py): here, so that the MPC settings and the CLI can name them without loading numba.
+# (terminal_kernels.py): here, so that the MPC settings and the CLI can name them without loading numba.
 TERMINAL_FORMS = {"none": 0, "distance": 1, "dubins": 2, "value": 3}

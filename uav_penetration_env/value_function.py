@@ -2,8 +2,9 @@
 
 Built once per scenario by value iteration on a lattice of positions and headings whose moves are
 the model's own transitions, and cached on disk by the content of the arrays it was built from.
-It prices the end of MPC windows (the ``value`` terminal form, :mod:`uav_penetration_env.costtogo`)
-and drives the lattice planner (:func:`lattice_action`), the classical global-planner baseline.
+It prices the end of MPC windows (the ``value`` form of the terminal cost,
+:mod:`uav_penetration_env.terminal`, and the calibrated c_T of the ``dubins`` form) and drives the
+lattice planner (:func:`lattice_action`), the classical global-planner baseline.
 
 The lattice (model.md §7e):
 
@@ -17,7 +18,7 @@ The lattice (model.md §7e):
   collides, leaves the map or breaks the ceiling is forbidden; a move whose segment passes within
   r_goal of the goal ends there (the env's goal test);
 * V(node) = min over its moves of cost + V(end pose), V at the end pose interpolated between
-  nodes (:func:`costtogo.value_lookup`), 0 after a move that reaches the goal and at the nodes
+  nodes (:func:`terminal_kernels.value_lookup`), 0 after a move that reaches the goal and at the nodes
   inside the goal disc (where the env's episode has ended); iterated
   (Gauss-Seidel, nodes nearest the goal first, alternating direction) until no node changes by
   more than ``tolerance``.
@@ -49,7 +50,9 @@ from numba import njit, prange
 
 from uav_penetration_env import compile_cache  # noqa: F401  (numba's cache folder, before any compiled function)
 from uav_penetration_env.cache import cached_arrays
-from uav_penetration_env.costtogo import (
+from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
+from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.terminal_kernels import (
     G_DX,
     G_DY,
     G_MISSING,
@@ -58,14 +61,8 @@ from uav_penetration_env.costtogo import (
     G_X0,
     G_Y0,
     N_GRID,
-    TERMINAL_FORMS,
-    TerminalCost,
-    analytic_terminal,
-    value_iteration,
     value_lookup,
 )
-from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
-from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
@@ -126,8 +123,8 @@ class ValueFunction:
 
     Attributes:
         table: (nx, ny, nh) V at the nodes; ``+inf`` where every move leaves the map or ends in
-            its margin, ``-inf`` where every move clips the terrain (costtogo.value_lookup).
-        grid: (costtogo.N_GRID,) the lattice slots (origin, spacing, fallback, step length, turning
+            its margin, ``-inf`` where every move clips the terrain (terminal_kernels.value_lookup).
+        grid: (terminal_kernels.N_GRID,) the lattice slots (origin, spacing, fallback, step length, turning
             radius).
         settings: the lattice it was built on.
         sweeps: value-iteration sweeps until convergence.
@@ -151,7 +148,7 @@ class ValueFunction:
         return float(self.grid[G_MISSING])
 
     def __call__(self, x: FloatArray, y: FloatArray, heading: FloatArray) -> FloatArray:
-        """V at poses [m, m, rad] (any matching shapes), interpolated as :func:`costtogo.value_lookup`."""
+        """V at poses [m, m, rad] (any matching shapes), interpolated as :func:`terminal_kernels.value_lookup`."""
         x, y, heading = np.broadcast_arrays(
             np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64), np.asarray(heading, dtype=np.float64)
         )
@@ -167,29 +164,71 @@ class ValueFunction:
         )
         return out.reshape(x.shape)
 
-    def terminal(self, form: str = "value", scale: float | None = None) -> TerminalCost:
-        """The :class:`TerminalCost` of a form, calibrated on this scenario where it needs it.
 
-        Args:
-            form: ``value`` (V itself), ``dubins`` (c_T x Dubins steps; c_T defaults to
-                :attr:`route_j_per_step`), ``distance`` (c_T x straight-line steps; c_T must be
-                given) or ``none``.
-            scale: c_T for ``distance`` / ``dubins``.
+@njit(cache=True)
+def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal, table, grid, tolerance, max_sweeps):
+    """Gauss-Seidel value iteration of V(n) = min_a [c(n, a) + (0 if a reaches the goal else V(f(n, a)))].
 
-        Raises:
-            ValueError: an unknown form; ``distance`` without ``scale``; a negative scale.
-        """
-        if form not in TERMINAL_FORMS:
-            raise ValueError(f"terminal form: got {form!r}, expected one of {', '.join(TERMINAL_FORMS)}")
-        if form == "value":
-            return TerminalCost(TERMINAL_FORMS["value"], 1.0, self.table, self.grid)
-        if scale is None:
-            if form == "distance":
-                raise ValueError("terminal_cost: got None for the 'distance' form, expected c_T >= 0")
-            scale = self.route_j_per_step
-        if not (math.isfinite(scale) and scale >= 0.0):
-            raise ValueError(f"terminal_cost: got {scale!r}, expected a finite number >= 0")
-        return analytic_terminal(form, scale, self.grid[G_STEP_LENGTH], self.grid[G_TURN_RADIUS])
+    Nodes inside the goal disc are terminal (the env's episode has ended there): V = 0, never updated.
+
+    Args:
+        cost: (N, A) move costs J(k) of each lattice node's moves; ``inf`` for a forbidden move.
+        reached: (N, A) whether the move reaches the goal (its successor's value is then 0).
+        end_x: (N, A) the move's end x [m].
+        end_y: (N, A) the move's end y [m].
+        end_heading: (N, A) the move's end heading [rad].
+        order: (N,) node visiting order (nearest the goal first); odd sweeps run it backwards.
+        inside_goal: (N,) nodes within r_goal of the goal (V = 0).
+        table: (nx, ny, nh) in/out V: ``+inf`` to be computed, ``-inf`` for nodes whose every move
+            clips the terrain (never updated, left out of interpolation).
+        (flat node n = (ix ny + iy) nh + ih)
+        grid: the lattice slots ``G_*``; a corner not yet finite counts as ``G_MISSING``, a pose
+            with no finite corner is not a move (``inf``).
+        tolerance: stop when no node changes by more than this and no node became finite.
+        max_sweeps: the most sweeps.
+
+    Returns:
+        The number of sweeps made (``max_sweeps + 1`` if it did not converge).
+    """
+    flat = table.reshape(-1)
+    nodes = cost.shape[0]
+    moves = cost.shape[1]
+    for n in range(nodes):
+        if inside_goal[n]:
+            flat[n] = 0.0
+    for sweep in range(max_sweeps):
+        change = 0.0
+        for position in range(nodes):
+            n = order[position] if sweep % 2 == 0 else order[nodes - 1 - position]
+            if inside_goal[n] or flat[n] == -math.inf:
+                continue
+            best = math.inf
+            for a in range(moves):
+                c = cost[n, a]
+                if c == math.inf:
+                    continue
+                if reached[n, a]:
+                    q = c
+                else:
+                    q = c + value_lookup(table, grid, end_x[n, a], end_y[n, a], end_heading[n, a], math.inf)
+                if q < best:
+                    best = q
+            # No pose costs more than a crash now: a region that reaches neither the goal nor the
+            # edge (walled in by terrain) converges to that price instead of growing every sweep.
+            if best < math.inf and best > grid[G_MISSING]:
+                best = grid[G_MISSING]
+            old = flat[n]
+            if best < math.inf:
+                if old == math.inf:
+                    change = math.inf
+                else:
+                    delta = abs(best - old)
+                    if delta > change:
+                        change = delta
+            flat[n] = best
+        if change <= tolerance:
+            return sweep + 1
+    return max_sweeps + 1
 
 
 @njit(parallel=True, cache=True)
@@ -349,7 +388,7 @@ def _iterate(model: PenetrationModel, settings: LatticeSettings, scenario_index:
     order = np.argsort(node_distance, kind="stable").astype(np.int64)
     table = np.full((xs.size, ys.size, headings.size), np.inf)
     # Nodes whose every move clips the terrain (none ends at the edge): -inf, left out of
-    # interpolation (costtogo.value_lookup).
+    # interpolation (terminal_kernels.value_lookup).
     terrain_doomed = np.all(~np.isfinite(cost), axis=1) & ~np.any(edge, axis=1)
     table.reshape(-1)[terrain_doomed] = -np.inf
     sweeps = value_iteration(
@@ -595,42 +634,8 @@ def _route_calibration(model: PenetrationModel, vf: ValueFunction, scenario_inde
     return total / max(steps, 1), steps
 
 
-
-
-DISTANCE_COST_PER_STEP = 0.06  # c_T of the straight-line form (the project's first cost-to-go, model.md §7e)
-
-
-def terminal_cost_for(
-    model: PenetrationModel, form: str, scale: float | None = None, scenario_index: int = 0
-) -> TerminalCost:
-    """The terminal cost of MPC windows on one pool member, in one of the forms of model.md §7e.
-
-    Args:
-        model: the scenario's model.
-        form: ``none``, ``distance``, ``dubins`` or ``value``.
-        scale: c_T for ``distance`` (default :data:`DISTANCE_COST_PER_STEP`) and ``dubins`` (default:
-            the scenario's calibrated J per step, ``ValueFunction.route_j_per_step``); not read by
-            the other forms.
-        scenario_index: the pool member.
-
-    Raises:
-        ValueError: an unknown form; a negative or non-finite scale.
-    """
-    if form not in TERMINAL_FORMS:
-        raise ValueError(f"terminal: got {form!r}, expected one of {', '.join(TERMINAL_FORMS)}")
-    limits = model.limits
-    if form in ("none", "distance"):
-        c_t = DISTANCE_COST_PER_STEP if scale is None else scale
-        if not (isinstance(c_t, (int, float)) and math.isfinite(c_t) and c_t >= 0.0):
-            raise ValueError(f"terminal_cost: got {scale!r}, expected a finite number >= 0")
-        c_t = 0.0 if form == "none" else float(c_t)
-        return analytic_terminal(form, c_t, limits.max_step_length, limits.max_step_length / limits.dheading_max)
-    return value_function(model, scenario_index).terminal(form, scale)
-
-
 __all__ = [
     "ALGORITHM_VERSION",
-    "DISTANCE_COST_PER_STEP",
     "LATTICE_DEFAULTS",
     "LATTICE_GUIDANCE",
     "LatticeGuidance",
@@ -640,7 +645,6 @@ __all__ = [
     "lattice_moves",
     "lattice_nodes",
     "move_costs",
-    "terminal_cost_for",
     "terrain_following_dtheta",
     "value_function",
 ]

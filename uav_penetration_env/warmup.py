@@ -27,13 +27,14 @@ def compile_physics() -> float:
     """Run every compiled entry point once on the paper scenario; returns the seconds it took.
 
     Covers the single env's step and reset, observation, the serial and the parallel rollout
-    kernels (rows below and above ``kernels.SERIAL_BELOW_ROWS``) and the terminal-cost forms,
+    kernels (rows below and above ``kernels.SERIAL_BELOW_ROWS``) and the terminal cost's forms,
     including the value function's iteration (its table for the paper scenario is cached too).
     """
     from uav_penetration_env.kernels import SERIAL_BELOW_ROWS
     from uav_penetration_env.model import PenetrationModel
+    from uav_penetration_env.mpc import Terminal
     from uav_penetration_env.scenario import paper_scenario
-    from uav_penetration_env.value_function import terminal_cost_for
+    from uav_penetration_env.terminal import terminal_cost
 
     start = time.perf_counter()
     model = PenetrationModel(paper_scenario())
@@ -42,9 +43,9 @@ def compile_physics() -> float:
     model.observe(result.state, result.step_index, result)
     model.observe(state[None], 0)
     for form in ("none", "distance", "value"):
-        terminal = terminal_cost_for(model, form)
+        built = terminal_cost(model, Terminal(form))
         for rows in (1, 2 * SERIAL_BELOW_ROWS):
-            model.rollout_cost(state, np.zeros((rows, 5, 3)), step=0, terminal_cost=terminal)
+            model.rollout_cost(state, np.zeros((rows, 5, 3)), step=0, terminal_cost=built)
     return time.perf_counter() - start
 
 

@@ -19,6 +19,8 @@ from uav_penetration_env.env import (
     unbatch,
     validate_action,
 )
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost
 
 
 class ThroughPublicMethods:
@@ -147,8 +149,9 @@ def test_rollout_function_equals_rollout_cost_and_checks_its_arguments():
     model = PenetrationModel(tiny_scenario())
     state = model.initial_state()
     controls = np.random.default_rng(0).uniform(-1, 1, size=(40, 4, 3)) * model.limits.action_high
-    costs = model.rollout_function(state, step=2, discount=0.9, terminal_cost=0.06)
-    expected = model.rollout_cost(state, controls, step=2, discount=0.9, terminal_cost=0.06)
+    distance = terminal_cost(model, Terminal("distance", 0.06))
+    costs = model.rollout_function(state, step=2, discount=0.9, terminal_cost=distance)
+    expected = model.rollout_cost(state, controls, step=2, discount=0.9, terminal_cost=distance)
     np.testing.assert_array_equal(costs(controls), expected)
     state[0] += 1000.0  # the window was copied when bound
     np.testing.assert_array_equal(costs(controls), expected)

@@ -20,6 +20,8 @@ from numpy_model import NumpyPenetrationModel
 
 from uav_penetration_env import PenetrationModel, paper_scenario, random_scenario
 from uav_penetration_env.model import StepResult
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost as build_terminal_cost
 
 RTOL = 1e-12
 
@@ -113,15 +115,16 @@ def test_hand_picked_windows_cover_every_event(pair):
     assert events == {"reached_goal", "collided", "out_of_area", "truncated"}
 
 
-@pytest.mark.parametrize(("discount", "terminal_cost"), [(1.0, 0.0), (0.9, 2.5)])
-def test_rollout_cost_matches_the_numpy_oracle(pair, discount, terminal_cost):
+@pytest.mark.parametrize(("discount", "c_t"), [(1.0, 0.0), (0.9, 2.5)])
+def test_rollout_cost_matches_the_numpy_oracle(pair, discount, c_t):
     compiled, oracle = pair
     controls = control_sequences(compiled)
+    terminal_cost = build_terminal_cost(compiled, Terminal("distance", c_t))  # the oracle prices c_t itself
     for name, (state, step) in hand_picked(compiled).items():
         got = compiled.rollout_cost(
             state, controls, step=step, discount=discount, terminal_cost=terminal_cost
         )
-        want = oracle.rollout_cost(state, controls, step=step, discount=discount, terminal_cost=terminal_cost)
+        want = oracle.rollout_cost(state, controls, step=step, discount=discount, terminal_cost=c_t)
         np.testing.assert_allclose(got, want, rtol=RTOL, atol=0.0, err_msg=name)
 
 
@@ -180,10 +183,11 @@ def test_scenario_pool_with_scenario_index_matches_the_oracle():
     compiled = PenetrationModel(scenarios, radar_slots=8)
     oracle = NumpyPenetrationModel(compiled.built, radar_slots=8)
     controls = control_sequences(compiled, batch=200)
+    distance = build_terminal_cost(compiled, Terminal("distance", 1.0))
     for p in range(2):
         state = compiled.initial_states([None], [p])[0]
         np.testing.assert_allclose(
-            compiled.rollout_cost(state, controls, step=3, terminal_cost=1.0, scenario_index=p),
+            compiled.rollout_cost(state, controls, step=3, terminal_cost=distance, scenario_index=p),
             oracle.rollout_cost(state, controls, step=3, terminal_cost=1.0, scenario_index=p),
             rtol=RTOL,
             atol=0.0,
@@ -202,12 +206,13 @@ def test_results_do_not_depend_on_the_thread_count():
     compiled = PenetrationModel(paper_scenario())
     controls = control_sequences(compiled, batch=500)
     state = compiled.initial_state()
+    distance = build_terminal_cost(compiled, Terminal("distance", 1.0))
     threads = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        one = compiled.rollout_cost(state, controls, step=0, terminal_cost=1.0)
+        one = compiled.rollout_cost(state, controls, step=0, terminal_cost=distance)
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        many = compiled.rollout_cost(state, controls, step=0, terminal_cost=1.0)
+        many = compiled.rollout_cost(state, controls, step=0, terminal_cost=distance)
     finally:
         numba.set_num_threads(threads)
     np.testing.assert_array_equal(one, many)
@@ -275,11 +280,12 @@ def test_the_parallel_kernels_equal_their_serial_twins_row_for_row():
     high = model.limits.action_high
     rows = kernels.SERIAL_BELOW_ROWS
     controls = np.random.default_rng(3).uniform(-high, high, size=(rows, 4, 3)) * [1.0, 1.0, 0.3]
+    distance = build_terminal_cost(model, Terminal("distance", 0.06))
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        parallel = model.rollout_cost(state, controls, step=2, terminal_cost=0.06)  # rows == threshold
-        serial = np.concatenate([model.rollout_cost(state, controls[i : i + rows // 2], step=2, terminal_cost=0.06)
+        parallel = model.rollout_cost(state, controls, step=2, terminal_cost=distance)  # rows == threshold
+        serial = np.concatenate([model.rollout_cost(state, controls[i : i + rows // 2], step=2, terminal_cost=distance)
                                  for i in (0, rows // 2)])  # fmt: skip
     finally:
         numba.set_num_threads(before)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from uav_penetration_env import PenetrationModel
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.kinematics import wrap_angle
+from uav_penetration_env.mpc import Terminal
 from uav_penetration_env.observation import (
     OBSERVATION_SIZE,
     SLOTS,
@@ -21,6 +22,12 @@ from uav_penetration_env.observation import (
     radar_block,
     terrain_block,
 )
+from uav_penetration_env.terminal import terminal_cost
+
+
+def distance_terminal(model, c_t: float):
+    """The ``distance`` form of the terminal cost at ``c_t``, built as ``rollout_cost`` takes it."""
+    return terminal_cost(model, Terminal("distance", c_t))
 
 
 @pytest.fixture(scope="module")
@@ -105,9 +112,9 @@ def test_rollout_batch_equals_loop_of_single_rollouts(model):
     high = model.limits.action_high
     controls = rng.uniform(-high, high, size=(64, 5, 3))
     state = flying_state(model, 3.0, 1.0, agl=80.0)
-    batch = model.rollout_cost(state, controls, step=4, discount=0.9, terminal_cost=0.06)
+    batch = model.rollout_cost(state, controls, step=4, discount=0.9, terminal_cost=distance_terminal(model, 0.06))
     loop = np.array(
-        [model.rollout_cost(state, c[None], step=4, discount=0.9, terminal_cost=0.06)[0] for c in controls]
+        [model.rollout_cost(state, c[None], step=4, discount=0.9, terminal_cost=distance_terminal(model, 0.06))[0] for c in controls]
     )
     np.testing.assert_array_equal(batch, loop)
 
@@ -125,7 +132,7 @@ def test_terminal_cost_added_only_to_flying_rows_before_k_max(model):
     state = flying_state(model, 0.0, 0.0, agl=600.0)  # high enough to clear the mountain at (12, 14) km
     controls = np.zeros((1, 5, 3))
     plain = model.rollout_cost(state, controls, step=0)[0]
-    with_terminal = model.rollout_cost(state, controls, step=0, terminal_cost=0.06)[0]
+    with_terminal = model.rollout_cost(state, controls, step=0, terminal_cost=distance_terminal(model, 0.06))[0]
     # Flying straight at 10 m/s toward the goal for 5 steps: the end point is 15 km closer.
     remaining = math.hypot(25.0, 25.0) * 1000.0 - 5 * 3000.0
     assert with_terminal - plain == pytest.approx(0.06 * remaining / 3000.0, rel=1e-9)
@@ -133,15 +140,28 @@ def test_terminal_cost_added_only_to_flying_rows_before_k_max(model):
     crash_state = flying_state(model, 5.0, 5.0, agl=60.0)
     dive = np.tile([0.0, 0.0, -0.26], (1, 5, 1))
     assert (
-        model.rollout_cost(crash_state, dive, step=0, terminal_cost=0.06)[0]
+        model.rollout_cost(crash_state, dive, step=0, terminal_cost=distance_terminal(model, 0.06))[0]
         == model.rollout_cost(crash_state, dive, step=0)[0]
     )
     # The window reaching K_max ends the episode: no cost-to-go either.
     late = model.max_steps - 5
     assert (
-        model.rollout_cost(state, controls, step=late, terminal_cost=0.06)[0]
+        model.rollout_cost(state, controls, step=late, terminal_cost=distance_terminal(model, 0.06))[0]
         == model.rollout_cost(state, controls, step=late)[0]
     )
+
+
+@pytest.mark.parametrize("bare", [0.06, 0, np.float64(0.06), "distance", None])
+def test_a_terminal_cost_is_a_built_object_never_a_bare_number(model, bare):
+    """A number used to mean the distance form's c_T while every planner defaulted to ``value`` (issue 41)."""
+    state = flying_state(model, 0.0, 0.0, agl=600.0)
+    with pytest.raises(TypeError) as caught:
+        model.rollout_cost(state, np.zeros((1, 5, 3)), step=0, terminal_cost=bare)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith(f"terminal_cost: got {bare!r}, expected a TerminalCost")
+    with pytest.raises(TypeError, match=r"^terminal_cost: got 0\.06, expected a TerminalCost"):
+        model.rollout_function(state, step=0, terminal_cost=0.06)
 
 
 def test_rollout_rejects_bad_shapes(model):
@@ -424,7 +444,7 @@ def test_model_terms_stay_within_documented_bounds(variant, xy, agl, speed, head
 def test_rollout_cost_is_finite_and_non_negative_for_any_scenario(variant, plan, step, terminal):
     model = variant_model(variant)
     state = model.initial_state()
-    costs = model.rollout_cost(state, np.array(plan)[None], step=step, terminal_cost=terminal)
+    costs = model.rollout_cost(state, np.array(plan)[None], step=step, terminal_cost=distance_terminal(model, terminal))
     assert np.isfinite(costs[0])
     if model.detection == "swerling1":
         assert costs[0] >= -1e-12

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import pytest
 import yaml
 
 from uav_penetration_env import cache, catalogue
+from uav_penetration_env.benchmark.suite_freeze import freeze_suite
 from uav_penetration_env.catalogue import HELD_OUT_SEEDS, resolve_scenario
 from uav_penetration_env.suites import (
     QUANTUM_M,
@@ -18,9 +20,12 @@ from uav_penetration_env.suites import (
     SuiteMismatchError,
     array_hash,
     build_member,
-    freeze_suite,
+    decode_actions,
+    encode_actions,
     load_suite,
     suite_names,
+    suite_path,
+    suite_text,
     verify_suite,
 )
 
@@ -134,6 +139,58 @@ def test_the_replayed_total_j_is_compared_to_a_relative_tolerance(v1, monkeypatc
             build_member(v1, member)
 
 
+def test_the_check_replays_the_stored_controls_not_the_greedy_floor(v1, monkeypatch):
+    """Changing the harness's greedy floor changes no frozen member's check (issue 41)."""
+    from uav_penetration_env.benchmark import policies
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the fingerprint check flew the greedy floor")
+
+    monkeypatch.setattr(policies, "greedy_action", refuse)
+    monkeypatch.setattr(policies.GreedyPolicy, "act", refuse)
+    scenario = build_member(v1, "uavpen-v1/d0.25/30000")  # raises on any difference
+    assert scenario.name == "random-30000"
+
+
+def _with_controls(member, actions):
+    return dataclasses.replace(member, fingerprint=dataclasses.replace(member.fingerprint, replay_actions=actions))
+
+
+def test_changed_replay_controls_are_refused(v1):
+    member = v1.member("uavpen-v1/paper")
+    actions = member.fingerprint.replay_actions
+    steps = len(actions)
+    nudged = list(actions)
+    dv, dphi, dtheta = nudged[steps // 2]
+    nudged[steps // 2] = (dv, dphi, dtheta + 1e-4)  # a pitch change of 0.006 degrees, once
+    with pytest.raises(SuiteMismatchError, match=r"replayed total J .* != \(rtol 1e-09\) frozen") as caught:
+        build_member(v1, _with_controls(member, tuple(nudged)))
+    assert caught.value.field == "replay_total_j"
+    # Too few controls: the episode has not ended when they run out; too many: it ends before.
+    with pytest.raises(
+        SuiteMismatchError, match=rf"replay episode length 'more than {steps - 1}' != frozen {steps - 1} "
+    ):
+        build_member(v1, _with_controls(member, actions[:-1]))
+    with pytest.raises(SuiteMismatchError, match=rf"replay episode length {steps} != frozen {steps + 1} "):
+        build_member(v1, _with_controls(member, (*actions, actions[-1])))
+
+
+def test_replay_controls_are_stored_exactly_and_compactly():
+    rng = np.random.default_rng(0)
+    actions = tuple(tuple(float(v) for v in row) for row in rng.normal(size=(150, 3)) / 7.0)
+    text = encode_actions(actions)
+    assert decode_actions(text, 150, "m") == actions  # bit for bit: float64 survives
+    assert max(len(line) for line in text.splitlines()) <= 96
+    for name in suite_names():
+        suite = load_suite(name)
+        # Each file is exactly what the writer makes of its content: nothing hand-edited.
+        assert suite_text(suite) == suite_path(name).read_text()
+        # The pitch column's 8 bytes per step dominate: about 11 base64 characters per step.
+        for member in suite.members:
+            encoded = encode_actions(member.fingerprint.replay_actions)
+            assert len(encoded) <= 40 + 12 * len(member.fingerprint.replay_actions), member.name
+
+
 def test_array_hash_rounds_last_digits_away_but_sees_a_centimetre():
     rng = np.random.default_rng(0)
     # Values a third of a quantum from the nearest rounding boundary, as almost all values are.
@@ -179,6 +236,21 @@ def test_a_malformed_suite_file_names_the_field(v1, tmp_path):
     data["members"][1]["build"] = {"catalogue": "papr"}
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     with pytest.raises(SuiteError, match=r"members\[1\].build.catalogue: got 'papr' — did you mean 'paper'"):
+        load_suite(path)
+    for key, value, message in (
+        ("replay_actions", "not base64!", r"members\[2\].replay_actions: got undecodable text, expected 22 steps"),
+        ("replay_steps", 46, r"members\[2\].replay_actions: got 66 numbers, expected 138 \(46 steps"),
+        ("replay_steps", 0, r"members\[2\].replay_steps: got 0, expected an integer >= 1"),
+    ):
+        data = v1.to_dict()
+        data["members"][2][key] = value
+        path.write_text(yaml.safe_dump(data, sort_keys=False))
+        with pytest.raises(SuiteError, match=message):
+            load_suite(path)
+    data = v1.to_dict()
+    data["fingerprint"]["scheme"] = 1
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    with pytest.raises(SuiteError, match=r"fingerprint.scheme: got 1, expected 2"):
         load_suite(path)
 
 

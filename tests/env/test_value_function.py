@@ -9,16 +9,17 @@ import numpy as np
 import pytest
 from conftest import tiny_scenario
 
-from uav_penetration_env import costtogo
-from uav_penetration_env.costtogo import G_DX, G_DY, G_X0, G_Y0, TerminalCost
+from uav_penetration_env import terminal_kernels
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import DISTANCE_COST_PER_STEP, terminal_cost
+from uav_penetration_env.terminal_kernels import G_DX, G_DY, G_X0, G_Y0, TerminalCost
 from uav_penetration_env.value_function import (
     LatticeSettings,
     lattice_action,
     lattice_moves,
     lattice_nodes,
     move_costs,
-    terminal_cost_for,
     value_function,
 )
 
@@ -44,7 +45,7 @@ def small_vf(small_model):
 def oracle_lookup(table, grid, x, y, heading, empty):
     """V at a pose, written from the definition: the 8 lattice corners, +inf ones at the crash price, -inf ones left out."""
     nx, ny, nh = table.shape
-    missing = grid[costtogo.G_MISSING]
+    missing = grid[terminal_kernels.G_MISSING]
     fx = (x - grid[G_X0]) / grid[G_DX]
     fy = (y - grid[G_Y0]) / grid[G_DY]
     if not (0.0 <= fx <= nx - 1 and 0.0 <= fy <= ny - 1):
@@ -64,7 +65,7 @@ def oracle_lookup(table, grid, x, y, heading, empty):
 def oracle_lookup_many(table, grid, x, y, heading, empty):
     """:func:`oracle_lookup` over arrays, in numpy (the same definition, vectorised)."""
     nx, ny, nh = table.shape
-    missing = grid[costtogo.G_MISSING]
+    missing = grid[terminal_kernels.G_MISSING]
     fx = (x - grid[G_X0]) / grid[G_DX]
     fy = (y - grid[G_Y0]) / grid[G_DY]
     inside = (fx >= 0) & (fx <= nx - 1) & (fy >= 0) & (fy <= ny - 1)
@@ -96,9 +97,9 @@ def oracle_value_iteration(model, settings):
     cost[edge] = np.inf
     xs, ys, hs = lattice_nodes(model, settings)
     goal = model.goal[0]
-    grid = np.zeros(costtogo.N_GRID)
+    grid = np.zeros(terminal_kernels.N_GRID)
     grid[[G_X0, G_Y0, G_DX, G_DY]] = xs[0], ys[0], xs[1] - xs[0], ys[1] - ys[0]
-    grid[costtogo.G_MISSING] = model.crash_penalty_per_step * model.max_steps + 1.0
+    grid[terminal_kernels.G_MISSING] = model.crash_penalty_per_step * model.max_steps + 1.0
     table = np.full((xs.size, ys.size, hs.size), np.inf)
     inside = np.hypot(starts[:, 0, 0] - goal[0], starts[:, 0, 1] - goal[1]) <= goal[2]
     terrain_doomed = np.all(~np.isfinite(cost), axis=1) & ~np.any(edge, axis=1) & ~inside
@@ -109,7 +110,7 @@ def oracle_value_iteration(model, settings):
         after = oracle_lookup_many(table, grid, ends[..., 0], ends[..., 1], ends[..., 4], np.inf)
         q = np.where(np.isfinite(cost), cost + np.where(reached, 0.0, after), np.inf)
         best = q.min(axis=1)
-        best = np.where(np.isfinite(best), np.minimum(best, grid[costtogo.G_MISSING]), best)  # capped at a crash
+        best = np.where(np.isfinite(best), np.minimum(best, grid[terminal_kernels.G_MISSING]), best)  # capped at a crash
         new = np.where(fixed, table.reshape(-1), best).reshape(table.shape)
         both = np.isfinite(new) & np.isfinite(table)
         done = np.array_equal(np.isfinite(new), np.isfinite(table)) and np.all(np.abs(new[both] - table[both]) < 1e-12)
@@ -303,7 +304,7 @@ def oracle_dubins(x, y, heading, gx, gy, radius):
 
 @pytest.mark.parametrize("pose", [(0.0, 0.0, 0.0), (5000.0, -3000.0, 2.5), (20000.0, 20000.0, -1.0), (11000.0, 10000.0, 3.0)])
 def test_dubins_length_equals_oracle(pose):
-    got = costtogo.dubins_length.py_func(*pose, 12000.0, 12000.0, 11459.0)  # the pure-Python body
+    got = terminal_kernels.dubins_length.py_func(*pose, 12000.0, 12000.0, 11459.0)  # the pure-Python body
     assert got == pytest.approx(oracle_dubins(*pose, 12000.0, 12000.0, 11459.0), rel=1e-6, abs=1.0)
 
 
@@ -312,13 +313,13 @@ def test_compiled_terminal_cost_equals_numpy_oracle(small_model, form):
     """rollout_cost with a terminal form = the window's summed costs + gamma^H x the form at the end pose."""
     model = small_model
     vf = value_function(model)
-    terminal = terminal_cost_for(model, form, 0.2 if form == "distance" else None)
+    terminal = terminal_cost(model, Terminal(form, 0.2 if form == "distance" else None))
     rng = np.random.default_rng(1)
     state = model.initial_state(None)
     controls = rng.uniform(-1, 1, (40, 4, 3)) * model.limits.action_high * 0.3
     discount = 0.9
     got = model.rollout_cost(state, controls, step=0, discount=discount, terminal_cost=terminal)
-    plain = model.rollout_cost(state, controls, step=0, discount=discount, terminal_cost=0.0)
+    plain = model.rollout_cost(state, controls, step=0, discount=discount)  # the none form
     goal = model.goal[0]
     for b in range(len(controls)):
         s = state.copy()
@@ -342,21 +343,30 @@ def test_compiled_terminal_cost_equals_numpy_oracle(small_model, form):
         assert got[b] == pytest.approx(plain[b] + discount**4 * extra, rel=1e-6)
 
 
-def test_a_number_is_the_distance_form(small_model):
+def test_each_form_takes_its_default_c_t(small_model):
     state = small_model.initial_state(None)
     controls = np.zeros((3, 2, 3))
-    as_number = small_model.rollout_cost(state, controls, step=0, terminal_cost=0.06)
-    as_form = small_model.rollout_cost(state, controls, step=0, terminal_cost=terminal_cost_for(small_model, "distance"))
-    assert np.array_equal(as_number, as_form)
+
+    def costs(terminal):
+        return small_model.rollout_cost(state, controls, step=0, terminal_cost=terminal_cost(small_model, terminal))
+
+    assert DISTANCE_COST_PER_STEP == 0.06
+    assert np.array_equal(costs(Terminal("distance")), costs(Terminal("distance", 0.06)))
+    vf = value_function(small_model)
+    assert np.array_equal(costs(Terminal("dubins")), costs(Terminal("dubins", vf.route_j_per_step)))
+    assert np.array_equal(costs(Terminal("none")), small_model.rollout_cost(state, controls, step=0))
+    assert not np.array_equal(costs(Terminal("distance")), costs(Terminal("none")))
 
 
 def test_malformed_terminal_cost_is_refused(small_model):
     state = small_model.initial_state(None)
-    bad = TerminalCost(7, 1.0, np.zeros((1, 1, 1)), np.zeros(costtogo.N_GRID))
+    bad = TerminalCost(7, 1.0, np.zeros((1, 1, 1)), np.zeros(terminal_kernels.N_GRID))
     with pytest.raises(ValueError, match=r"terminal_cost\.kind: got 7"):
         small_model.rollout_cost(state, np.zeros((1, 2, 3)), step=0, terminal_cost=bad)
-    with pytest.raises(ValueError, match="terminal: got 'euclid'"):
-        terminal_cost_for(small_model, "euclid")
+    with pytest.raises(ValueError, match="terminal: got 'euclid', expected one of none, distance, dubins, value"):
+        Terminal("euclid")
+    with pytest.raises(TypeError, match=r"^terminal: got 'value', expected a Terminal\(form, scale\)"):
+        terminal_cost(small_model, "value")
 
 
 # --- the lattice planner -------------------------------------------------------------------------

@@ -123,7 +123,7 @@ def test_config_file_and_flags(tmp_path, tiny_yaml):
 
 def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path, capsys):
     from uav_penetration_env.benchmark.commands.mpc_flags import mpc_settings
-    from uav_penetration_env.mpc import MPCSettings
+    from uav_penetration_env.mpc import MPCSettings, Terminal
 
     given = [
         "--horizon",
@@ -139,7 +139,7 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     ]
     for command in (["run"], ["windows", "--steps", "3"]):
         args = cli.build_parser().parse_args([*command, *given])
-        assert mpc_settings(args) == MPCSettings(4, 0.5, 9, "dubins", 2.0)
+        assert mpc_settings(args) == MPCSettings(4, 0.5, 9, Terminal("dubins", 2.0))
     assert set(run_command.SETTING_FIELDS) <= set(run_command.CONFIG_KEYS)
     # A config file's values are converted and checked as the flags are; the error names the flag.
     config = tmp_path / "bad.yaml"
@@ -157,7 +157,7 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     config.write_text("horizon: 3\nterminal: distance\n")
     args = cli.build_parser().parse_args(["run", "--config", str(config), "--terminal-cost", "0.2"])
     settings = run_command.run_settings(args)["mpc"]
-    assert settings == MPCSettings(horizon=3, terminal="distance", terminal_cost=0.2)
+    assert settings == MPCSettings(horizon=3, terminal=Terminal("distance", 0.2))
     # windows refuses, before opening a store, what a planner would refuse mid-way.
     for argv, message in (
         (["--terminal-cost", "0.3"], "--terminal-cost: got 0.3 with the 'value' terminal form"),
@@ -449,7 +449,7 @@ def test_a_hybrid_name_builds_the_planner_and_hands_it_to_the_kind(tmp_path, tin
     policy = make_policy("ihpso-eq37+fake:dir/agent.zip", horizon=3, max_evals=50)
     ((argument, planner),) = handed
     assert argument == "dir/agent.zip" and planner is policy and isinstance(planner, MPCPolicy)
-    assert (planner.horizon, planner.max_evals, planner.settings.terminal, planner.name) == (
+    assert (planner.horizon, planner.max_evals, planner.settings.terminal.form, planner.name) == (
         3,
         50,
         "none",

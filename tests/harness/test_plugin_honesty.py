@@ -11,9 +11,9 @@ from conftest import tiny_scenario
 from optimizers import OptimizeResult
 from uav_penetration_env.benchmark import MPCPolicy, evaluate
 from uav_penetration_env.benchmark.policies import CountedObjective, PlanError, checked_result
-from uav_penetration_env.mpc import MPCSettings
+from uav_penetration_env.mpc import MPCSettings, Terminal
 
-SETTINGS = MPCSettings(horizon=2, max_evals=60, terminal="none")
+SETTINGS = MPCSettings(horizon=2, max_evals=60, terminal=Terminal("none"))
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ from uav_penetration_env.benchmark.policies import (
     policy_names,
 )
 from uav_penetration_env.env import UAVPenetrationEnv
-from uav_penetration_env.value_function import terminal_cost_for
+from uav_penetration_env.mpc import Terminal
+from uav_penetration_env.terminal import terminal_cost
 
 
 @dataclass
@@ -141,13 +142,17 @@ def test_mpc_objective_is_the_model_rollout_cost(env):
                 message="",
             )
 
-    policy = MPCPolicy(Probe(), MPCSettings(horizon=4, discount=0.9, terminal="distance", terminal_cost=0.2))
+    policy = MPCPolicy(Probe(), MPCSettings(horizon=4, discount=0.9, terminal=Terminal("distance", 0.2)))
     obs, info = env.reset(seed=0)
     policy.reset(env.model, 0)
     policy.act(obs, info)
     plans, costs = seen[0]
     expected = env.model.rollout_cost(
-        info["state"], plans.reshape(7, 4, 3), step=0, discount=0.9, terminal_cost=0.2
+        info["state"],
+        plans.reshape(7, 4, 3),
+        step=0,
+        discount=0.9,
+        terminal_cost=terminal_cost(env.model, Terminal("distance", 0.2)),
     )
     np.testing.assert_array_equal(costs, expected)
 
@@ -179,8 +184,14 @@ def test_mpc_validates_its_settings():
         MPCSettings(max_evals=2.0)  # an integer setting refuses a float, as it always has
     with pytest.raises(ValueError, match="horizon: got True"):
         MPCSettings(horizon=True)  # a bool is no number
-    with pytest.raises(ValueError, match=r"terminal_cost: got -1\.0, expected None or a finite number >= 0"):
-        MPCSettings(terminal="distance", terminal_cost=-1.0)
+    with pytest.raises(ValueError, match=r"^terminal_cost: got -1\.0, expected None or a finite number >= 0$"):
+        Terminal("distance", -1.0)
+    with pytest.raises(ValueError, match=r"^terminal_cost: got -1\.0, expected None or a finite number >= 0$"):
+        make_policy("pso", terminal="distance", terminal_cost=-1.0)
+    with pytest.raises(ValueError, match=r"^terminal_cost: got True, expected None or a finite number >= 0$"):
+        Terminal("distance", True)  # a bool is no c_T
+    with pytest.raises(ValueError, match=r"^terminal: got 'distance', expected a Terminal\(form, scale\)$"):
+        MPCSettings(terminal="distance")  # the field holds the one object, never its parts
     with pytest.raises(TypeError, match="minimize"):
         MPCPolicy(object())
     with pytest.raises(TypeError, match="settings: got 5, expected an MPCSettings"):
@@ -188,10 +199,10 @@ def test_mpc_validates_its_settings():
     with pytest.raises(TypeError, match="horizont"):
         make_policy("pso", horizont=3)  # a change that names no setting
     # A c_T with a form that has none is refused where a planner is built, not in the request.
-    request = MPCSettings(terminal="value", terminal_cost=0.25)
+    request = MPCSettings(terminal=Terminal("value", 0.25))
     with pytest.raises(ValueError, match=r"terminal_cost: got 0\.25 with the 'value' terminal form"):
         MPCPolicy(get_optimizer("pso"), request)
-    assert make_policy("pso-ctg-distance", request).settings == MPCSettings(terminal="distance", terminal_cost=0.25)
+    assert make_policy("pso-ctg-distance", request).settings == MPCSettings(terminal=Terminal("distance", 0.25))
 
 
 def test_make_policy_names():
@@ -200,16 +211,16 @@ def test_make_policy_names():
     ihpso = make_policy("ihpso", horizon=4, max_evals=123)
     assert (
         isinstance(ihpso, MPCPolicy)
-        and (ihpso.settings.terminal, ihpso.settings.terminal_cost) == (MPC_DEFAULTS.terminal, MPC_DEFAULTS.terminal_cost)
+        and ihpso.settings.terminal == MPC_DEFAULTS.terminal == Terminal("value", None)
         and ihpso.horizon == 4
         and ihpso.max_evals == 123
     )
     literal = make_policy("ihpso-eq37")
-    assert literal.settings.terminal == "none" and type(literal.optimizer) is type(ihpso.optimizer)
+    assert literal.settings.terminal == Terminal("none") and type(literal.optimizer) is type(ihpso.optimizer)
     assert ihpso.config() != literal.config()
     # A suffix fixes the terminal form (model.md §7e); c_T still comes from the arguments.
     forms = {f: make_policy(f"hpso-ctg-{f}", terminal_cost=0.3) for f in ("distance", "dubins", "value")}
-    assert {f: (p.settings.terminal, p.settings.terminal_cost, p.name) for f, p in forms.items()} == {
+    assert {f: (p.settings.terminal.form, p.settings.terminal.scale, p.name) for f, p in forms.items()} == {
         "distance": ("distance", 0.3, "hpso-ctg-distance"),
         "dubins": ("dubins", 0.3, "hpso-ctg-dubins"),
         "value": ("value", None, "hpso-ctg-value"),  # the value form has no c_T
@@ -290,7 +301,7 @@ def test_mpc_defaults_live_in_one_place():
         assert (policy.horizon, policy.max_evals) == (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals)
     assert SETTING_FIELDS == keys and not set(keys) & set(RUN_DEFAULTS)  # the CLI reads the dataclass
     with pytest.raises(ValueError, match="terminal: got 'euclid'"):
-        MPCPolicy(get_optimizer("pso"), MPCSettings(terminal="euclid"))
+        MPCPolicy(get_optimizer("pso"), MPCSettings(terminal=Terminal("euclid")))
 
 
 def test_trace_summary_of_a_hand_made_trace():
@@ -333,7 +344,7 @@ def test_mpc_records_the_trace_summary_and_shares_its_objective(tiny):
         info["state"],
         plans.reshape(4, policy.horizon, 3),
         step=info["step"],
-        terminal_cost=terminal_cost_for(env.unwrapped.model, policy.settings.terminal, policy.settings.terminal_cost),
+        terminal_cost=terminal_cost(env.unwrapped.model, policy.settings.terminal),
     )
     np.testing.assert_array_equal(cost(plans), expected)
 

@@ -16,7 +16,7 @@ from uav_penetration_env.benchmark.commands import run as run_command
 from uav_penetration_env.benchmark.commands import windows as windows_command
 from uav_penetration_env.benchmark.evaluate import policy_hash
 from uav_penetration_env.benchmark.policies import MPCPolicy
-from uav_penetration_env.mpc import MPCSettings
+from uav_penetration_env.mpc import MPCSettings, Terminal
 
 GREEDY = "a8b41c8703ab00ac"
 RUN_HASHES = {
@@ -82,5 +82,5 @@ def test_window_runs_keep_their_optimizer_hashes():
     args = cli.build_parser().parse_args(["windows", "--steps", "3", "--horizon", "3", "--max-evals", "400"])
     settings = windows_command.window_settings(args)
     assert policy_hash(MPCPolicy(get_optimizer("ihpso"), settings)) == "404569f4838a0f14"
-    distance = MPCSettings(discount=0.95, terminal="distance", terminal_cost=0.2)
+    distance = MPCSettings(discount=0.95, terminal=Terminal("distance", 0.2))
     assert policy_hash(MPCPolicy(get_optimizer("hpso"), distance)) == "d7ae78c243285a94"

@@ -120,16 +120,16 @@ def payoff_table(
     x_max^j the maximum over the runs optimising the other two. The paper profile's crash
     penalty per step is the largest J(k) (paper weights, these constants) seen in any run.
 
-    DECISION (model.md §7): the calibration MPC has no cost-to-go (``terminal_cost=0``: the
+    DECISION (model.md §7): the calibration MPC has no terminal cost (form ``none``: the
     objective is the raw term alone, as §4.2 says) and a prohibitive crash penalty, so a
     single-objective planner never ends an episode on purpose; constants are calibrated once
     per scenario and frozen in its file (A29).
     """
     from optimizers import get_optimizer
     from uav_penetration_env.benchmark.policies import MPCPolicy
-    from uav_penetration_env.mpc import MPCSettings
+    from uav_penetration_env.mpc import MPCSettings, Terminal
 
-    settings = MPCSettings(horizon=horizon, max_evals=max_evals, terminal="none")
+    settings = MPCSettings(horizon=horizon, max_evals=max_evals, terminal=Terminal("none"))
     policy = MPCPolicy(get_optimizer(optimizer), settings, name=optimizer)
     per_objective = _single_objective_terms(
         scenario, policy, runs, n_jobs=n_jobs, imports=imports, progress=progress, command=command

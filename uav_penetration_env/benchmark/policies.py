@@ -28,11 +28,12 @@ from uav_penetration_env.benchmark.plugins import (  # the plug-in forms, re-exp
     policy_kinds,
     stable_parameters,
 )
-from uav_penetration_env.costtogo import TerminalCost
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
 from uav_penetration_env.suggest import did_you_mean
+from uav_penetration_env.terminal import terminal_cost as build_terminal_cost
+from uav_penetration_env.terminal_kernels import NO_TERMINAL_COST, TerminalCost
 from uav_penetration_env.types import FloatArray
 from uav_penetration_env.value_function import (
     ALGORITHM_VERSION as VALUE_ALGORITHM_VERSION,
@@ -44,7 +45,6 @@ from uav_penetration_env.value_function import (
     ValueFunction,
     candidate_control,
     lattice_action,
-    terminal_cost_for,
     terrain_following_dtheta,
     value_ahead,
     value_function,
@@ -235,8 +235,7 @@ class MPCPolicy:
     Args:
         optimizer: anything with ``minimize(fun, bounds, *, rng, max_evals[, x0])``.
         settings: the horizon, discount, budget and terminal cost (:class:`MPCSettings`; default
-            :data:`MPC_DEFAULTS`). ``horizon``, ``discount``, ``max_evals``, ``terminal`` and
-            ``terminal_cost`` read them.
+            :data:`MPC_DEFAULTS`). ``horizon``, ``discount`` and ``max_evals`` read them.
         warm_start: pass the shifted previous plan as ``x0``.
         name: a label for tables (the registry name when built by :func:`make_policy`).
 
@@ -292,15 +291,16 @@ class MPCPolicy:
             "horizon": self.horizon,
             "discount": self.settings.discount,
             "max_evals": self.max_evals,
-            "terminal": self.settings.terminal,
-            "terminal_cost": self.settings.terminal_cost,
+            # The terminal cost as its two settings keys, as policy keys have always held it.
+            "terminal": self.settings.terminal.form,
+            "terminal_cost": self.settings.terminal.scale,
             **self._value_function_config(),
             "warm_start": self.warm_start,
         }
 
     def _value_function_config(self) -> dict[str, Any]:
         """The lattice behind the terminal cost, when the form reads it (so a changed V is a new policy)."""
-        form, c_t = self.settings.terminal, self.settings.terminal_cost
+        form, c_t = self.settings.terminal.form, self.settings.terminal.scale
         if form == "value" or (form == "dubins" and c_t is None):
             return {"lattice": dataclasses.asdict(LATTICE_DEFAULTS), "value_algorithm": VALUE_ALGORITHM_VERSION}
         return {}
@@ -311,7 +311,7 @@ class MPCPolicy:
         self.rng = np.random.default_rng(seed)
         self._plan = None
         self.last_record = {}
-        self._terminal = terminal_cost_for(model, self.settings.terminal, self.settings.terminal_cost)
+        self._terminal = build_terminal_cost(model, self.settings.terminal)
 
     def initial_guess(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray | None:
         """The (H, 3) plan the optimiser starts from (its ``x0``), or None for no warm start.
@@ -423,15 +423,15 @@ class MPCObjective:
         step: the step index k of that state (the third term and the horizon's clock read it).
         settings: the planner's settings; the objective reads ``horizon`` and ``discount``, and a
             window run its budget ``max_evals``.
-        terminal_cost: the terminal cost built from ``settings``' form (model.md §7e): a
-            :class:`TerminalCost`, or a number c_T of the ``distance`` form.
+        terminal_cost: the terminal cost built from ``settings.terminal`` (model.md §7e,
+            :func:`uav_penetration_env.terminal.terminal_cost`).
     """
 
     model: PenetrationModel
     state: FloatArray
     step: int
     settings: MPCSettings = MPC_DEFAULTS
-    terminal_cost: float | TerminalCost = 0.0
+    terminal_cost: TerminalCost = NO_TERMINAL_COST
 
     @property
     def horizon(self) -> int:
@@ -466,7 +466,7 @@ def mpc_objective(
     step: int,
     settings: MPCSettings = MPC_DEFAULTS,
     *,
-    terminal_cost: float | TerminalCost | None = None,
+    terminal_cost: TerminalCost | None = None,
 ) -> MPCObjective:
     """The objective MPC minimises at ``state`` (step ``step``): the one function planners and window runs share.
 
@@ -474,18 +474,16 @@ def mpc_objective(
         model: the scenario's model.
         state: (6,) the exact state.
         step: its step index k.
-        settings: the planner's settings (horizon H, gamma of eq. 37, the terminal form and c_T).
-        terminal_cost: the terminal cost already built from ``settings``' form (a planner builds
-            it once per episode), a number c_T of the ``distance`` form, or None: built here
-            (``value_function.terminal_cost_for``).
+        settings: the planner's settings (horizon H, gamma of eq. 37, the terminal cost).
+        terminal_cost: ``settings.terminal`` already built on ``model`` (a planner builds it once
+            per episode), or None: built here (:func:`uav_penetration_env.terminal.terminal_cost`).
 
     Returns:
         A callable ``(n, 3H) -> (n,)`` with its ``bounds``.
     """
-    if terminal_cost is None:
-        terminal_cost = terminal_cost_for(model, settings.terminal, settings.terminal_cost)
+    built = build_terminal_cost(model, settings.terminal) if terminal_cost is None else terminal_cost
     return MPCObjective(
-        model, np.asarray(state, dtype=np.float64).copy(), int(step), settings, terminal_cost=terminal_cost
+        model, np.asarray(state, dtype=np.float64).copy(), int(step), settings, terminal_cost=built
     )
 
 
@@ -607,8 +605,9 @@ def policy_label(spec: str) -> str:
 def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any) -> Any:
     """A policy from its CLI name (api.md), MPC planners with ``settings``.
 
-    ``changes`` are fields of :class:`MPCSettings` that replace those of ``settings``
-    (``make_policy("ihpso", max_evals=300)``). Names: an optimiser name (an MPC planner with
+    ``changes`` are settings keys that replace those of ``settings``
+    (``make_policy("ihpso", max_evals=300)``, ``terminal="distance"``, ``terminal_cost=0.2``:
+    :meth:`MPCSettings.with_keys`). Names: an optimiser name (an MPC planner with
     ``settings.terminal``'s form), the same with a suffix
     that fixes the form (``NAME-eq37``: none, the paper's literal eq. 37; ``NAME-ctg-distance``,
     ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e), ``greedy``, ``random``, ``lattice``
@@ -634,7 +633,7 @@ def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any)
     """
     from optimizers import available_optimizers, get_optimizer
 
-    settings = dataclasses.replace(settings, **changes) if changes else settings
+    settings = settings.with_keys(changes) if changes else settings
     if spec in FLOOR_POLICIES:
         return FLOOR_POLICIES[spec]()
     if spec in BASELINE_POLICIES:

@@ -84,12 +84,13 @@ def window_at(
             are used, zeros past the episode's end).
         settings: the planner's settings (H, gamma, the terminal form and c_T; the runs' budget).
         source: the :class:`Window`'s provenance fields (``scenario``, ``episode_seed``, ...).
-        **changes: fields of :class:`MPCSettings` replacing ``settings``' (``horizon=3``).
+        **changes: settings keys replacing ``settings``' (``horizon=3``, ``terminal="distance"``:
+            :meth:`MPCSettings.with_keys`).
 
     Raises:
         ValueError: a setting outside its domain, or a c_T with a form that has none.
     """
-    settings = dataclasses.replace(settings, **changes)
+    settings = settings.with_keys(changes)
     settings.check_terminal_pair()  # a window's objective is a planner's: the pair MPCPolicy refuses
     objective = mpc_objective(model, state, step, settings)
     horizon = settings.horizon
@@ -147,7 +148,8 @@ def collect_windows(
         steps: window step indices k (0 is the start state); each must be < the episode's K.
         episode_seeds: the episodes' seeds (default: the smallest seed that finished).
         settings: the planner's settings of every window's objective (:func:`window_at`).
-        **changes: fields of :class:`MPCSettings` replacing ``settings``' (``horizon=3``).
+        **changes: settings keys replacing ``settings``' (``horizon=3``, ``terminal="distance"``:
+            :meth:`MPCSettings.with_keys`).
 
     Returns:
         One window per (episode seed, step), in that order.
@@ -160,7 +162,7 @@ def collect_windows(
 
     from uav_penetration_env.scenario import load_scenario
 
-    settings = dataclasses.replace(settings, **changes)
+    settings = settings.with_keys(changes)
     settings.check_terminal_pair()  # before any replay: a refused pair costs nothing
     matches, scenario_hash, chosen = _source_episodes(store, source_policy, scenario, episode_seeds)
     name, text = store.scenarios()[scenario_hash]

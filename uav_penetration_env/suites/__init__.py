@@ -9,10 +9,13 @@ The package is split by job; every public name is importable from here:
 
 * :mod:`.schema`: the file's content as objects (:class:`Recipe`, :class:`SuiteMember`,
   :class:`Suite`), parsed and validated from dicts;
-* :mod:`.fingerprint`: computing a member's fingerprint and the guard (:func:`check_fingerprint`);
+* :mod:`.fingerprint`: computing a member's fingerprint from its replay controls, and the guard
+  (:func:`check_fingerprint`), which replays the stored controls open loop;
 * :mod:`.loading`: the shipped files, and building members guarded (:func:`build_member`);
 * :mod:`.seeds`: the default episode seeds of a suite run (:func:`default_seeds`);
-* :mod:`.freeze`: writing a new version (:func:`freeze_suite`).
+* :mod:`.freeze`: writing a new version's file (:func:`write_suite`); choosing the members' replay
+  controls and freezing a new version is the harness's
+  (:func:`uav_penetration_env.benchmark.suite_freeze.freeze_suite`).
 """
 
 from __future__ import annotations
@@ -27,9 +30,16 @@ from uav_penetration_env.suites.fingerprint import (
     check_fingerprint,
     fingerprint,
     fingerprint_rules,
+    replay_episode,
     replay_total_j,
 )
-from uav_penetration_env.suites.freeze import freeze_suite, recipes_from_dict
+from uav_penetration_env.suites.freeze import (
+    frozen_provenance,
+    new_suite_path,
+    recipes_from_dict,
+    suite_text,
+    write_suite,
+)
 from uav_penetration_env.suites.loading import (
     SUITE_FOLDER,
     SUITE_SUFFIX,
@@ -42,6 +52,7 @@ from uav_penetration_env.suites.loading import (
     verify_suite,
 )
 from uav_penetration_env.suites.schema import (
+    ACTIONS_ENCODING,
     DIFFICULTY_GROUPS,
     FINGERPRINT_SCHEME,
     FIXED_GROUP,
@@ -52,6 +63,9 @@ from uav_penetration_env.suites.schema import (
     Suite,
     SuiteError,
     SuiteMember,
+    as_controls,
+    decode_actions,
+    encode_actions,
     suite_from_dict,
 )
 from uav_penetration_env.suites.seeds import (
@@ -62,6 +76,7 @@ from uav_penetration_env.suites.seeds import (
 )
 
 __all__ = [
+    "ACTIONS_ENCODING",
     "DIFFICULTY_GROUPS",
     "FINGERPRINT_FIELDS",
     "FINGERPRINT_SCHEME",
@@ -83,19 +98,26 @@ __all__ = [
     "SuiteMember",
     "SuiteMismatchError",
     "array_hash",
+    "as_controls",
     "build_member",
     "check_fingerprint",
+    "decode_actions",
     "default_seeds",
+    "encode_actions",
     "fingerprint",
     "fingerprint_rules",
-    "freeze_suite",
+    "frozen_provenance",
     "load_suite",
+    "new_suite_path",
     "random_start",
     "recipes_from_dict",
+    "replay_episode",
     "replay_total_j",
     "suite_from_dict",
     "suite_names",
     "suite_path",
     "suite_scenarios",
+    "suite_text",
     "verify_suite",
+    "write_suite",
 ]

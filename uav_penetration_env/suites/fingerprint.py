@@ -1,19 +1,25 @@
 """Fingerprints of a built member, and the guard that refuses a member that no longer reproduces.
 
 A member's fingerprint (docs/suite.md §2) is frozen when its suite is written
-(:func:`~uav_penetration_env.suites.freeze.freeze_suite`):
+(``uav-bench suite freeze``, :func:`uav_penetration_env.benchmark.suite_freeze.freeze_suite`):
 
 * ``scenario_hash``: :attr:`Scenario.hash` of the built scenario (every field, and the content of
   every file it reads);
 * ``terrain_hash`` and ``floors_hash``: SHA-256 (16 hex digits) of the BUILT terrain height grid
   and of the radars' visibility floors (:class:`~uav_penetration_env.build.BuiltScenario`), each
   value rounded to :data:`QUANTUM_M` first;
-* ``replay_total_j``: the total cost ΣJ(k) + Σ penalty of one fixed control sequence replayed
-  through the env: the greedy floor's episode (:func:`replay_total_j`), compared to a relative
-  tolerance of :data:`TOTAL_J_RTOL`.
+* ``replay_total_j``: the total cost ΣJ(k) + Σ penalty of one fixed control sequence,
+  ``replay_actions`` (stored in the member), replayed open loop through the env
+  (:func:`replay_total_j`), compared to a relative tolerance of :data:`TOTAL_J_RTOL`; the replay
+  must also end (goal, failure or K_max) exactly at the sequence's last control.
 
 :func:`check_fingerprint` raises :class:`SuiteMismatchError` when any field differs, so a silent
 change to the model, the terrain synthesis or the generator cannot pass unnoticed.
+
+The check only replays: which planner produced the controls (the harness's greedy floor, when the
+suite was frozen: :mod:`uav_penetration_env.benchmark.suite_freeze`) is no part of it, so
+improving that planner changes no member's check, and the env core imports nothing from the
+harness (``tests/test_imports.py``).
 """
 
 from __future__ import annotations
@@ -26,7 +32,15 @@ from typing import Any
 import numpy as np
 
 from uav_penetration_env.scenario import Scenario
-from uav_penetration_env.suites.schema import FINGERPRINT_SCHEME, Fingerprint, SuiteError, SuiteMember
+from uav_penetration_env.suites.schema import (
+    ACTIONS_ENCODING,
+    FINGERPRINT_SCHEME,
+    Controls,
+    Fingerprint,
+    SuiteError,
+    SuiteMember,
+    as_controls,
+)
 from uav_penetration_env.types import FloatArray
 
 # DECISION (docs/suite.md §2): heights and floors are rounded to 1 cm before hashing. A last-digit
@@ -46,6 +60,7 @@ FINGERPRINT_FIELDS = {
     "terrain_hash": "terrain hash",
     "floors_hash": "floors hash",
     "replay_total_j": "replayed total J",
+    "replay_steps": "replay episode length",
 }
 
 
@@ -56,7 +71,7 @@ class SuiteMismatchError(SuiteError):
         suite: the suite's name.
         member: the member's name.
         field: the fingerprint field (``scenario_hash``, ``terrain_hash``, ``floors_hash``,
-            ``replay_total_j``).
+            ``replay_steps``, ``replay_total_j``).
         got: the value computed now.
         frozen: the value in the suite file.
     """
@@ -92,60 +107,97 @@ def array_hash(values: FloatArray, quantum: float = QUANTUM_M) -> str:
     return digest.hexdigest()[:16]
 
 
-def replay_total_j(scenario: Scenario) -> float:
-    """Total cost ΣJ(k) + Σ penalty (= −return) of the greedy floor's episode on ``scenario``.
+def replay_episode(scenario: Scenario, actions: Controls) -> tuple[float, int, bool]:
+    """Fly ``actions`` open loop through the env from ``reset(seed=REPLAY_SEED)``.
 
-    The replayed control sequence is the one the greedy floor
-    (:class:`~uav_penetration_env.benchmark.policies.GreedyPolicy`, default settings) flies from
-    the env's reset with seed :data:`REPLAY_SEED`; the sum is taken as the harness takes it (numpy
-    sums of the step columns), so a stored greedy episode of the member has this total.
+    The env is stepped with each control in turn until the episode ends or the controls run out;
+    the sum is taken as the harness takes it (numpy sums of the step columns), so a stored episode
+    that flew these controls has this total.
 
-    DECISION (docs/suite.md §2): the greedy episode rather than an open-loop pseudo-random
-    sequence, because a random sequence crashes into the terrain within a few steps and never
-    meets most radars, while the greedy one flies to the goal past them, so the replay exercises
-    kinematics, terrain, every radar, the cost and the normalisation along a whole route.
+    Args:
+        scenario: the member's scenario.
+        actions: (n, 3) controls [dv (m/s), dphi (rad), dtheta (rad)].
+
+    Returns:
+        The total cost ΣJ(k) + Σ penalty (= −return) of the steps flown, the number of steps
+        flown, and whether the episode ended (goal, failure or K_max) at the last of them.
     """
-    from uav_penetration_env.benchmark.policies import GreedyPolicy
     from uav_penetration_env.env import UAVPenetrationEnv
 
     env = UAVPenetrationEnv(scenario)
-    observation, info = env.reset(seed=REPLAY_SEED)
-    policy = GreedyPolicy()
-    policy.reset(env.model, None)
+    env.reset(seed=REPLAY_SEED)
     costs, penalties = [], []
     done = False
-    while not done:
-        observation, _, terminated, truncated, info = env.step(policy.act(observation, info))
+    for action in actions:
+        _, _, terminated, truncated, info = env.step(np.array(action, dtype=np.float64))
         costs.append(info["J"])
         penalties.append(info["penalty"])
         done = terminated or truncated
-    return float(np.array(costs, dtype=np.float64).sum() + np.array(penalties, dtype=np.float64).sum())
+        if done:
+            break
+    total = float(np.array(costs, dtype=np.float64).sum() + np.array(penalties, dtype=np.float64).sum())
+    return total, len(costs), done
 
 
-def fingerprint(scenario: Scenario) -> Fingerprint:
-    """The fingerprint of a scenario as built now (terrain and floors from the build cache)."""
+def replay_total_j(scenario: Scenario, actions: Controls) -> float:
+    """Total cost ΣJ(k) + Σ penalty (= −return) of ``actions`` replayed open loop (:func:`replay_episode`).
+
+    DECISION (docs/suite.md §2): a member stores the controls of its replay episode, and the check
+    replays them open loop, rather than flying a planner again: the fingerprint then depends on the
+    model alone, never on the planner that chose the controls (improving the harness's greedy
+    floor changes no suite's check), and the env core needs nothing from the harness. The
+    controls are the greedy floor's episode at freeze time rather than a pseudo-random sequence,
+    because a random sequence crashes into the terrain within a few steps and never meets most
+    radars, while the greedy one flies to the goal past them, so the replay exercises kinematics,
+    terrain, every radar, the cost and the normalisation along a whole route.
+    """
+    return replay_episode(scenario, actions)[0]
+
+
+def fingerprint(scenario: Scenario, actions: FloatArray | Controls) -> Fingerprint:
+    """The fingerprint of a scenario as built now (terrain and floors from the build cache).
+
+    Args:
+        scenario: the member's scenario.
+        actions: (n, 3) the controls of its replay episode, which must end the episode (goal,
+            failure or K_max) at the last of them.
+
+    Raises:
+        ValueError: ``actions`` not (n, 3) finite controls, or not ending the episode at the last
+            control.
+    """
     from uav_penetration_env.build import build_scenario
 
+    controls = as_controls(actions)
+    total, steps, ended = replay_episode(scenario, controls)
+    if not (ended and steps == len(controls)):
+        where = f"ends after {steps}" if ended else f"has not ended after {steps}"
+        raise ValueError(
+            f"replay_actions: got {len(controls)} controls whose episode {where}, "
+            "expected an episode that ends at the last control"
+        )
     built = build_scenario(scenario)
     return Fingerprint(
         scenario_hash=scenario.hash,
         terrain_hash=array_hash(built.terrain),
         floors_hash=array_hash(built.floors),
-        replay_total_j=replay_total_j(scenario),
+        replay_total_j=total,
+        replay_actions=controls,
     )
 
 
 def check_fingerprint(suite: str, member: SuiteMember, scenario: Scenario, *, replay: bool = True) -> None:
     """Compare ``scenario`` (the member built now) with the member's frozen fingerprint.
 
-    The fields are checked in the order scenario hash, terrain hash, floors hash, replayed total
-    J; the first difference raises. The scenario hash is checked before anything is built.
+    The fields are checked in the order scenario hash, terrain hash, floors hash, replay episode
+    length, replayed total J; the first difference raises. The scenario hash is checked before
+    anything is built.
 
     Args:
         suite: the suite's name (for the message).
         member: the member with its frozen fingerprint.
         scenario: the member's scenario built now.
-        replay: also replay the greedy episode (about 0.05 s per member).
+        replay: also replay the stored controls (about 0.05 s per member).
 
     Raises:
         SuiteMismatchError: naming the suite, the member, the field and both values.
@@ -161,16 +213,26 @@ def check_fingerprint(suite: str, member: SuiteMember, scenario: Scenario, *, re
         if got != getattr(frozen, key):
             raise SuiteMismatchError(suite, member.name, key, got, getattr(frozen, key))
     if replay:
-        total = replay_total_j(scenario)
+        actions = frozen.replay_actions
+        total, steps, ended = replay_episode(scenario, actions)
+        if not (ended and steps == len(actions)):
+            flown: int | str = steps if ended else f"more than {steps}"
+            raise SuiteMismatchError(suite, member.name, "replay_steps", flown, len(actions))
         if not math.isclose(total, frozen.replay_total_j, rel_tol=TOTAL_J_RTOL, abs_tol=0.0):
             raise SuiteMismatchError(suite, member.name, "replay_total_j", total, frozen.replay_total_j)
 
 
-def fingerprint_rules() -> dict[str, Any]:
-    """The ``fingerprint`` block of a suite file: how the fields were computed and compared."""
+def fingerprint_rules(replay: str) -> dict[str, Any]:
+    """The ``fingerprint`` block of a suite file: how the fields were computed and compared.
+
+    Args:
+        replay: who chose the replay controls, and from which reset (``the greedy floor
+            (GreedyPolicy, default settings) from env.reset(seed=0)``).
+    """
     return {
         "scheme": FINGERPRINT_SCHEME,
         "quantum_m": QUANTUM_M,
-        "replay": f"the greedy floor (GreedyPolicy, default settings) from env.reset(seed={REPLAY_SEED})",
+        "replay": replay,
+        "replay_actions": ACTIONS_ENCODING,
         "replay_total_j_rtol": TOTAL_J_RTOL,
     }

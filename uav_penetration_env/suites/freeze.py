@@ -1,7 +1,9 @@
-"""Freezing a new suite version: the recipe file, fingerprinting every member, writing the file once.
+"""Writing a new suite version: the recipe file, the provenance block, writing the file once.
 
-A frozen suite is never edited (docs/suite.md §6): :func:`freeze_suite` builds and fingerprints
-every member of a recipe and writes ``NAME.yaml`` atomically, refusing a name that is taken.
+A frozen suite is never edited (docs/suite.md §6): :func:`write_suite` writes ``NAME.yaml``
+atomically, refusing a name that is taken. Building and fingerprinting the members, which needs a
+planner to choose each member's replay controls, is the harness's
+(:func:`uav_penetration_env.benchmark.suite_freeze.freeze_suite`).
 """
 
 from __future__ import annotations
@@ -9,20 +11,18 @@ from __future__ import annotations
 import datetime as dt
 import os
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from uav_penetration_env.suites.fingerprint import fingerprint, fingerprint_rules
 from uav_penetration_env.suites.loading import SUITE_FOLDER, SUITE_SUFFIX, suite_names, suite_path
 from uav_penetration_env.suites.schema import (
     NAME_PATTERN,
     Recipe,
     Suite,
     SuiteError,
-    SuiteMember,
     require_keys,
     suite_from_dict,
 )
@@ -61,29 +61,11 @@ def recipes_from_dict(data: Any, where: str = "recipe") -> tuple[str, str, list[
     return str(data["suite"]), str(data["description"]), recipes
 
 
-def freeze_suite(
-    name: str,
-    description: str,
-    recipes: Sequence[Recipe],
-    out_dir: str | Path = SUITE_FOLDER,
-    *,
-    progress: Any = None,
-) -> Path:
-    """Build every member, fingerprint it and write ``out_dir/NAME.yaml``; never overwrite.
-
-    Args:
-        name: the new suite's versioned name (``uavpen-v2``).
-        description: one paragraph for the file and ``uav-bench suite list``.
-        recipes: the members, in order.
-        out_dir: the folder (default: the package's suites, where :func:`suite_names` looks).
-        progress: called with each member's name after it is fingerprinted (a progress bar).
-
-    Returns:
-        The written file.
+def new_suite_path(name: str, out_dir: str | Path = SUITE_FOLDER) -> Path:
+    """The file a new suite ``name`` is written to, after checking that the name is versioned and free.
 
     Raises:
-        SuiteError: a malformed or taken name (a shipped suite or an existing file), or two
-            recipes giving one member.
+        SuiteError: a malformed name, or one that is taken (a shipped suite or an existing file).
     """
     if not NAME_PATTERN.match(name):
         raise SuiteError(
@@ -94,37 +76,61 @@ def freeze_suite(
     path = Path(out_dir) / f"{name}{SUITE_SUFFIX}"
     if path.exists():
         raise SuiteError(f"suite file {path} already exists; a frozen suite is never overwritten")
-    from uav_penetration_env import __version__
-    from uav_penetration_env.benchmark.provenance import git_commit
+    return path
 
-    members = []
-    for recipe in recipes:
-        scenario = recipe.build()
-        members.append(
-            SuiteMember(recipe.member_name(name), recipe.group, recipe, scenario.name, fingerprint(scenario))
-        )
-        if progress is not None:
-            progress(members[-1].name)
-    suite = Suite(
-        name,
-        description,
-        tuple(members),
-        frozen={
-            "date": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
-            "package_version": __version__,
-            "commit": git_commit(),
-            "versions": _versions(),
-        },
-        fingerprint=fingerprint_rules(),
-    )
-    suite_from_dict(suite.to_dict())  # the file must read back: names, hashes and recipes are distinct
+
+def frozen_provenance(commit: str) -> dict[str, Any]:
+    """The ``frozen`` block of a suite written now: date, package version, ``commit``, library versions."""
+    from uav_penetration_env import __version__
+
+    return {
+        "date": dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
+        "package_version": __version__,
+        "commit": commit,
+        "versions": _versions(),
+    }
+
+
+def suite_text(suite: Suite) -> str:
+    """The suite file's text: a header, then the YAML of :meth:`Suite.to_dict` (controls as literal blocks)."""
     header = (
-        f"# {name}: a frozen benchmark suite (docs/suite.md). Written by `uav-bench suite freeze`;\n"
+        f"# {suite.name}: a frozen benchmark suite (docs/suite.md). Written by `uav-bench suite freeze`;\n"
         "# never edit it: any change to a member is a new suite version.\n"
     )
-    text = header + yaml.safe_dump(suite.to_dict(), sort_keys=False, width=100, allow_unicode=True)
-    _write_new(path, text)
+    return header + yaml.dump(
+        suite.to_dict(), Dumper=_SuiteDumper, sort_keys=False, width=100, allow_unicode=True
+    )
+
+
+def write_suite(suite: Suite, out_dir: str | Path = SUITE_FOLDER) -> Path:
+    """Write a frozen suite to ``out_dir/NAME.yaml`` atomically; never overwrite.
+
+    Producing the members' fingerprints (which planner chooses the replay controls) is the
+    caller's: ``uav-bench suite freeze`` uses the harness's
+    :func:`~uav_penetration_env.benchmark.suite_freeze.freeze_suite`.
+
+    Returns:
+        The written file.
+
+    Raises:
+        SuiteError: a malformed or taken name, or content that does not read back (two members
+            with one name or scenario hash).
+    """
+    path = new_suite_path(suite.name, out_dir)
+    suite_from_dict(suite.to_dict())  # the file must read back: names, hashes and recipes are distinct
+    _write_new(path, suite_text(suite))
     return path
+
+
+class _SuiteDumper(yaml.SafeDumper):
+    """YAML's safe dumper, writing text with line breaks (the encoded controls) as a literal block."""
+
+
+def _represent_text(dumper: yaml.SafeDumper, text: str) -> yaml.ScalarNode:
+    return dumper.represent_scalar("tag:yaml.org,2002:str", text, style="|" if "\n" in text else None)
+
+
+_SuiteDumper.add_representer(str, _represent_text)
 
 
 def _versions() -> dict[str, str]:

@@ -15,9 +15,12 @@ identity (another episode seed, another best-known record) in every suite versio
 
 from __future__ import annotations
 
+import base64
+import binascii
 import fnmatch
 import math
 import re
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,7 +33,9 @@ from uav_penetration_env.suggest import did_you_mean
 
 # The scheme of the fingerprint block: a file written by another scheme is refused on reading,
 # since its hashes were computed differently and cannot be compared with this package's.
-FINGERPRINT_SCHEME = 1
+# Scheme 2: each member stores the controls of its replay episode (``replay_actions``), which the
+# check replays open loop; scheme 1 computed them again with the harness's greedy floor.
+FINGERPRINT_SCHEME = 2
 FIXED_GROUP = "fixed"
 DIFFICULTY_GROUPS = ("d0.25", "d0.50", "d0.75")
 MEMBER_KEYS = (
@@ -42,7 +47,14 @@ MEMBER_KEYS = (
     "terrain_hash",
     "floors_hash",
     "replay_total_j",
+    "replay_steps",
+    "replay_actions",
 )
+# How ``replay_actions`` is written (the suite file's ``fingerprint.replay_actions`` says so too).
+ACTIONS_ENCODING = (
+    "base64 of zlib-compressed little-endian float64, column by column (dv, dphi, dtheta), one row per step"
+)
+ACTIONS_LINE = 96  # characters per line of the encoded controls in the suite file
 SUITE_KEYS = ("suite", "description", "fingerprint", "frozen", "members")
 # A suite name is versioned (``uavpen-v1``): a changed member is a new name, never an edit.
 NAME_PATTERN = re.compile(r"^[a-z][a-z0-9.-]*-v[0-9]+$")
@@ -50,6 +62,64 @@ NAME_PATTERN = re.compile(r"^[a-z][a-z0-9.-]*-v[0-9]+$")
 
 class SuiteError(ValueError):
     """A suite file or suite name that cannot be used (unknown, unreadable, malformed)."""
+
+
+Controls = tuple[tuple[float, float, float], ...]
+
+
+def encode_actions(actions: Controls) -> str:
+    """The suite file's text of a control sequence: exact, compact (:data:`ACTIONS_ENCODING`).
+
+    DECISION (docs/suite.md §2): the controls are stored bit for bit as float64, compressed and in
+    base64, in lines of :data:`ACTIONS_LINE` characters. Rounding them (to float32 or to printed
+    digits) would move the replayed total by far more than its tolerance; round-trip decimal text
+    takes about three times the room. Column by column, the constant speed and turn columns of a
+    greedy episode compress to almost nothing, so a member's 50-odd steps take about 550
+    characters, close to the 8 bytes per step of its pitch column, which no exact encoding avoids.
+
+    Args:
+        actions: (n, 3) controls [dv (m/s), dphi (rad), dtheta (rad)], n >= 1.
+    """
+    columns = np.ascontiguousarray(np.asarray(actions, dtype="<f8").T)
+    text = base64.b64encode(zlib.compress(columns.tobytes(), 9)).decode("ascii")
+    return "\n".join(text[i : i + ACTIONS_LINE] for i in range(0, len(text), ACTIONS_LINE)) + "\n"
+
+
+def decode_actions(text: Any, steps: Any, where: str) -> Controls:
+    """The control sequence of :func:`encode_actions`' text, checked against its ``steps``.
+
+    Raises:
+        SuiteError: ``where.replay_actions`` (or ``.replay_steps``) naming what is wrong.
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise SuiteError(f"{where}.replay_steps: got {steps!r}, expected an integer >= 1")
+    expected = f"{steps} steps of controls as {ACTIONS_ENCODING}"
+    if not isinstance(text, str):
+        raise SuiteError(f"{where}.replay_actions: got {text!r}, expected {expected}")
+    try:
+        raw = zlib.decompress(base64.b64decode("".join(text.split()), validate=True))
+    except (binascii.Error, ValueError, zlib.error):
+        raise SuiteError(f"{where}.replay_actions: got undecodable text, expected {expected}") from None
+    if len(raw) != 3 * 8 * steps:
+        raise SuiteError(
+            f"{where}.replay_actions: got {len(raw) // 8} numbers, expected {3 * steps} ({expected})"
+        )
+    columns = np.frombuffer(raw, dtype="<f8").reshape(3, steps)
+    if not np.all(np.isfinite(columns)):
+        raise SuiteError(f"{where}.replay_actions: got a non-finite control, expected {expected}")
+    return tuple((float(dv), float(dphi), float(dtheta)) for dv, dphi, dtheta in columns.T)
+
+
+def as_controls(actions: Any) -> Controls:
+    """``actions`` ((n, 3) numbers) as the exact tuple a :class:`Fingerprint` holds.
+
+    Raises:
+        ValueError: not (n, 3) with n >= 1, or a non-finite control.
+    """
+    array = np.asarray(actions, dtype=np.float64)
+    if array.ndim != 2 or array.shape[0] < 1 or array.shape[1] != 3 or not np.all(np.isfinite(array)):
+        raise ValueError(f"replay_actions: got shape {array.shape}, expected (n >= 1, 3) finite controls")
+    return tuple((float(dv), float(dphi), float(dtheta)) for dv, dphi, dtheta in array)
 
 
 
@@ -133,12 +203,15 @@ class Fingerprint:
         terrain_hash: 16 hex digits of the built (nx, ny) terrain grid rounded to ``QUANTUM_M``.
         floors_hash: 16 hex digits of the built (M, nx, ny) visibility floors rounded likewise.
         replay_total_j: total cost of the replay episode (:func:`replay_total_j`).
+        replay_actions: the replay episode's controls, one (dv, dphi, dtheta) per step, exact: the
+            check flies them open loop from ``env.reset(seed=REPLAY_SEED)``.
     """
 
     scenario_hash: str
     terrain_hash: str
     floors_hash: str
     replay_total_j: float
+    replay_actions: Controls
 
 
 @dataclass(frozen=True)
@@ -170,6 +243,8 @@ class SuiteMember:
             "terrain_hash": self.fingerprint.terrain_hash,
             "floors_hash": self.fingerprint.floors_hash,
             "replay_total_j": self.fingerprint.replay_total_j,
+            "replay_steps": len(self.fingerprint.replay_actions),
+            "replay_actions": encode_actions(self.fingerprint.replay_actions),
         }
 
 
@@ -269,6 +344,12 @@ def suite_from_dict(data: Any, path: Path | None = None) -> Suite:
         raise SuiteError(f"{where}: suite: got {name!r}, expected a versioned name like uavpen-v1")
     if not isinstance(data["members"], list) or not data["members"]:
         raise SuiteError(f"{where}: members: expected a non-empty list")
+    rules = dict(data["fingerprint"] or {})
+    if rules.get("scheme") != FINGERPRINT_SCHEME:
+        raise SuiteError(
+            f"{where}: fingerprint.scheme: got {rules.get('scheme')!r}, expected {FINGERPRINT_SCHEME} "
+            "(this version of the package computes fingerprints by that scheme only)"
+        )
     members = []
     for index, entry in enumerate(data["members"]):
         at = f"{where}: members[{index}]"
@@ -288,8 +369,9 @@ def suite_from_dict(data: Any, path: Path | None = None) -> Suite:
         for key in ("scenario_hash", "terrain_hash", "floors_hash"):
             if not (isinstance(entry[key], str) and re.fullmatch(r"[0-9a-f]{16}", entry[key])):
                 raise SuiteError(f"{at}.{key}: got {entry[key]!r}, expected 16 hex digits")
+        actions = decode_actions(entry["replay_actions"], entry["replay_steps"], at)
         fingerprint = Fingerprint(
-            entry["scenario_hash"], entry["terrain_hash"], entry["floors_hash"], float(total)
+            entry["scenario_hash"], entry["terrain_hash"], entry["floors_hash"], float(total), actions
         )
         members.append(
             SuiteMember(entry["name"], entry["group"], recipe, str(entry["scenario"]), fingerprint)
@@ -301,11 +383,5 @@ def suite_from_dict(data: Any, path: Path | None = None) -> Suite:
         repeated = sorted({v for v in values if values.count(v) > 1})
         if repeated:
             raise SuiteError(f"{where}: {label} {repeated[0]!r} appears twice; every member must be distinct")
-    rules = dict(data["fingerprint"] or {})
-    if rules.get("scheme") != FINGERPRINT_SCHEME:
-        raise SuiteError(
-            f"{where}: fingerprint.scheme: got {rules.get('scheme')!r}, expected {FINGERPRINT_SCHEME} "
-            "(this version of the package computes fingerprints by that scheme only)"
-        )
     return Suite(name, str(data["description"]), tuple(members), path, dict(data["frozen"] or {}), rules)
 

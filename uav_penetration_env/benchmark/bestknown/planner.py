@@ -3,7 +3,7 @@
 The decision variables are the K_max x 3 controls of an episode, normalised to the action box
 ([-1, 1] per component, physical control = x * ``limits.action_high``), flattened to a vector of
 3 K_max numbers. The objective is the compiled model's :meth:`PenetrationModel.rollout_cost` of the
-whole sequence from the start state with no discount and no cost-to-go: the sum of J(k) + penalty
+whole sequence from the start state with no discount and no terminal cost: the sum of J(k) + penalty
 of the transitions flown until the goal, a failure or K_max, which is the evaluator's
 ``total_cost`` of the same controls (docs/best-known.md §1; a test pins the equality).
 
@@ -155,7 +155,7 @@ class EpisodeObjective:
         return x.reshape(-1)
 
     def __call__(self, x: FloatArray) -> FloatArray:
-        """(B,) summed costs of (B, 3 K_max) normalised vectors (no discount, no cost-to-go)."""
+        """(B,) summed costs of (B, 3 K_max) normalised vectors (no discount, no terminal cost)."""
         controls = np.ascontiguousarray(self.controls(np.atleast_2d(x)))
         return self.model.rollout_cost(self.state, controls, step=0)
 

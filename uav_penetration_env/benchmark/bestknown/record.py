@@ -3,7 +3,7 @@
 A :class:`BestKnownRecord` holds the scenario (its name, hash and full content), the control
 sequence (K x 3 physical controls [dv (m/s), dphi (rad), dtheta (rad)], the env's action units),
 its total cost J* (the evaluator's ``total_cost``: ΣJ(k) + failure penalty, no discount, no
-cost-to-go), outcome and step count, how and when it was found, the budget spent, the library
+terminal cost), outcome and step count, how and when it was found, the budget spent, the library
 versions and the result of the search that used no stored track (``unseeded_total``).
 
 Records live in ``uav_penetration_env/benchmark/bestknown/records/<scenario.hash>.json``

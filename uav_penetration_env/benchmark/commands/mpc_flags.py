@@ -1,9 +1,11 @@
 """The MPC flags of ``uav-bench run`` and ``windows``, built from :class:`~uav_penetration_env.mpc.MPCSettings`' fields.
 
-Each field gives one flag (``max_evals`` -> ``--max-evals``) with the field's help text and
-default, and one ``--config`` key (the field's name); :func:`mpc_settings` turns what was given
-into one :class:`MPCSettings`, refusing a bad value in one line that names the flag. A new
-setting is a new field of the dataclass: both commands and the config file gain it.
+Each settings key gives one flag (``max_evals`` -> ``--max-evals``) with its help text and
+default, and one ``--config`` key (the key itself): one key per field, and two for the terminal
+cost (``--terminal``, its form, and ``--terminal-cost``, its c_T; one ``Terminal``);
+:func:`mpc_settings` turns what was given into one :class:`MPCSettings`, refusing a bad value in
+one line that names the flag. A new setting is a new field of the dataclass: both commands and
+the config file gain it.
 """
 
 from __future__ import annotations
@@ -14,7 +16,14 @@ from collections.abc import Mapping
 from typing import Any
 
 from uav_penetration_env.benchmark.commands.common import CLIError
-from uav_penetration_env.mpc import MPC_DEFAULTS, SETTING_FIELDS, MPCSettings, SettingError, parse_settings
+from uav_penetration_env.mpc import (
+    MPC_DEFAULTS,
+    SETTING_FIELDS,
+    MPCSettings,
+    SettingError,
+    parse_settings,
+    setting_keys,
+)
 
 __all__ = ["SETTING_FIELDS", "add_mpc_arguments", "flag_name", "mpc_settings", "setting_error"]
 
@@ -25,20 +34,20 @@ def flag_name(field: str) -> str:
 
 
 def add_mpc_arguments(parser: argparse.ArgumentParser) -> None:
-    """One flag per :class:`MPCSettings` field, each with no parser default (None: not given).
+    """One flag per :class:`MPCSettings` key, each with no parser default (None: not given).
 
-    A flag's text is parsed by the field's kind (``--horizon x`` is argparse's usage error); its
-    domain is checked by :func:`mpc_settings`, which fills what was not given from the defaults.
+    A flag's text is parsed by the key's kind (``--horizon x`` is argparse's usage error); its
+    domain is checked by :func:`mpc_settings`, which fills what was not given from the defaults
+    (:data:`~uav_penetration_env.mpc.MPC_DEFAULTS`).
     """
     for field in dataclasses.fields(MPCSettings):
-        meta = field.metadata
-        default = meta.get("default_text", getattr(MPC_DEFAULTS, field.name))
-        parser.add_argument(
-            flag_name(field.name),
-            dest=field.name,
-            type=None if meta["kind"] is str else meta["kind"],
-            help=f"{meta['help']} (default: {default})",
-        )
+        for key, kind, help_text, default in setting_keys(field):
+            parser.add_argument(
+                flag_name(key),
+                dest=key,
+                type=None if kind is str else kind,
+                help=f"{help_text} (default: {default})",
+            )
 
 
 def setting_error(error: SettingError) -> CLIError:

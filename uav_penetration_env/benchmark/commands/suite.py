@@ -157,7 +157,8 @@ def _verify(args: argparse.Namespace) -> int:
 
 def _freeze(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.progress import ProgressBar
-    from uav_penetration_env.suites import freeze_suite, load_suite, recipes_from_dict
+    from uav_penetration_env.benchmark.suite_freeze import freeze_suite
+    from uav_penetration_env.suites import load_suite, recipes_from_dict
 
     name = _needs_name(args)
     if args.recipe:

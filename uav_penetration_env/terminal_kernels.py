@@ -1,9 +1,9 @@
-"""The MPC window's terminal cost: what the state a window ends in still costs to the goal (model.md §7e).
+"""The MPC window's terminal cost, compiled: the record the rollout kernel reads and its scalar functions (model.md §7e).
 
-Eq. 37 prices only the H steps of a window. A receding-horizon planner needs a price for where a
-window leaves the UAV, or it defers threat past the horizon: a window that ends pointing away from
-the goal, or with the goal inside the turning circle, looks as cheap as one lined up for it. This
-module holds the compiled pieces of the four forms a window's end state can be priced by:
+The terminal cost (its setting, its forms and how one is built on a scenario:
+:mod:`uav_penetration_env.terminal`) reaches the rollout kernel as a :class:`TerminalCost`. This
+module holds that record, its check, and the compiled scalar functions that evaluate it, below the
+model (the kernels import them); the four forms a window's end state can be priced by:
 
 ========  =====  ==================================================================================
 form      kind   terminal cost of an end state (x, y, psi)
@@ -17,8 +17,9 @@ value     3      V(x, y, psi): the lattice value function, the cheapest cost to 
 ========  =====  ==================================================================================
 
 The same scalar functions serve the rollout kernel (``kernels.rollout_batch``), the value
-iteration that builds V (:func:`value_iteration`) and the lattice planner. V is built by
-:mod:`uav_penetration_env.value_function`.
+iteration that builds V (``value_function.value_iteration``) and the lattice planner. V is built
+by :mod:`uav_penetration_env.value_function`; a :class:`TerminalCost` by
+:func:`uav_penetration_env.terminal.terminal_cost`.
 """
 
 from __future__ import annotations
@@ -37,7 +38,10 @@ G_X0, G_Y0, G_DX, G_DY, G_MISSING, G_STEP_LENGTH, G_TURN_RADIUS, N_GRID = range(
 
 
 class TerminalCost(NamedTuple):
-    """The terminal cost of MPC windows, as the rollout kernel reads it (model.md §7e).
+    """The terminal cost of MPC windows, built on a scenario, as the rollout kernel reads it (model.md §7e).
+
+    Built by :func:`uav_penetration_env.terminal.terminal_cost` from a
+    :class:`~uav_penetration_env.mpc.Terminal`; :data:`NO_TERMINAL_COST` is the ``none`` form.
 
     Attributes:
         kind: the form's code in :data:`TERMINAL_FORMS` (int).
@@ -55,25 +59,8 @@ class TerminalCost(NamedTuple):
     grid: np.ndarray
 
 
-def analytic_terminal(form: str, scale: float, step_length: float, turn_radius: float) -> TerminalCost:
-    """A ``none``, ``distance`` or ``dubins`` terminal cost (no value table).
-
-    Args:
-        form: ``none``, ``distance`` or ``dubins``.
-        scale: c_T >= 0 [J per step at v_max].
-        step_length: v_max dt [m].
-        turn_radius: v_max dt / dphi_max [m].
-
-    Raises:
-        ValueError: an unknown form, or ``value`` (which needs a table: ``ValueFunction.terminal``).
-    """
-    if form not in ("none", "distance", "dubins"):
-        raise ValueError(f"terminal form: got {form!r}, expected 'none', 'distance' or 'dubins' here")
-    grid = np.zeros(N_GRID)
-    grid[G_STEP_LENGTH] = step_length
-    grid[G_TURN_RADIUS] = turn_radius
-    kind = TERMINAL_FORMS[form] if scale > 0.0 else 0
-    return TerminalCost(kind, float(scale), np.zeros((1, 1, 1)), grid)
+# The terminal cost of a window priced by nothing (the ``none`` form): rollout_cost's default.
+NO_TERMINAL_COST = TerminalCost(0, 0.0, np.zeros((1, 1, 1)), np.zeros(N_GRID))
 
 
 def checked_terminal(terminal: TerminalCost) -> TerminalCost:
@@ -196,69 +183,3 @@ def terminal_value(terminal, x, y, heading, goal_x, goal_y):
     if kind == 3:
         return terminal.scale * value_lookup(terminal.table, grid, x, y, heading, grid[G_MISSING])
     return 0.0
-
-
-@njit(cache=True)
-def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal, table, grid, tolerance, max_sweeps):
-    """Gauss-Seidel value iteration of V(n) = min_a [c(n, a) + (0 if a reaches the goal else V(f(n, a)))].
-
-    Nodes inside the goal disc are terminal (the env's episode has ended there): V = 0, never updated.
-
-    Args:
-        cost: (N, A) move costs J(k) of each lattice node's moves; ``inf`` for a forbidden move.
-        reached: (N, A) whether the move reaches the goal (its successor's value is then 0).
-        end_x: (N, A) the move's end x [m].
-        end_y: (N, A) the move's end y [m].
-        end_heading: (N, A) the move's end heading [rad].
-        order: (N,) node visiting order (nearest the goal first); odd sweeps run it backwards.
-        inside_goal: (N,) nodes within r_goal of the goal (V = 0).
-        table: (nx, ny, nh) in/out V: ``+inf`` to be computed, ``-inf`` for nodes whose every move
-            clips the terrain (never updated, left out of interpolation).
-        (flat node n = (ix ny + iy) nh + ih)
-        grid: the lattice slots ``G_*``; a corner not yet finite counts as ``G_MISSING``, a pose
-            with no finite corner is not a move (``inf``).
-        tolerance: stop when no node changes by more than this and no node became finite.
-        max_sweeps: the most sweeps.
-
-    Returns:
-        The number of sweeps made (``max_sweeps + 1`` if it did not converge).
-    """
-    flat = table.reshape(-1)
-    nodes = cost.shape[0]
-    moves = cost.shape[1]
-    for n in range(nodes):
-        if inside_goal[n]:
-            flat[n] = 0.0
-    for sweep in range(max_sweeps):
-        change = 0.0
-        for position in range(nodes):
-            n = order[position] if sweep % 2 == 0 else order[nodes - 1 - position]
-            if inside_goal[n] or flat[n] == -math.inf:
-                continue
-            best = math.inf
-            for a in range(moves):
-                c = cost[n, a]
-                if c == math.inf:
-                    continue
-                if reached[n, a]:
-                    q = c
-                else:
-                    q = c + value_lookup(table, grid, end_x[n, a], end_y[n, a], end_heading[n, a], math.inf)
-                if q < best:
-                    best = q
-            # No pose costs more than a crash now: a region that reaches neither the goal nor the
-            # edge (walled in by terrain) converges to that price instead of growing every sweep.
-            if best < math.inf and best > grid[G_MISSING]:
-                best = grid[G_MISSING]
-            old = flat[n]
-            if best < math.inf:
-                if old == math.inf:
-                    change = math.inf
-                else:
-                    delta = abs(best - old)
-                    if delta > change:
-                        change = delta
-            flat[n] = best
-        if change <= tolerance:
-            return sweep + 1
-    return max_sweeps + 1
