@@ -210,8 +210,8 @@ def test_array_hash_rounds_last_digits_away_but_sees_a_centimetre():
 def test_unknown_names_get_a_did_you_mean(v1):
     with pytest.raises(
         SuiteError,
-        match=r"unknown suite 'uavpen-v2' — did you mean 'uavpen-v1', 'uavpen-heldout-v1'\? "
-        r"known suites: uavpen-heldout-v1, uavpen-v1$",
+        match=r"unknown suite 'uavpen-v2' — did you mean 'uavpen-v1', 'uavpen-heldout-v2', 'uavpen-heldout-v1'\? "
+        r"known suites: uavpen-heldout-v1, uavpen-heldout-v2, uavpen-v1$",
     ):
         load_suite("uavpen-v2")
     with pytest.raises(SuiteError, match=r"unknown member 'uavpen-v1/papr' — did you mean 'uavpen-v1/paper'"):
@@ -282,7 +282,8 @@ def test_the_suite_command(tmp_path, capsys):
     assert cli.main(["suite", "list"]) == 0
     listed = capsys.readouterr().out.splitlines()
     assert listed[0].startswith("uavpen-heldout-v1: 50 members (d0.50 50)")
-    assert listed[1].startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
+    assert listed[1].startswith("uavpen-heldout-v2: 50 members (d0.50 50)")
+    assert listed[2].startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
     assert cli.main(["suite", "show", "uavpen-v1", "--members", "uavpen-v1/paper*"]) == 0
     out = capsys.readouterr().out
     assert "| uavpen-v1/paper-w2 | fixed | paper-2022-sec5-w2 | d2cada97cea659ca |" in out
@@ -348,6 +349,25 @@ def test_the_held_out_suite_is_the_held_out_set_unchanged(v1):
     assert not {m.fingerprint.scenario_hash for m in held_out.members} & {m.fingerprint.scenario_hash for m in v1.members}
     scenario = build_member(held_out, "uavpen-heldout-v1/d0.50/10049")  # fingerprints reproduce (raises otherwise)
     assert scenario.name == "random-10049"
+
+
+def test_the_fresh_held_out_suite_is_apart_from_every_other_published_map(v1):
+    """uavpen-heldout-v2 (docs/suite.md §8): seeds 70000-70049, no map shared with another suite."""
+    from uav_penetration_env.suites.published import published_maps
+
+    fresh = load_suite("uavpen-heldout-v2")
+    assert [m.name for m in fresh.members] == [f"uavpen-heldout-v2/d0.50/{s}" for s in range(70000, 70050)]
+    scenarios = [resolve_scenario(f"random:{s}", difficulty=0.5) for s in range(70000, 70050)]
+    assert [m.fingerprint.scenario_hash for m in fresh.members] == [s.hash for s in scenarios]
+    others = {h for h, member in published_maps().items() if not member.startswith("uavpen-heldout-v2/")}
+    assert not {s.map_hash for s in scenarios} & others
+    assert build_member(fresh, "uavpen-heldout-v2/d0.50/70049").name == "random-70049"  # reproduces (raises otherwise)
+
+
+@pytest.mark.slow
+def test_every_fresh_held_out_member_reproduces():
+    failures = [str(c.error) for c in verify_suite(load_suite("uavpen-heldout-v2")) if c.error is not None]
+    assert failures == []
 
 
 @pytest.mark.slow
