@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.benchmark import stats
-from uav_penetration_env.benchmark.fixedtarget import (
+from uav_penetration_env.benchmark.runtimes import (
     WINDOW_KEY,
     _number,
     _parsed,
