@@ -13,8 +13,9 @@ Every input is checked before anything is written: problems raise :class:`CLIErr
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shlex
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -313,6 +314,23 @@ def add_replace_out_argument(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="write into an --out folder holding another store's tables and report, replacing them",
     )
+
+
+@contextlib.contextmanager
+def removed_if_failed(path: Path) -> Iterator[None]:
+    """The folders of ``path`` (itself and its parents) that do not exist yet are removed again,
+    deepest first, when the block raises and they are still empty: a failed command leaves no empty
+    output folder behind (api.md §4.7)."""
+    missing = [folder for folder in [path, *path.parents] if not folder.exists()]
+    try:
+        yield
+    except BaseException:
+        for folder in missing:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (something was written), or not ours to remove
+                break
+        raise
 
 
 def check_writable_folder(path: Path, flag: str, value: str | Path | None = None) -> None:
