@@ -318,9 +318,11 @@ def add_replace_out_argument(parser: argparse.ArgumentParser) -> None:
 
 @contextlib.contextmanager
 def removed_if_failed(path: Path) -> Iterator[None]:
-    """The folders of ``path`` (itself and its parents) that do not exist yet are removed again,
-    deepest first, when the block raises and they are still empty: a failed command leaves no empty
-    output folder behind (api.md §4.7)."""
+    """Remove the folders of ``path`` that the block made, when it raises and they are still empty.
+
+    ``path`` itself and its parents that do not exist yet are removed again, deepest first, so a
+    failed command leaves no empty output folder behind (api.md §4.7).
+    """
     missing = [folder for folder in [path, *path.parents] if not folder.exists()]
     try:
         yield
