@@ -41,7 +41,7 @@ def resolve_data_file(name: str) -> Path | None:
 
 
 def _sample_data_folder() -> Path | None:
-    """matplotlib's ``mpl-data/sample_data`` folder, found without importing it; None when it is not installed."""
+    """The ``mpl-data/sample_data`` folder of matplotlib, found without importing it; None when it is not installed."""
     import importlib.util
 
     try:
