@@ -487,17 +487,21 @@ def print_outcome(frame: Any, store_path: Path) -> int:
 
 
 def run_reference(reference: str | None, policies: list[str]) -> str:
-    """The policy the run's report compares against: ``--reference``, else the tables' default.
+    """The reference the run's tables are asked for: ``--reference``, else the default name ``ihpso``.
 
-    The default is the leaderboard's (ihpso, else greedy, else the policy on the most seeds;
+    The tables resolve the default by the one rule of api.md §4.5 (ihpso where flown, else greedy,
+    else the policy on the most seeds;
     :func:`~uav_penetration_env.benchmark.leaderboard.groups.resolve_reference`), so the report a
-    run writes and the one ``uav-bench report`` rebuilds from the same store agree.
+    run writes and the one ``uav-bench report`` rebuilds from the same store agree; the terminal
+    summary shows what each table chose (:func:`~uav_penetration_env.benchmark.summary.table_reference`).
 
     Raises:
         CLIError: ``--reference`` names no policy of ``--policies``.
     """
     if reference is None:
-        return "ihpso"
+        from uav_penetration_env.benchmark.leaderboard.groups import DEFAULT_REFERENCE
+
+        return DEFAULT_REFERENCE
     if reference not in policies:
         raise CLIError(
             f"--reference {reference}: {did_you_mean(reference, policies)}"
