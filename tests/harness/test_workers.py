@@ -75,3 +75,48 @@ def test_run_with_a_dying_worker_stores_an_error_row_exits_1_and_a_rerun_continu
         ]  # fmt: skip
         if backend == "loky":
             assert rows[2][3] == rows[3][3] == "worker died (exit code 3)"
+
+
+def test_loky_workers_leave_ctrl_c_to_the_parent():
+    """A terminal's Ctrl-C reaches every process of the group: the workers ignore it (api.md §4.7)."""
+    import signal
+
+    executor = workers._executor(1)
+    try:
+        assert executor.submit(signal.getsignal, signal.SIGINT).result() == signal.SIG_IGN
+    finally:
+        executor.shutdown(wait=True, kill_workers=True)
+
+
+def test_ctrl_c_during_a_run_prints_one_line_and_keeps_the_finished_episodes(tmp_path):
+    """SIGINT to the run's whole process group, as a terminal sends it: exit 130, one line, no traceback."""
+    import os
+    import signal
+    import time
+
+    scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
+    store = tmp_path / "interrupted.sqlite"
+    command = [sys.executable, "-m", "uav_penetration_env.benchmark.cli", "run", "--scenarios", str(scenario),
+               "--policies", "pso", "greedy", "--seeds", "8", "--max-evals", "1500", "--jobs", "2",
+               "--no-report", "--no-progress", "--store", str(store)]  # fmt: skip
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), os.environ.get("PYTHONPATH", "")]))
+    process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)  # fmt: skip
+    stored, deadline = 0, time.monotonic() + 300  # a bound on the wait, not an assertion on speed
+    while time.monotonic() < deadline and process.poll() is None and stored < 2:
+        if store.exists():
+            try:
+                with sqlite3.connect(store, timeout=1) as connection:
+                    stored = connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
+            except sqlite3.OperationalError:
+                stored = 0
+        time.sleep(0.05)
+    assert process.poll() is None, f"the run ended before the interruption: {process.stderr.read()[-500:]}"
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=300)
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr, stderr
+    lines = [line for line in stderr.strip().splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("interrupted: "), stderr
+    with sqlite3.connect(store) as connection:
+        assert connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0] >= stored

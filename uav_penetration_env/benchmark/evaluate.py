@@ -17,7 +17,6 @@ import contextlib
 import copy
 import datetime as dt
 import hashlib
-import importlib
 import json
 import os
 import sys
@@ -34,7 +33,7 @@ import pandas as pd
 from uav_penetration_env import __version__
 from uav_penetration_env.benchmark import workers
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
-from uav_penetration_env.benchmark.plugins import has_address_repr, stable_parameters
+from uav_penetration_env.benchmark.plugins import has_address_repr, import_plugins, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
@@ -43,7 +42,7 @@ from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.kernels import limit_worker_threads
 from uav_penetration_env.scenario import Scenario, load_scenario
 
-BACKENDS = ("loky", "dask", "sequential")
+BACKENDS = workers.BACKENDS  # the sweep backends (workers.py, which imports no physics)
 
 
 def policy_config(policy: Any) -> dict[str, Any]:
@@ -85,21 +84,6 @@ class EpisodeTask:
     def key(self) -> tuple[str, str, int]:
         """The store key (policy hash, scenario hash, seed)."""
         return (self.policy_hash, self.scenario.hash, self.seed)
-
-
-def import_plugins(modules: Iterable[str]) -> None:
-    """Import plug-in modules (``--import``) so their registrations exist in this process.
-
-    A module in the current folder is found as ``python -m`` finds it: the folder joins
-    ``sys.path`` (an installed console script such as ``uav-bench`` does not put it there), in this
-    process and in every worker, which imports the same list from the same folder.
-    """
-    modules = list(modules)
-    here = os.getcwd()
-    if modules and here not in sys.path and "" not in sys.path:
-        sys.path.insert(0, here)
-    for module in modules:
-        importlib.import_module(module)
 
 
 def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]]:
@@ -249,7 +233,6 @@ def check_arguments(
 
 
 def _resolve_jobs(n_jobs: int | None) -> int:
-    import os
 
     cores = os.cpu_count() or 1
     if n_jobs is None or n_jobs == 0:

@@ -41,6 +41,7 @@ THREAD_VARIABLES = (
     "NUMBA_NUM_THREADS",
     "NUMEXPR_NUM_THREADS",
 )
+BACKENDS = ("loky", "dask", "sequential")  # evaluate(backend=...), uav-bench run --backend
 IDLE_WORKER_SECONDS = 300  # idle workers wait this long for the next sweep in the same process
 
 
@@ -53,13 +54,28 @@ def death_reason(error: BaseException) -> str:
     return f"worker died (exit code {shown})"
 
 
+def ignore_interrupts() -> None:
+    """A worker's initializer: Ctrl-C (SIGINT) is the parent's to handle, never the worker's.
+
+    DECISION (api.md §4.7, a quiet Ctrl-C): a terminal sends SIGINT to the whole process group, so
+    without this each loky worker raised ``KeyboardInterrupt`` inside its episode and printed its
+    traceback beside the run's one line. The parent alone takes the interruption: it kills the
+    workers (:func:`loky_results`) and says ``interrupted: N finished episodes are stored ...``.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _executor(jobs: int) -> Any:
     """The reusable loky pool of ``jobs`` workers (a fresh one when the last one broke or was shut down)."""
     from joblib.externals.loky import cpu_count, get_reusable_executor
 
     share = str(max(cpu_count() // jobs, 1))
     env = {name: os.environ.get(name, share) for name in THREAD_VARIABLES}
-    return get_reusable_executor(max_workers=jobs, timeout=IDLE_WORKER_SECONDS, env=env)
+    return get_reusable_executor(
+        max_workers=jobs, timeout=IDLE_WORKER_SECONDS, env=env, initializer=ignore_interrupts
+    )
 
 
 def loky_results(tasks: Sequence[Any], jobs: int, fly: Fly, died: Died) -> Iterator[Result]:
