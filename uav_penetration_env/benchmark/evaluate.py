@@ -177,7 +177,7 @@ def _now() -> str:
 
 
 def _iterate(
-    tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None
+    tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None, connection: Any = None
 ) -> Generator[tuple[dict, list], None, None]:
     """Episode results as they finish, from the chosen backend (a worker's death: :mod:`.workers`)."""
     if backend == "sequential" or (n_jobs == 1 and backend == "loky"):
@@ -186,7 +186,7 @@ def _iterate(
     elif backend == "loky":
         yield from workers.loky_results(tasks, n_jobs, run_episode, worker_died)
     elif backend == "dask":
-        yield from workers.dask_results(tasks, n_jobs, scheduler, run_episode, worker_died)
+        yield from workers.dask_results(tasks, n_jobs, scheduler, run_episode, worker_died, connection)
     else:
         raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
 
@@ -310,7 +310,12 @@ def evaluate(
     results: ResultsStore | None = (
         store if store is None or isinstance(store, ResultsStore) else ResultsStore(store)
     )
+    connection = None
     try:
+        if backend == "dask" and tasks:
+            # Connected, and the plug-ins sent to the workers, before the run is recorded: an
+            # unreachable scheduler or a plug-in the workers lack is refused before any work.
+            connection = workers.dask_client(_resolve_jobs(n_jobs), scheduler, tuple(imports))
         pending, run_id = tasks, None
         if results is not None:
             settings = {"policies": list(policies), "scenarios": [s.name for s in scenario_list],
@@ -322,11 +327,16 @@ def evaluate(
             _compile_first(progress)
         bar = _progress_bar(pending, len(tasks) - len(pending), progress)
         try:
-            rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar)
+            rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar, connection)
         finally:
             bar.close()
         return _frame(rows) if results is None else _requested(results, tasks)
     finally:
+        if connection is not None:  # closed by the sweep already, unless nothing was pending
+            client, cluster = connection
+            client.close()
+            if cluster is not None:
+                cluster.close()
         if own_store and results is not None:
             results.close()
 
@@ -383,12 +393,13 @@ def _fly(
     results: ResultsStore | None,
     run_id: int | None,
     bar: Any,
+    connection: Any = None,
 ) -> list[dict[str, Any]]:
     """Fly the pending episodes, storing each as it finishes (an interruption loses none that did)."""
     rows: list[dict[str, Any]] = []
     failures = 0
     # closing: an interruption met while storing still shuts the workers down at once
-    with contextlib.closing(_iterate(pending, jobs, backend, scheduler)) as finished:
+    with contextlib.closing(_iterate(pending, jobs, backend, scheduler, connection)) as finished:
         for row, steps in finished:
             _store(row, steps, results, run_id)
             rows.append(row)

@@ -308,7 +308,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
     from uav_penetration_env.benchmark.plugins import import_plugins
     from uav_penetration_env.benchmark.policy_names import unknown_policy
-    from uav_penetration_env.benchmark.workers import BACKENDS
+    from uav_penetration_env.benchmark.workers import BACKENDS, ClusterError
 
     # DECISION (api.md §4.7, fast refusals): what can be checked without the physics is checked
     # first (flags, --config, --import, policy names, scenario files), so a typo answers in about
@@ -360,6 +360,9 @@ def run(args: argparse.Namespace) -> int:
             run_settings=suite_settings,
             threads=settings["threads"],
         )
+    except ClusterError as error:  # refused before any episode: the scheduler or a plug-in (one line)
+        store.close()
+        raise CLIError(str(error)) from None
     except KeyboardInterrupt as error:
         # joblib aborts its loky workers when the interruption reaches its generator (tested).
         done = len(store.done_keys())
