@@ -421,3 +421,19 @@ def test_rl_formulations_groups_agents_by_name_and_counts_maps_cheaper_than_gree
     assert turn["maps cheaper than greedy"] == 1 and turn["validation success"] == 0.75
     assert table.index.tolist() == ["ppo-turn", "greedy"]  # the references last
     assert "| ppo-turn | 2 | 13.00 / 15.00 | 14.00 [" in script.markdown(table.reset_index())
+
+
+def test_the_quick_start_check_runs_the_readmes_own_commands(tmp_path):
+    """.ci/quickstart_under_load.py reads the README's quick start, so it runs what a newcomer types."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / ".ci" / "quickstart_under_load.py"
+    spec = importlib.util.spec_from_file_location("quickstart_under_load", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    readme = (path.parents[1] / "README.md").read_text(encoding="utf-8")
+    assert module.quick_start_commands(readme) == ['pip install -e ".[dev]"', "uav-bench run && pytest"]
+    with pytest.raises(ValueError, match="no ```bash block under '## Set up and run'"):
+        module.quick_start_commands("# README\n\n## Set up and run\n\nno block\n\n## Next\n")
+    contributing = (path.parents[1] / "CONTRIBUTING.md").read_text(encoding="utf-8")
+    assert "python3 .ci/quickstart_under_load.py" in contributing
