@@ -8,8 +8,8 @@ one after the other in the clone with that environment active and an empty build
 cache. Prints each command's exit status and wall time, and the machine's load, then ends the busy
 processes it started (by their ids). Exit status: 0 when every command passed, else 1.
 
-It takes long (a cold compile and the whole default test suite on a loaded machine: 30-60 minutes
-on 2 cores), so CI does not run it; run it before a release, or after a change to the install,
+It takes long (a cold compile, the main job and the whole default test suite, on a loaded machine),
+so CI does not run it; run it before a release, or after a change to the install,
 the compile cache, the thread settings or the test suite's speed (CONTRIBUTING.md):
 
     python3 .ci/quickstart_under_load.py                 # two busy processes, as on a shared 2-core machine
