@@ -1,8 +1,10 @@
 """Compare a re-run sweep with the published episode rows (do seeded runs reproduce?).
 
-The published leaderboard's episodes are committed as rows (``leaderboards/rows/leaderboard-*.parquet``,
-written by the publication's ``tables`` part, docs/publishing.md §3); version 1's episode CSVs
-(``results-*-episodes.csv``, computed with the numpy model) can still be named with ``--published``.
+The current publication, leaderboard v3 (leaderboards/README.md, docs/publishing.md §5), commits its
+episodes as the Parquet chunks of ``leaderboards/v3-checkpoint/`` (its ``manifest.json`` names them);
+that folder is the default. ``--published`` also takes leaderboard v2's rows
+(``leaderboards/rows/leaderboard``, a row-table stem, docs/publishing.md §3), any checkpoint folder
+or export stem, and version 1's episode CSVs (``results-*-episodes.csv``, the numpy model).
 The compiled model is deterministic, so on the machine that recorded them the episodes reproduce bit
 for bit; elsewhere a last-digit difference of the floating-point library can flip a comparison
 inside an optimiser and the trajectories part. This script matches each episode of a results store
@@ -10,7 +12,8 @@ with the published row of the same policy, scenario and seed, and prints, per po
 reproduce exactly (total J bit for bit, the same steps and outcome) and the relative total-J
 difference of the others, then one line per episode that differs.
 
-Re-run part of the published paper-scenario sweep (one command line):
+Re-run part of the published paper-scenario sweep (one command line; v3 flies the current MPC
+defaults, the lattice value function as terminal cost):
 
     nice -n 10 uav-bench run --policies hpso lpso ps2o mcpso ccpso-ism pso cem de cmaes greedy
         --scenarios paper --seeds 5 --max-evals 10000 --store /tmp/repro.sqlite --no-report
@@ -18,7 +21,7 @@ Re-run part of the published paper-scenario sweep (one command line):
 
 Episodes still missing from the store (a sweep in progress) are counted as missing, not as failures.
 
-Usage: ``python benchmarks/reproduce_published.py STORE [--published ROWS_STEM | CSV]``.
+Usage: ``python benchmarks/reproduce_published.py STORE [--published CHECKPOINT_FOLDER | ROWS_STEM | CSV]``.
 """
 
 from __future__ import annotations
@@ -30,11 +33,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from uav_penetration_env.benchmark.rows import RowsError, read_rows
+from uav_penetration_env.benchmark.rows import RowsError, read_chunks
 from uav_penetration_env.benchmark.store import ResultsStore
 
 ROOT = Path(__file__).resolve().parents[1]
-PUBLISHED = ROOT / "leaderboards" / "rows" / "leaderboard"  # the stem of the committed row tables
+PUBLISHED = ROOT / "leaderboards" / "v3-checkpoint"  # the current publication's rows (leaderboards/README.md)
 KEY = ["policy", "scenario", "seed"]
 # Same steps and outcome, total J within rounding: the trajectory is the published one to the last
 # digits (the compiled model's 1e-15 differences summed over an episode), not a different path.
@@ -113,7 +116,7 @@ def summary(compared: pd.DataFrame, published: pd.DataFrame) -> pd.DataFrame:
 
 
 def read_published(source: str | Path) -> pd.DataFrame:
-    """The published episodes: an episode CSV, or the episode table of a row export (its stem).
+    """The published episodes: an episode CSV, a checkpoint folder's chunks, or a row export (its stem).
 
     Raises:
         SystemExit: one line naming ``--published`` when neither can be read.
@@ -123,7 +126,7 @@ def read_published(source: str | Path) -> pd.DataFrame:
             raise SystemExit(f"--published {source}: no such file; expected an episode CSV")
         return pd.read_csv(source)
     try:
-        return read_rows(source).episodes
+        return read_chunks([source]).episodes  # a checkpoint folder stands for its chunks
     except RowsError as error:
         raise SystemExit(f"--published {source}: {error}") from None
 
@@ -134,7 +137,8 @@ def main(argv: list[str] | None = None) -> pd.DataFrame:
     parser.add_argument(
         "--published",
         default=str(PUBLISHED),
-        help="published episode rows: a row-table stem (uav-bench export) or an episode CSV",
+        help="published episode rows: a checkpoint folder (default: leaderboard v3's), a row-table stem "
+        "(uav-bench export; v2: leaderboards/rows/leaderboard) or an episode CSV",
     )
     args = parser.parse_args(argv)
     if not Path(args.store).is_file():

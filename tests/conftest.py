@@ -18,6 +18,12 @@ settings.register_profile(
 settings.register_profile("dev", deadline=None, max_examples=300)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
+# The test session's BLAS threads, as uav-bench's (model.md §8, BLAS threads): one, unless the user
+# chose. Two BLAS threads beside busy processes on 2 cores stalled a 100-D CMA-ES test for minutes.
+from uav_penetration_env.threads import limit_blas_threads  # noqa: E402
+
+limit_blas_threads(1, respect_environment=True)
+
 # The one reason every test that needs Stable-Baselines3/torch gives when the `rl` extra is absent
 # (a core-only install, `pip install -e ".[dev]"`, skips them and passes the rest).
 RL_EXTRA = (

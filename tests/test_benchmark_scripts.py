@@ -156,6 +156,30 @@ def test_reproduce_published_reads_a_row_export_or_a_csv(tmp_path):
         module.read_published(tmp_path / "gone.csv")
 
 
+def test_reproduce_published_compares_with_the_current_publication_and_reads_a_checkpoint(tmp_path):
+    """The default is leaderboard v3's checkpoint folder (leaderboards/README.md); a checkpoint folder
+    stands for its chunks (it was refused: the script read one export stem only)."""
+    import json
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.rows import row_path, write_table
+
+    module = load("reproduce_published")
+    assert module.PUBLISHED == module.ROOT / "leaderboards" / "v3-checkpoint"
+    folder = tmp_path / "checkpoint"
+    folder.mkdir()
+    for chunk, (episode_id, seed, total) in {"chunk-001": (1, 0, 14.5), "chunk-002": (2, 1, 15.5)}.items():
+        episodes = pd.DataFrame({"episode_id": [episode_id], "run_id": [episode_id], "policy": ["pso"], "scenario": ["paper"],
+                                 "scenario_hash": ["ab"], "seed": [seed], "outcome": ["success"], "total_J": [total],
+                                 "steps": [50]})  # fmt: skip
+        write_table(episodes, row_path(folder / chunk, "episodes", "parquet"), "parquet")
+        write_table(pd.DataFrame({"run_id": [episode_id]}), row_path(folder / chunk, "runs", "parquet"), "parquet")
+    (folder / "manifest.json").write_text(json.dumps({"seeds": [], "chunks": [{"name": "chunk-001"}, {"name": "chunk-002"}]}))
+    published = module.read_published(folder)
+    assert published.sort_values("seed")[["seed", "total_J"]].values.tolist() == [[0, 14.5], [1, 15.5]]
+
+
 def test_mechanism_share_row_reads_the_traces():
     module = load("ihpso_mechanism_shares")
 
@@ -397,3 +421,19 @@ def test_rl_formulations_groups_agents_by_name_and_counts_maps_cheaper_than_gree
     assert turn["maps cheaper than greedy"] == 1 and turn["validation success"] == 0.75
     assert table.index.tolist() == ["ppo-turn", "greedy"]  # the references last
     assert "| ppo-turn | 2 | 13.00 / 15.00 | 14.00 [" in script.markdown(table.reset_index())
+
+
+def test_the_quick_start_check_runs_the_readmes_own_commands(tmp_path):
+    """.ci/quickstart_under_load.py reads the README's quick start, so it runs what a newcomer types."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / ".ci" / "quickstart_under_load.py"
+    spec = importlib.util.spec_from_file_location("quickstart_under_load", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    readme = (path.parents[1] / "README.md").read_text(encoding="utf-8")
+    assert module.quick_start_commands(readme) == ['pip install -e ".[dev]"', "uav-bench run && pytest"]
+    with pytest.raises(ValueError, match="no ```bash block under '## Set up and run'"):
+        module.quick_start_commands("# README\n\n## Set up and run\n\nno block\n\n## Next\n")
+    contributing = (path.parents[1] / "CONTRIBUTING.md").read_text(encoding="utf-8")
+    assert "python3 .ci/quickstart_under_load.py" in contributing

@@ -88,3 +88,63 @@ def test_the_harness_extra_lists_what_the_commands_check():
     assert not core & {"pandas", "pyarrow", "matplotlib", "plotly", "rich", "joblib"}, core
     assert set(HARNESS.modules) <= extra, (HARNESS.modules, extra)
     assert "uav-penetration[harness]" in project["optional-dependencies"]["dev"]
+
+
+EVERY_ID = textwrap.dedent(
+    """
+    import importlib.abc, sys
+    HIDDEN = set(sys.argv[1].split(","))
+
+    class Hide(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] in HIDDEN:
+                raise ModuleNotFoundError(f"No module named {name!r}")
+            return None
+
+    sys.meta_path.insert(0, Hide())
+    import gymnasium as gym
+    import numpy as np
+    from uav_penetration_env import ENV_IDS
+    from uav_penetration_env.scenario import ScenarioError
+
+    for env_id in ENV_IDS:
+        try:
+            env = gym.make(env_id)
+            env.reset(seed=0)
+            env.step(np.zeros(3, dtype=np.float32))
+            print(env_id, "built")
+        except ScenarioError as error:
+            print(env_id, "refused:", str(error).replace(chr(10), "|"))
+    loaded = sorted(name for name in HIDDEN if name in sys.modules)
+    assert not loaded, loaded
+    """
+)
+
+
+def test_every_env_id_builds_or_names_what_to_install_in_a_core_install(tmp_path):
+    """Every registered id is made, reset and stepped with the harness extra (matplotlib too) hidden.
+
+    The DEM id's raster is matplotlib's sample file ``topobathy.npz`` (model.md §2.5): without
+    matplotlib it is refused with one line naming what to install, never an ImportError traceback.
+    """
+    from uav_penetration_env import ENV_IDS
+
+    hidden = ",".join(HARNESS.modules)
+    result = subprocess.run(
+        [sys.executable, "-c", EVERY_ID, hidden],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    said = dict(line.split(" ", 1) for line in result.stdout.strip().splitlines())
+    assert sorted(said) == sorted(ENV_IDS)
+    for env_id, outcome in said.items():
+        if env_id == "UAVPenetrationDEM-v0":
+            assert outcome.startswith("refused: terrain.natural.file: got 'topobathy.npz'"), outcome
+            assert "matplotlib is not installed" in outcome and "pip install matplotlib" in outcome, outcome
+            assert "|" not in outcome  # one line
+        else:
+            assert outcome == "built", (env_id, outcome)

@@ -24,6 +24,7 @@ heading ("Kinematics (paper §2.1)") cite the paper and define nothing.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -340,19 +341,91 @@ def test_decision_paragraphs_are_found() -> None:
     assert len(decision_paragraphs()) >= 40
 
 
-@pytest.mark.parametrize("page", markdown_pages(), ids=lambda p: str(p.relative_to(DOCS)))
-def test_relative_links_in_docs_resolve(page: Path) -> None:
-    text = re.sub(r"^```.*?^```", "", page.read_text(encoding="utf-8"), flags=re.MULTILINE | re.DOTALL)
+FENCE = re.compile(r"^```.*?^```", re.MULTILINE | re.DOTALL)
+EXPLICIT_ID = re.compile(r"\{:?\s*#([\w-]+)[^}]*\}\s*$")  # attr_list: ## Heading {#id}
+HTML_ID = re.compile(r"<[a-z][^>]*\s(?:id|name)=[\"']([^\"']+)[\"']", re.IGNORECASE)
+
+
+def slugify(heading: str) -> str:
+    """The id Python-Markdown's toc extension gives a heading (``markdown.extensions.toc.slugify``).
+
+    The heading's text as rendered (code spans, emphasis and links reduced to their text), then:
+    NFKD, non-ASCII dropped, every character but word characters, spaces and hyphens removed,
+    lower-cased, runs of spaces and hyphens joined into one hyphen.
+    """
+    import unicodedata
+
+    text = re.sub(r"!?\[([^\]]*)\]\([^)]*\)", r"\1", heading)  # a link or image: its text
+    parts = re.split(r"(`[^`]*`)", text)  # code spans keep their text, ``<stem>`` too; HTML tags go
+    text = "".join(p[1:-1] if p.startswith("`") else re.sub(r"<[^>]+>", "", p) for p in parts)
+    text = re.sub(r"(\*{1,3})(\S.*?\S|\S)\1", r"\2", text)  # emphasis with * keeps its text
+    text = re.sub(r"&[a-z]+;|&#\d+;", "", text)
+    text = unicodedata.normalize("NFKD", text).encode("ascii", "ignore").decode("ascii")
+    text = re.sub(r"[^\w\s-]", "", text).strip().lower()
+    return re.sub(r"[-\s]+", "-", text)
+
+
+def page_anchors(page: Path) -> set[str]:
+    """Every anchor of a page as the site builds it: heading ids (duplicates ``_1``, ``_2``, as toc
+    makes them unique), attr_list ``{#id}`` and HTML ``id``/``name`` attributes."""
+    text = FENCE.sub("", page.read_text(encoding="utf-8"))
+    anchors: set[str] = set(HTML_ID.findall(text))
+    for match in HEADING.finditer(text):
+        heading = match.group(2)
+        explicit = EXPLICIT_ID.search(heading)
+        slug = explicit.group(1) if explicit else slugify(heading)
+        unique, n = slug, 0
+        while unique in anchors:
+            n += 1
+            unique = f"{slug}_{n}"
+        anchors.add(unique)
+    return anchors
+
+
+def broken_links(page: Path) -> list[str]:
+    """The relative links of a docs page whose file does not exist, or whose ``#anchor`` names no
+    heading of a Markdown page under docs/ (the page itself for ``#anchor``)."""
+    text = FENCE.sub("", page.read_text(encoding="utf-8"))
+    text = re.sub(r"`[^`\n]*`", "", text)  # inline code is printed, not linked
     broken = []
     for target in MARKDOWN_LINK.findall(text):
-        if re.match(r"^[a-z][a-z0-9+.-]*:", target) or target.startswith("#"):
-            continue  # an absolute URL or an anchor on the same page
-        path = target.split("#", 1)[0]
-        resolved = (page.parent / path).resolve()
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target):
+            continue  # an absolute URL
+        path, _, anchor = target.partition("#")
+        resolved = (page.parent / path).resolve() if path else page.resolve()
         if not resolved.exists() and resolved.parent == DOCS.resolve() and resolved.name in PENDING_PAGES:
             continue
         if not resolved.exists():
             broken.append(target)
+        elif anchor and resolved.suffix == ".md" and resolved.is_relative_to(DOCS.resolve()):
+            if anchor not in page_anchors(resolved):
+                broken.append(target)
+    return broken
+
+
+def test_slugs_follow_python_markdown() -> None:
+    assert slugify("§4.5 Statistics for leaderboards") == "45-statistics-for-leaderboards"
+    assert slugify("1. Does IHPSO's adaptivity help?") == "1-does-ihpsos-adaptivity-help"
+    assert slugify("The `run` command: **fast**") == "the-run-command-fast"
+    assert slugify("See [model](model.md) — the end") == "see-model-the-end"
+    assert slugify("RL columns (`<stem>-rl.csv`, one row)") == "rl-columns-stem-rlcsv-one-row"
+
+
+def test_a_broken_anchor_is_found(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sys.modules[__name__], "DOCS", tmp_path)
+    (tmp_path / "a.md").write_text("# A\n\n## Twice\n\n## Twice\n\n## Other {#mine}\n", encoding="utf-8")
+    (tmp_path / "b.md").write_text(
+        "[ok](a.md#twice) [ok](a.md#twice_1) [ok](a.md#mine) [ok](#b) [gone](a.md#under-each-terminal-cost) "
+        "[gone](#nowhere) [missing](c.md)\n\n# B\n",
+        encoding="utf-8",
+    )
+    assert broken_links(tmp_path / "b.md") == ["a.md#under-each-terminal-cost", "#nowhere", "c.md"]
+
+
+@pytest.mark.parametrize("page", markdown_pages(), ids=lambda p: str(p.relative_to(DOCS)))
+def test_relative_links_in_docs_resolve(page: Path) -> None:
+    """Every relative link's file exists and every ``#anchor`` names a heading (as mkdocs --strict checks)."""
+    broken = broken_links(page)
     assert not broken, f"docs/{page.relative_to(DOCS)}: broken links {broken}"
 
 

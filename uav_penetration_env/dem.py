@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from uav_penetration_env.files import resolve_data_file
+from uav_penetration_env.files import resolve_data_file, sample_data_missing
 from uav_penetration_env.scenario import DEMTerrain, ScenarioError
 from uav_penetration_env.terrain import GridSpec
 from uav_penetration_env.types import FloatArray
@@ -94,7 +94,9 @@ def resolve_raster_path(file: str) -> Path:
     path = resolve_data_file(file)
     if path is None:
         raise ScenarioError(
-            "terrain.natural.file", file, "an existing .npz or GeoTIFF path or a matplotlib sample file"
+            "terrain.natural.file",
+            file,
+            f"an existing .npz or GeoTIFF path or a matplotlib sample file{sample_data_missing()}",
         )
     return path
 

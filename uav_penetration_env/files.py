@@ -19,19 +19,48 @@ _SETTLED_NS = 2_000_000_000
 
 
 def resolve_data_file(name: str) -> Path | None:
-    """The path of ``name``: a file on disk, else a matplotlib sample file of that name, else None."""
+    """The path of ``name``: a file on disk, else a matplotlib sample file of that name, else None.
+
+    DECISION (model.md §2.5, the sample rasters): matplotlib's sample files (``topobathy.npz``, the
+    DEM id's raster) are found in its installed package folder (``mpl-data/sample_data``, where
+    ``matplotlib.cbook.get_sample_data`` reads them) without importing matplotlib, which is not a
+    core dependency: a core install without it gets None here, and the DEM scenario's one-line
+    error naming what to install (:func:`sample_data_missing`).
+    """
     try:
         path = Path(name).expanduser()
         if path.exists():
             return path
     except (OSError, ValueError):  # a name the OS cannot take (too long, a NUL byte): no such file
         return None
-    try:
-        from matplotlib import cbook
-
-        return Path(cbook.get_sample_data(name, asfileobj=False))
-    except (OSError, ValueError):
+    folder = _sample_data_folder()
+    if folder is None or Path(name).name != name:
         return None
+    sample = folder / name
+    return sample if sample.is_file() else None
+
+
+def _sample_data_folder() -> Path | None:
+    """The ``mpl-data/sample_data`` folder of matplotlib, found without importing it; None when it is not installed."""
+    import importlib.util
+
+    try:
+        spec = importlib.util.find_spec("matplotlib")
+    except (ImportError, ValueError):  # not importable (a hidden or a None entry in sys.modules)
+        return None
+    if spec is None or spec.origin is None:
+        return None
+    return Path(spec.origin).parent / "mpl-data" / "sample_data"
+
+
+def sample_data_missing() -> str:
+    """What to install for matplotlib's sample files, or ``""`` when matplotlib is installed."""
+    if _sample_data_folder() is not None:
+        return ""
+    return (
+        "; matplotlib is not installed, and its sample files are found in its package "
+        "(pip install matplotlib, or the harness extra: pip install 'uav-penetration[harness]')"
+    )
 
 
 def file_digest(name: str) -> str:

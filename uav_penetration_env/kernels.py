@@ -132,20 +132,27 @@ def limit_worker_threads(threads: int | None = None) -> int:
     over every core in each of them would oversubscribe the machine, so a worker uses one thread
     unless the user set ``NUMBA_NUM_THREADS``. The main process keeps numba's default (all cores).
     ``threads`` (``uav-bench run --threads``) overrides both, capped at the cores numba knows.
+    Where the count is set (a worker, or ``threads`` given), NumPy's and SciPy's BLAS pools get the
+    same count (:func:`uav_penetration_env.threads.limit_blas_threads`, model.md §8).
 
     Returns:
         The thread count now in force.
     """
     import multiprocessing
 
+    from uav_penetration_env.threads import limit_blas_threads
+
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        limit_blas_threads(numba.get_num_threads())
         return numba.get_num_threads()
     in_worker = multiprocessing.parent_process() is not None or (
         multiprocessing.current_process().name != "MainProcess"
     )
-    if in_worker and "NUMBA_NUM_THREADS" not in os.environ:
-        numba.set_num_threads(1)
+    if in_worker:
+        if "NUMBA_NUM_THREADS" not in os.environ:
+            numba.set_num_threads(1)
+        limit_blas_threads(numba.get_num_threads())
     return numba.get_num_threads()
 
 

@@ -699,3 +699,34 @@ def test_an_out_folder_of_another_store_is_refused_unless_replaced(tmp_path, tin
     assert run_cli("leaderboard", "--store", first, "--out", out) == 0  # its own folder: fine
     assert run_cli("leaderboard", "--store", second, "--out", out, "--replace-out") == 0
     assert (out / ".uav-bench-source").read_text().strip() == str(second.resolve())
+
+
+FAST_REFUSAL = """
+import sys
+from uav_penetration_env.benchmark.cli import main
+status = main(sys.argv[1:])
+compiled = sorted(m for m in sys.modules if m == "numba" or m.startswith(("numba.", "uav_penetration_env.kernels",
+                  "uav_penetration_env.model", "uav_penetration_env.benchmark.evaluate")))
+print(status, len(compiled), compiled[:3])
+"""
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--policies", "ihpsoo"], "--policies: unknown policy 'ihpsoo' — did you mean 'ihpso'"),
+        (["--policies", "greedy", "nosuch:thing"], "no installed plug-in provides the kind 'nosuch'"),
+        (["--scenarios", "missing.yaml"], "--scenarios: no such scenario file 'missing.yaml'"),
+        (["--config", "missing.yaml"], "--config"),
+    ],
+)
+def test_a_mistyped_policy_or_a_missing_file_is_refused_before_the_physics_is_imported(tmp_path, argv, message):
+    """The refusal comes before the compiled model's imports (api.md §4.7, fast refusals): measured by
+    what the process imported, not by a clock."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, "-c", FAST_REFUSAL, "run", *argv, "--store", str(tmp_path / "s.sqlite")],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert done.stdout.strip() == "2 0 []", (done.stdout, done.stderr)
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], lines
+    assert not (tmp_path / "s.sqlite").exists()

@@ -184,7 +184,33 @@ def test_a_store_that_does_not_replay_is_refused(store, tmp_path, capsys, change
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and "nothing written" in err[0], err
     assert "episode 1 (greedy on tiny, seed 0)" in err[0]
-    assert list(out.iterdir()) == []
+    assert not out.exists()  # no empty folder left behind
+
+
+def test_a_relative_out_folder_is_exported_where_it_names(store, tmp_path, capsys, monkeypatch):
+    """The README's export (a relative --out, as the default is): Minari joined a relative dataset path
+    to its root twice and the export failed with a traceback (repro_t4_minari_relative_out)."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["export", "--minari", "--store", str(store), "--policy", "greedy"]
+    assert cli.main([*argv, "--out", "datasets"]) == 0
+    printed = capsys.readouterr().out
+    assert f"MINARI_DATASETS_PATH={tmp_path / 'datasets'}" in printed
+    (dataset_id,) = [line.split(":")[0] for line in printed.splitlines() if " episodes -> " in line]
+    monkeypatch.setenv("MINARI_DATASETS_PATH", "datasets")
+    assert minari.load_dataset(dataset_id).total_episodes == 2
+
+
+def test_a_failed_export_leaves_no_empty_folder(store, tmp_path, capsys, monkeypatch):
+    import uav_penetration_env.benchmark.minari_export as export_module
+
+    def fail(*args, **kwargs):
+        raise MinariExportError("--out: a failure after the folder was made")
+
+    monkeypatch.setattr(export_module, "_create", fail)
+    out = tmp_path / "new" / "datasets"
+    assert cli.main(["export", "--minari", "--store", str(store), "--out", str(out), "--policy", "greedy"]) == 2
+    assert "a failure after the folder was made" in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()
 
 
 def test_without_minari_the_command_names_the_extra(store, tmp_path, capsys, monkeypatch):

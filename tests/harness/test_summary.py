@@ -11,7 +11,13 @@ from conftest import tiny_scenario
 
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark.progress import ProgressBar
-from uav_penetration_env.benchmark.summary import MAX_WIDTH, gap_column, print_summary, summary_rows
+from uav_penetration_env.benchmark.summary import (
+    MAX_WIDTH,
+    gap_column,
+    print_summary,
+    summary_rows,
+    table_reference,
+)
 
 PLANNERS = ["ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "cmaes", "de"]
 FLOORS = ["greedy", "random", "ihpso-eq37", "ihpso-no-adaptive-inertia", "ihpso-no-mutation"]
@@ -221,3 +227,22 @@ def test_run_writes_the_report_by_default_and_report_rewrites_it(tmp_path, tiny_
     assert cli.main(["report", "--store", str(tmp_path / "none.sqlite"), "--out", str(page)]) == 2
     error = capsys.readouterr().err
     assert error.startswith("uav-bench: error: --store ") and "not found" in error and error.count("\n") == 1
+
+
+def test_the_summary_names_the_reference_the_table_compared_with():
+    """Asked for the default ihpso in a run without it, the table compares with greedy (api.md §4.5):
+    the summary says so, and marks greedy's row, as the Markdown and HTML do (repro_t4_summary_reference_label)."""
+    frame = leaderboard_frame(["greedy", "random"])
+    header, rows = summary_rows(frame, "ihpso")
+    assert header[-1] == "Δ vs greedy (p)"
+    assert rows[0][-1] == "reference" and rows[1][-1].startswith("1.23")
+    assert table_reference(frame, "ihpso") == "greedy"
+
+
+def test_the_summary_and_the_html_report_read_one_rule():
+    from uav_penetration_env.benchmark import report
+
+    frame = leaderboard_frame(["greedy", "random"])
+    assert report._table_reference(frame, "ihpso") == table_reference(frame, "ihpso") == "greedy"
+    unpaired = frame.assign(delta_mean=np.nan)  # the rows cannot tell: the requested name, if a row
+    assert table_reference(unpaired, "random") == "random" and table_reference(unpaired, "ihpso") is None

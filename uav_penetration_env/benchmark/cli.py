@@ -125,6 +125,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         say_error(error)
         return 2
     args.argv = argv
+    from uav_penetration_env.threads import limit_blas_threads
+
+    limit_blas_threads(1, respect_environment=True)  # small matrices: one BLAS thread (model.md §8)
     try:
         for extension in args.extensions:
             if extension.selected(args):

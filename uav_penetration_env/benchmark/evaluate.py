@@ -17,7 +17,6 @@ import contextlib
 import copy
 import datetime as dt
 import hashlib
-import importlib
 import json
 import os
 import sys
@@ -31,11 +30,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env import __version__
+from uav_penetration_env import __version__, warmup
 from uav_penetration_env.benchmark import workers
 from uav_penetration_env.benchmark.clock import timed
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
-from uav_penetration_env.benchmark.plugins import has_address_repr, stable_parameters
+from uav_penetration_env.benchmark.plugins import has_address_repr, import_plugins, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
@@ -44,7 +43,13 @@ from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.kernels import limit_worker_threads
 from uav_penetration_env.scenario import Scenario, load_scenario
 
-BACKENDS = ("loky", "dask", "sequential")
+# The timings with their conditions (model.md §8): the same compile took 25-60 s on 2 idle cores and
+# 289 s beside two busy processes.
+COMPILE_MESSAGE = (
+    "compiling the physics (first run only: about 25-60 s on 2 idle cores, several minutes on a busy "
+    "machine) ..."
+)
+BACKENDS = workers.BACKENDS  # the sweep backends (workers.py, which imports no physics)
 
 
 def policy_config(policy: Any) -> dict[str, Any]:
@@ -88,21 +93,6 @@ class EpisodeTask:
         return (self.policy_hash, self.scenario.hash, self.seed)
 
 
-def import_plugins(modules: Iterable[str]) -> None:
-    """Import plug-in modules (``--import``) so their registrations exist in this process.
-
-    A module in the current folder is found as ``python -m`` finds it: the folder joins
-    ``sys.path`` (an installed console script such as ``uav-bench`` does not put it there), in this
-    process and in every worker, which imports the same list from the same folder.
-    """
-    modules = list(modules)
-    here = os.getcwd()
-    if modules and here not in sys.path and "" not in sys.path:
-        sys.path.insert(0, here)
-    for module in modules:
-        importlib.import_module(module)
-
-
 def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Fly one episode and summarise it; a raising planner yields an ``error`` row (never an exception).
 
@@ -111,6 +101,7 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
         step-0 row first (no step rows for an ``error`` row).
     """
     limit_worker_threads(task.threads)  # workers share the cores: one compiled thread each unless told otherwise
+    warmup.load_once()  # the compiled code is loaded before the episode's clock starts (warmup.load_once)
     started = time.perf_counter()
     scenario = task.scenario
     row = _episode_key_row(task)
@@ -188,7 +179,7 @@ def _now() -> str:
 
 
 def _iterate(
-    tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None
+    tasks: Sequence[EpisodeTask], n_jobs: int, backend: str, scheduler: str | None, connection: Any = None
 ) -> Generator[tuple[dict, list], None, None]:
     """Episode results as they finish, from the chosen backend (a worker's death: :mod:`.workers`)."""
     if backend == "sequential" or (n_jobs == 1 and backend == "loky"):
@@ -197,7 +188,7 @@ def _iterate(
     elif backend == "loky":
         yield from workers.loky_results(tasks, n_jobs, run_episode, worker_died)
     elif backend == "dask":
-        yield from workers.dask_results(tasks, n_jobs, scheduler, run_episode, worker_died)
+        yield from workers.dask_results(tasks, n_jobs, scheduler, run_episode, worker_died, connection)
     else:
         raise ValueError(f"backend: got {backend!r}, expected one of {', '.join(BACKENDS)}")
 
@@ -251,7 +242,6 @@ def check_arguments(
 
 
 def _resolve_jobs(n_jobs: int | None) -> int:
-    import os
 
     cores = os.cpu_count() or 1
     if n_jobs is None or n_jobs == 0:
@@ -322,7 +312,12 @@ def evaluate(
     results: ResultsStore | None = (
         store if store is None or isinstance(store, ResultsStore) else ResultsStore(store)
     )
+    connection = None
     try:
+        if backend == "dask" and tasks:
+            # Connected, and the plug-ins sent to the workers, before the run is recorded: an
+            # unreachable scheduler or a plug-in the workers lack is refused before any work.
+            connection = workers.dask_client(_resolve_jobs(n_jobs), scheduler, tuple(imports))
         pending, run_id = tasks, None
         if results is not None:
             settings = {"policies": list(policies), "scenarios": [s.name for s in scenario_list],
@@ -334,11 +329,16 @@ def evaluate(
             _compile_first(progress)
         bar = _progress_bar(pending, len(tasks) - len(pending), progress)
         try:
-            rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar)
+            rows = _fly(pending, _resolve_jobs(n_jobs), backend, scheduler, results, run_id, bar, connection)
         finally:
             bar.close()
         return _frame(rows) if results is None else _requested(results, tasks)
     finally:
+        if connection is not None:  # closed by the sweep already, unless nothing was pending
+            client, cluster = connection
+            client.close()
+            if cluster is not None:
+                cluster.close()
         if own_store and results is not None:
             results.close()
 
@@ -395,12 +395,13 @@ def _fly(
     results: ResultsStore | None,
     run_id: int | None,
     bar: Any,
+    connection: Any = None,
 ) -> list[dict[str, Any]]:
     """Fly the pending episodes, storing each as it finishes (an interruption loses none that did)."""
     rows: list[dict[str, Any]] = []
     failures = 0
     # closing: an interruption met while storing still shuts the workers down at once
-    with contextlib.closing(_iterate(pending, jobs, backend, scheduler)) as finished:
+    with contextlib.closing(_iterate(pending, jobs, backend, scheduler, connection)) as finished:
         for row, steps in finished:
             _store(row, steps, results, run_id)
             rows.append(row)
@@ -447,7 +448,7 @@ def _compile_first(progress: bool) -> None:
     if not warmup.is_cold():
         return
     if progress:
-        print("compiling the physics (first run only, about 25-60 s on 2 cores) ...", file=sys.stderr, flush=True)
+        print(COMPILE_MESSAGE, file=sys.stderr, flush=True)
     seconds = warmup.compile_physics()
     if progress:
         print(f"compiled in {seconds:.0f} s", file=sys.stderr, flush=True)

@@ -376,13 +376,13 @@ def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path)
     """
     import gymnasium as gym
 
+    out = Path(out).absolute()  # Minari joins a relative dataset path to its root again (data/<root>/...)
     for plan in plans:
         if (out / plan.dataset_id).exists():
             raise MinariExportError(
                 f"--out: {out / plan.dataset_id} exists; expected a new dataset id (remove it, or pass "
                 "--dataset-version N or --dataset-id)"
             )
-    out.mkdir(parents=True, exist_ok=True)
     runs = store.runs()
     policies = store.policies()
     scenarios: dict[str, Any] = {}
@@ -406,6 +406,7 @@ def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path)
             env.close()
         _check_one_action_box(plan, [scenarios[h] for h in specs])
         flown.append((plan, episodes, specs))
+    out.mkdir(parents=True, exist_ok=True)  # after every episode re-flew: a refusal writes nothing
     temporary = Path(tempfile.mkdtemp(prefix=".minari-export-", dir=out))
     written = []
     try:

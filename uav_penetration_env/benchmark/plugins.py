@@ -18,9 +18,12 @@ saying what to install, never half-way through a run.
 
 from __future__ import annotations
 
+import importlib
 import importlib.metadata
 import importlib.util
-from collections.abc import Callable
+import os
+import sys
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -187,3 +190,18 @@ def stable_parameters(obj: Any, what: str) -> Any:
             "and its attributes are not plain data); make it a dataclass, or give it a repr or a config() of plain data"
         )
     return {"class": f"{type(obj).__module__}.{type(obj).__qualname__}", "attributes": attributes}
+
+
+def import_plugins(modules: Iterable[str]) -> None:
+    """Import plug-in modules (``--import``) so their registrations exist in this process.
+
+    A module in the current folder is found as ``python -m`` finds it: the folder joins
+    ``sys.path`` (an installed console script such as ``uav-bench`` does not put it there), in this
+    process and in every worker, which imports the same list from the same folder.
+    """
+    modules = list(modules)
+    here = os.getcwd()
+    if modules and here not in sys.path and "" not in sys.path:
+        sys.path.insert(0, here)
+    for module in modules:
+        importlib.import_module(module)

@@ -12,7 +12,7 @@ import functools
 import inspect
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
@@ -21,17 +21,22 @@ from scipy.optimize import Bounds
 
 from uav_penetration_env.benchmark.plugins import (  # the plug-in forms, re-exported for the policy names
     HYBRID_SEPARATOR,
-    POLICY_GROUP,
     Plugin,
     PluginUnavailable,
-    plugin_policy_forms,
     policy_kinds,
     stable_parameters,
+)
+from uav_penetration_env.benchmark.policy_names import (  # the name grammar, re-exported
+    CLEARANCE_SUFFIX,
+    CLEARANCES_M,
+    policy_names,  # noqa: F401  # re-exported: every plain name make_policy accepts
+    split_hybrid,
+    split_terminal,
+    unknown_policy,
 )
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
-from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.terminal import terminal_cost as build_terminal_cost
 from uav_penetration_env.terminal_kernels import NO_TERMINAL_COST, TerminalCost
 from uav_penetration_env.types import FloatArray
@@ -522,8 +527,6 @@ def trace_summary(trace: Any, nfev: int, max_evals: int) -> dict[str, Any]:
 FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}
 # Named policies that are neither floors nor MPC planners: the classical global planner.
 BASELINE_POLICIES: dict[str, Any] = {"lattice": LatticePolicy, "value-greedy": ValueGreedyPolicy}
-CLEARANCE_SUFFIX = "-c"  # lattice-cN, value-greedy-cN: the rule following the terrain at N metres
-CLEARANCES_M = (10, 1000)  # the N a -cN name accepts
 
 
 def with_clearance(spec: str) -> LatticePolicy | ValueGreedyPolicy | None:
@@ -542,49 +545,6 @@ def with_clearance(spec: str) -> LatticePolicy | ValueGreedyPolicy | None:
     if not (digits.isdigit() and low <= int(digits) <= high):
         raise ValueError(f"policy {spec!r}: expected {base}-cN with N an integer number of metres in [{low}, {high}]")
     return BASELINE_POLICIES[base](dataclasses.replace(LATTICE_GUIDANCE, clearance_m=float(int(digits))))
-EQ37_SUFFIX = "-eq37"
-# An MPC planner's name with one of these suffixes fixes its terminal cost's form (model.md §7e).
-TERMINAL_SUFFIXES = {
-    EQ37_SUFFIX: "none",
-    "-ctg-distance": "distance",
-    "-ctg-dubins": "dubins",
-    "-ctg-value": "value",
-}
-
-
-def split_terminal(spec: str, names: Sequence[str]) -> tuple[str, str | None]:
-    """``NAME-SUFFIX`` -> (``NAME``, its terminal form); a plain or unknown name -> (spec, None)."""
-    if spec in names:
-        return spec, None
-    for suffix, form in TERMINAL_SUFFIXES.items():
-        if spec.endswith(suffix) and spec[: -len(suffix)] in names:
-            return spec[: -len(suffix)], form
-    return spec, None
-
-
-def policy_names() -> list[str]:
-    """Every plain name :func:`make_policy` accepts (plug-in kinds, ``PREFIX:...``, aside)."""
-    from optimizers import available_optimizers
-
-    names = available_optimizers()
-    suffixed = [f"{n}{suffix}" for n in names for suffix in TERMINAL_SUFFIXES]
-    return sorted([*FLOOR_POLICIES, *BASELINE_POLICIES, *names, *suffixed])
-
-
-
-
-def split_hybrid(spec: str) -> tuple[str, str] | None:
-    """``(planner, plug-in spec)`` of a hybrid name ``PLANNER+PREFIX:ARGUMENT``, else None.
-
-    The planner is an optimiser name or ``NAME-eq37``; the part after ``+`` is a plug-in policy
-    (``ihpso+sb3:models/ppo.zip`` -> ``("ihpso", "sb3:models/ppo.zip")``). Only the text before the
-    first colon is searched for ``+``, so a path may contain one.
-    """
-    prefix, colon, _ = spec.partition(":")
-    planner, plus, kind = prefix.partition(HYBRID_SEPARATOR)
-    if not (colon and plus and planner and kind):
-        return None
-    return planner, spec[len(planner) + len(HYBRID_SEPARATOR) :]
 
 
 def policy_label(spec: str) -> str:
@@ -655,14 +615,7 @@ def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any)
     names = available_optimizers()
     base, form = split_terminal(spec, names)
     if base not in names:
-        # A prefix is compared with the plug-in prefixes, a plain name with the plain names.
-        hint = did_you_mean(prefix, kinds) if colon else did_you_mean(spec, policy_names())
-        if colon:  # name the mechanism: the kind may belong to a package that is not installed
-            hint = f"no installed plug-in provides the kind {prefix!r} (entry points {POLICY_GROUP}); {hint}"
-        known = ", ".join(["greedy", "random", "lattice", "lattice-cN", "value-greedy", "value-greedy-cN", "NAME-eq37", "NAME-ctg-FORM", *plugin_policy_forms()])
-        raise KeyError(
-            f"unknown policy {spec!r} — {hint}known: {known} and the optimisers {', '.join(names)}"
-        )
+        raise KeyError(unknown_policy(spec))
     return MPCPolicy(get_optimizer(base), settings.with_form(form), name=spec)
 
 

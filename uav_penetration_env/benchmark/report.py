@@ -311,13 +311,10 @@ def _is_rl_table(frame: pd.DataFrame) -> bool:
 
 
 def _table_reference(frame: pd.DataFrame, reference: str) -> str | None:
-    """The table's reference: the row without a paired difference, else ``reference`` when it is a row."""
-    from uav_penetration_env.benchmark.summary import infer_reference
+    """The table's reference, as the terminal summary reads it (:func:`~.summary.table_reference`)."""
+    from uav_penetration_env.benchmark.summary import table_reference
 
-    found = infer_reference(frame)
-    if found is not None:
-        return found
-    return reference if reference in set(frame["policy"].astype(str)) else None
+    return table_reference(frame, reference)
 
 
 def _policy_cell(policy: str, reference: str | None) -> str:

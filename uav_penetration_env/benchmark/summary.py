@@ -54,17 +54,34 @@ def infer_reference(frame: pd.DataFrame) -> str | None:
     return str(missing[0]) if len(missing) == 1 else None
 
 
+def table_reference(frame: pd.DataFrame, requested: str | None = None) -> str | None:
+    """The policy a written leaderboard table compares with: what its "Δ vs" header and its tests mean.
+
+    The tables choose it by one rule (:func:`~uav_penetration_env.benchmark.leaderboard.groups.resolve_reference`,
+    api.md §4.5): ``--reference`` when given, else ``ihpso`` where the group flew it, else ``greedy``,
+    else the policy with the most finished seeds. A written table keeps the choice as its one row
+    without a paired difference (:func:`infer_reference`), so the terminal summary and the HTML
+    report read it from there rather than from the flag; only when the rows cannot tell (no row has
+    a difference, or several lack one) is ``requested`` taken, if it is a row.
+    """
+    found = infer_reference(frame)
+    if found is not None:
+        return found
+    return requested if requested is not None and requested in set(frame["policy"].astype(str)) else None
+
+
 def summary_rows(frame: pd.DataFrame, reference: str | None = None) -> tuple[list[str], list[list[str]]]:
     """The header and cell texts of the compact table of one leaderboard CSV.
 
     Args:
         frame: a leaderboard CSV as read by pandas (columns of :mod:`~uav_penetration_env.benchmark.columns`).
-        reference: the reference policy (default: inferred, :func:`infer_reference`).
+        reference: the reference asked for (``--reference``); the table's own is shown
+            (:func:`table_reference`).
 
     Returns:
         The header and one list of cell texts per policy, in the CSV's order.
     """
-    reference = infer_reference(frame) if reference is None else reference
+    reference = table_reference(frame, reference)
     gap = gap_column(list(frame.columns))
     header = ["policy", "success", "total J [95% CI]", "IQM"]
     if gap is not None:
@@ -135,7 +152,7 @@ def print_summary(
         tables: the written leaderboard files (CSV shown, Markdown listed).
         report: the HTML report, when one was written.
         figures: the folder of the figures, when they were written.
-        reference: the reference policy (default: inferred from each CSV).
+        reference: the reference asked for; each table's own is shown (:func:`table_reference`).
         file: the stream (default: standard output at call time).
         width: console width (default: the terminal's, at most :data:`MAX_WIDTH`; a pipe or
             file gets :data:`MAX_WIDTH`).

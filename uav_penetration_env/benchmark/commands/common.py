@@ -13,8 +13,9 @@ Every input is checked before anything is written: problems raise :class:`CLIErr
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shlex
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -366,6 +367,25 @@ def fixed_target_rule(args: argparse.Namespace) -> str:
             f"--fixed-target-rule: got {args.fixed_target_rule!r}, expected one of {', '.join(FIXED_TARGET_RULES)}"
         )
     return str(args.fixed_target_rule)
+
+
+@contextlib.contextmanager
+def removed_if_failed(path: Path) -> Iterator[None]:
+    """Remove the folders of ``path`` that the block made, when it raises and they are still empty.
+
+    ``path`` itself and its parents that do not exist yet are removed again, deepest first, so a
+    failed command leaves no empty output folder behind (api.md §4.7).
+    """
+    missing = [folder for folder in [path, *path.parents] if not folder.exists()]
+    try:
+        yield
+    except BaseException:
+        for folder in missing:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (something was written), or not ours to remove
+                break
+        raise
 
 
 def check_writable_folder(path: Path, flag: str, value: str | Path | None = None) -> None:

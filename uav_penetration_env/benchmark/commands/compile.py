@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
 
 COMMAND = Command(
     name="compile",
-    help="compile the physics now (a first run's 25-60 s), or --clear the compiled code",
+    help="compile the physics now (a first run's 25-60 s on 2 idle cores, minutes on a busy machine), or --clear the compiled code",
     add_arguments=add_arguments,
     run=run,
     needs=Needs(),  # the physics alone: works in a core-only install (images, CI warm-up)

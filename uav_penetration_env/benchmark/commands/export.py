@@ -28,6 +28,7 @@ from uav_penetration_env.benchmark.commands.common import (
     existing_store,
     int_at_least,
     path_argument,
+    removed_if_failed,
 )
 
 
@@ -171,9 +172,10 @@ def _export_minari(args: argparse.Namespace) -> int:
         )
     MINARI.check("export --minari")  # one line naming the extra, before the store is read
     store_path = existing_store(args.store)
-    out = Path(args.out) if args.out else store_path.with_name(f"{store_path.stem}-minari")
-    check_writable_folder(out, "--out")
-    with ResultsStore(store_path, create=False) as store:
+    # Absolute: Minari joins a relative dataset path to its root a second time (the export then failed).
+    out = (Path(args.out) if args.out else store_path.with_name(f"{store_path.stem}-minari")).absolute()
+    with removed_if_failed(out), ResultsStore(store_path, create=False) as store:
+        check_writable_folder(out, "--out")
         try:
             plans = plan_datasets(
                 store.episodes(),

@@ -306,8 +306,13 @@ def suite_plan(settings: dict[str, Any], policies: dict[str, Any]) -> tuple[list
 
 def run(args: argparse.Namespace) -> int:
     """Validate everything, evaluate into the store, then write the leaderboards, figures and report."""
-    from uav_penetration_env.benchmark.evaluate import BACKENDS, evaluate, import_plugins
+    from uav_penetration_env.benchmark.plugins import import_plugins
+    from uav_penetration_env.benchmark.policy_names import unknown_policy
+    from uav_penetration_env.benchmark.workers import BACKENDS, ClusterError
 
+    # DECISION (api.md §4.7, fast refusals): what can be checked without the physics is checked
+    # first (flags, --config, --import, policy names, scenario files), so a typo answers in about
+    # the time of --help, not after the compiled model's imports.
     settings = check_settings(run_settings(args))
     try:
         import_plugins(settings["import"])
@@ -316,9 +321,18 @@ def run(args: argparse.Namespace) -> int:
     if settings["backend"] not in BACKENDS:
         raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
     seeds = parse_seeds(settings["seeds"])
+    for spec in settings["policies"]:
+        problem = unknown_policy(spec)
+        if problem is not None:
+            raise CLIError(f"--policies: {problem}")
+    # The scenarios of --scenarios need no policy; a suite's seed rule does (after make_policies).
+    plan = episode_plan(settings, {}, seeds) if settings["suite"] is None else None
+
+    from uav_penetration_env.benchmark.evaluate import evaluate  # the physics and the compiled code
+
     policies = make_policies(settings)
     reference = run_reference(settings["reference"], list(policies))
-    scenarios, seeds, include, suite_settings = episode_plan(settings, policies, seeds)
+    scenarios, seeds, include, suite_settings = plan or episode_plan(settings, policies, seeds)
     store_path = Path(settings["store"])
     # The report goes next to the store it reads unless --out says where: a run on another store
     # never replaces the main job's report in ./results.
@@ -346,6 +360,9 @@ def run(args: argparse.Namespace) -> int:
             run_settings=suite_settings,
             threads=settings["threads"],
         )
+    except ClusterError as error:  # refused before any episode: the scheduler or a plug-in (one line)
+        store.close()
+        raise CLIError(str(error)) from None
     except KeyboardInterrupt as error:
         # joblib aborts its loky workers when the interruption reaches its generator (tested).
         done = len(store.done_keys())
@@ -487,17 +504,21 @@ def print_outcome(frame: Any, store_path: Path) -> int:
 
 
 def run_reference(reference: str | None, policies: list[str]) -> str:
-    """The policy the run's report compares against: ``--reference``, else the tables' default.
+    """The reference the run's tables are asked for: ``--reference``, else the default name ``ihpso``.
 
-    The default is the leaderboard's (ihpso, else greedy, else the policy on the most seeds;
+    The tables resolve the default by the one rule of api.md §4.5 (ihpso where flown, else greedy,
+    else the policy on the most seeds;
     :func:`~uav_penetration_env.benchmark.leaderboard.groups.resolve_reference`), so the report a
-    run writes and the one ``uav-bench report`` rebuilds from the same store agree.
+    run writes and the one ``uav-bench report`` rebuilds from the same store agree; the terminal
+    summary shows what each table chose (:func:`~uav_penetration_env.benchmark.summary.table_reference`).
 
     Raises:
         CLIError: ``--reference`` names no policy of ``--policies``.
     """
     if reference is None:
-        return "ihpso"
+        from uav_penetration_env.benchmark.leaderboard.groups import DEFAULT_REFERENCE
+
+        return DEFAULT_REFERENCE
     if reference not in policies:
         raise CLIError(
             f"--reference {reference}: {did_you_mean(reference, policies)}"
