@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
 
     steps = parse_steps(args.steps)
     seeds = parse_seeds(args.seeds)
-    episode_seeds = parse_seeds(args.episode_seeds) if args.episode_seeds else None
+    episode_seeds = parse_seeds(args.episode_seeds, "--episode-seeds") if args.episode_seeds else None
     optimizers = split_list(args.optimizers)
     known = available_optimizers()
     for name in optimizers:
