@@ -1,0 +1,102 @@
+"""Round four of issue 42's faults: each test fails on the code before its fix.
+
+Hostile or impossible input (file names, device files, oversized or foreign files, names with
+control characters, seeds and scenarios no run can use) gets a one-line error naming its field,
+and nothing is written where it should not be.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import tiny_scenario
+
+from uav_penetration_env.benchmark import cli
+from uav_penetration_env.build import build_scenario
+from uav_penetration_env.dem import load_raster
+from uav_penetration_env.scenario import DEMTerrain, ScenarioError
+
+
+def run_cli(*argv: object) -> int:
+    return cli.main([str(a) for a in argv])
+
+
+def one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    """The command's stderr, which must be exactly one line without a traceback."""
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    return err
+
+
+# --- scenario generate --out DIR: the file name stays inside DIR ------------------------------------
+
+
+@pytest.mark.parametrize("name", ["../../../escaped", "{tmp}/escaped-absolute", "a/../../b"])
+def test_scenario_generate_writes_a_sanitised_name_inside_out(tmp_path, name, capsys):
+    source = tiny_scenario(name=name.format(tmp=tmp_path)).to_yaml(tmp_path / "hostile.yaml")
+    out = tmp_path / "a" / "b" / "out"
+    out.mkdir(parents=True)
+    before = set(tmp_path.rglob("*"))
+    assert run_cli("scenario", "generate", source, "--out", out) == 0
+    (written,) = set(tmp_path.rglob("*")) - before
+    assert written.parent == out and written.suffix == ".yaml"
+
+
+# --- scenario validate: a start or goal the ceiling makes unreachable ------------------------------
+
+
+def test_a_goal_on_terrain_above_the_ceiling_is_refused_naming_the_goal():
+    scenario = tiny_scenario(terrain={"mountains": [{"x_km": 25, "y_km": 25, "height_m": 5000}]})
+    with pytest.raises(ScenarioError, match=r"^goal: .*ceiling 3000 m") as error:
+        build_scenario(scenario)
+    assert "\n" not in str(error.value)
+
+
+def test_a_start_whose_terrain_plus_agl_is_above_the_ceiling_is_refused_naming_start_z_agl_m():
+    scenario = tiny_scenario(terrain={"mountains": [{"x_km": 0, "y_km": 0, "height_m": 5000}]})
+    with pytest.raises(ScenarioError, match=r"^start\.z_agl_m: .*below the ceiling 3000 m"):
+        build_scenario(scenario)
+
+
+def test_a_goal_with_some_ground_below_the_ceiling_and_an_ordinary_start_still_build():
+    # A peak beside the goal disc leaves low ground inside it: reachable, so not refused.
+    scenario = tiny_scenario(terrain={"mountains": [{"x_km": 33, "y_km": 25, "height_m": 5000}]})
+    assert build_scenario(scenario).terrain.max() > scenario.map.ceiling_m
+    build_scenario(tiny_scenario())
+
+
+# --- the DEM loader reads regular files of a bounded size only ------------------------------------
+
+
+def dem_config(file: str) -> DEMTerrain:
+    return DEMTerrain(file=file, lat_deg=(49.5, 50.0), lon_deg=(10.0, 10.5))
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_the_dem_loader_refuses_a_device_file_without_reading_it():
+    with pytest.raises(ScenarioError, match=r"^terrain\.natural\.file: got '/dev/zero', expected a regular file"):
+        load_raster(dem_config("/dev/zero"))
+
+
+def test_the_dem_loader_refuses_a_fifo_without_blocking_on_it(tmp_path):
+    fifo = tmp_path / "raster.npz"
+    os.mkfifo(fifo)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    with pytest.raises(ScenarioError, match=r"^terrain\.natural\.file: .*expected a regular file"):
+        load_raster(dem_config(str(fifo)))
+
+
+def test_the_dem_loader_refuses_a_file_above_its_size_limit(tmp_path, monkeypatch):
+    from uav_penetration_env import dem
+
+    big = tmp_path / "big.npz"
+    np.savez(big, topo=np.zeros((40, 40)), latitude=np.linspace(49, 51, 40), longitude=np.linspace(9, 11, 40))
+    monkeypatch.setattr(dem, "MAX_RASTER_BYTES", big.stat().st_size - 1)
+    with pytest.raises(ScenarioError, match=r"^terrain\.natural\.file: .*at most \d+ bytes"):
+        load_raster(dem_config(str(big)))
+    monkeypatch.setattr(dem, "MAX_RASTER_BYTES", big.stat().st_size)
+    assert load_raster(dem_config(str(big))).heights.shape == (40, 40)
