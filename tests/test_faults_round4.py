@@ -100,3 +100,36 @@ def test_the_dem_loader_refuses_a_file_above_its_size_limit(tmp_path, monkeypatc
         load_raster(dem_config(str(big)))
     monkeypatch.setattr(dem, "MAX_RASTER_BYTES", big.stat().st_size)
     assert load_raster(dem_config(str(big))).heights.shape == (40, 40)
+
+
+# --- the atomic writer never replaces a device, FIFO or folder -------------------------------------
+
+
+def test_the_atomic_writer_refuses_to_replace_a_fifo_and_leaves_it(tmp_path):
+    from uav_penetration_env.atomic import NotRegularFileError, write_text_atomic
+
+    fifo = tmp_path / "out.md"
+    os.mkfifo(fifo)
+    with pytest.raises(NotRegularFileError, match="not a regular file") as error:
+        write_text_atomic(fifo, "text")
+    assert error.value.filename == str(fifo)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and os.listdir(tmp_path) == ["out.md"]
+
+
+def test_a_command_whose_out_is_a_fifo_says_so_in_one_line_naming_out(tmp_path, capsys):
+    fifo = tmp_path / "scenario.yaml"
+    os.mkfifo(fifo)
+    assert run_cli("scenario", "generate", "paper", "--out", fifo) == 2
+    assert one_error_line(capsys).startswith(f"uav-bench: error: --out {fifo}: ")
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mknod of a character device needs root")
+def test_the_atomic_writer_refuses_to_replace_a_character_device(tmp_path):
+    from uav_penetration_env.atomic import NotRegularFileError, write_bytes_atomic
+
+    node = tmp_path / "null"
+    os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 3))  # a private /dev/null
+    with pytest.raises(NotRegularFileError):
+        write_bytes_atomic(node, b"x")
+    assert stat.S_ISCHR(os.lstat(node).st_mode)

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from uav_penetration_env.atomic import NotRegularFileError
 from uav_penetration_env.benchmark.commands import available_commands
 from uav_penetration_env.benchmark.commands.common import CLIError, store_error
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
@@ -157,6 +158,8 @@ def _failure(error: Exception, args: argparse.Namespace) -> tuple[str, int] | No
     """
     if isinstance(error, OSError) and error.errno in FULL_OR_READ_ONLY:
         return f"{_written_by(error.filename, args)}: {error.strerror}", 1
+    if isinstance(error, NotRegularFileError):  # --out /dev/null: an output that is no file (input, 2)
+        return f"{_written_by(error.filename, args)}: {error.strerror}", 2
     if "StoreError" not in {kind.__name__ for kind in type(error).__mro__}:
         return None
     from uav_penetration_env.benchmark.store import StoreError, StoreWriteError
