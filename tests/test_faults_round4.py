@@ -133,3 +133,30 @@ def test_the_atomic_writer_refuses_to_replace_a_character_device(tmp_path):
     with pytest.raises(NotRegularFileError):
         write_bytes_atomic(node, b"x")
     assert stat.S_ISCHR(os.lstat(node).st_mode)
+
+
+# --- windows --scenario names ONE stored scenario: a range is refused before anything is built ----
+
+
+def test_windows_refuses_a_scenario_range_without_generating_it(tmp_path, monkeypatch, capsys):
+    from uav_penetration_env import catalogue
+
+    def never(*args, **kwargs):
+        raise AssertionError("windows --scenario generated a random scenario")
+
+    store = tmp_path / "s.sqlite"
+    store.touch()
+    monkeypatch.setattr(catalogue, "random_scenario", never)
+    code = run_cli(
+        "windows", "--store", store, "--scenario", "random:0-99999", "--steps", "0",
+        "--optimizers", "pso", "--seeds", "1", "--max-evals", "10", "--horizon", "1",
+    )  # fmt: skip
+    assert code == 2
+    assert one_error_line(capsys).startswith("uav-bench: error: --scenario: got 'random:0-99999', expected one")
+
+
+def test_random_seeds_of_a_huge_range_are_lazy():
+    from uav_penetration_env.catalogue import random_seeds
+
+    seeds = random_seeds(f"random:0-{10**15}")
+    assert len(seeds) == 10**15 + 1 and seeds[-1] == 10**15
