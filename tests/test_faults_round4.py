@@ -160,3 +160,129 @@ def test_random_seeds_of_a_huge_range_are_lazy():
 
     seeds = random_seeds(f"random:0-{10**15}")
     assert len(seeds) == 10**15 + 1 and seeds[-1] == 10**15
+
+
+# --- a small store shared by the export, import and hostile-store tests ----------------------------
+
+
+@pytest.fixture(scope="module")
+def small_store(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("store")
+    scenario = tiny_scenario(time={"max_steps": 6}).to_yaml(folder / "tiny.yaml")
+    store = folder / "s.sqlite"
+    assert run_cli("run", "--policies", "greedy", "pso", "--scenarios", scenario, "--seeds", "2",
+                   "--max-evals", "20", "--horizon", "1", "--jobs", "1", "--no-report", "--no-progress",
+                   "--store", store) == 0  # fmt: skip
+    assert run_cli("windows", "--store", store, "--scenario", "tiny", "--steps", "0", "--optimizers", "pso",
+                   "--seeds", "1", "--max-evals", "10", "--horizon", "1") == 0  # fmt: skip
+    return store
+
+
+def copied(store: Path, tmp_path: Path, sql: str | None = None) -> Path:
+    import shutil
+    import sqlite3
+
+    target = tmp_path / "copy.sqlite"
+    shutil.copy(store, target)
+    if sql is not None:
+        with sqlite3.connect(target) as connection:
+            connection.execute(sql)
+        connection.close()
+    return target
+
+
+# --- export reads every table in one transaction ---------------------------------------------------
+
+
+def test_export_during_a_write_gives_tables_that_agree(small_store, tmp_path, monkeypatch):
+    import sqlite3
+
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, STEP_COLUMNS, ResultsStore
+
+    store = copied(small_store, tmp_path)
+    read_episodes = ResultsStore.episodes
+
+    def episodes_then_a_run_commits_one(self, *args, **kwargs):
+        frame = read_episodes(self, *args, **kwargs)
+        # a concurrent `uav-bench run` commits another episode and its steps between two reads
+        with sqlite3.connect(store, timeout=5) as writer:
+            columns = [c for c in EPISODE_COLUMNS if c != "seed"]
+            new = writer.execute(
+                f"INSERT INTO episodes ({', '.join(columns)}, seed) SELECT {', '.join(columns)}, 99 "
+                "FROM episodes WHERE episode_id = 1"
+            ).lastrowid
+            writer.execute(
+                f"INSERT INTO steps (episode_id, {', '.join(STEP_COLUMNS)}) SELECT ?, {', '.join(STEP_COLUMNS)} "
+                "FROM steps WHERE episode_id = 1",
+                (new,),
+            )
+        writer.close()
+        return frame
+
+    monkeypatch.setattr(ResultsStore, "episodes", episodes_then_a_run_commits_one)
+    assert run_cli("export", "--store", store, "--format", "csv", "--out", tmp_path / "rows") == 0
+    episodes = pd.read_csv(tmp_path / "rows-episodes.csv")
+    steps = pd.read_csv(tmp_path / "rows-steps.csv")
+    assert set(steps["episode_id"]) == set(episodes.loc[episodes["error"].isna(), "episode_id"])
+    monkeypatch.undo()
+    assert run_cli("import", "--rows", tmp_path / "rows", "--store", tmp_path / "back.sqlite") == 0
+
+
+# --- import refuses an export that stopped part-way ------------------------------------------------
+
+
+@pytest.fixture
+def exported(small_store, tmp_path):
+    assert run_cli("export", "--store", small_store, "--format", "csv", "--out", tmp_path / "rows") == 0
+    return tmp_path / "rows"
+
+
+@pytest.mark.parametrize("keep_manifest", [True, False])
+def test_import_refuses_an_export_without_its_last_tables_before_writing(exported, capsys, keep_manifest):
+    for table in ("steps", "scenarios", "policies"):  # the state a kill after window_runs leaves
+        exported.with_name(f"rows-{table}.csv").unlink()
+    if not keep_manifest:
+        exported.with_name("rows-manifest.json").unlink()
+    capsys.readouterr()
+    target = exported.parent / "imported.sqlite"
+    assert run_cli("import", "--rows", exported, "--store", target) == 2
+    assert "incomplete export" in one_error_line(capsys)
+    assert not target.exists() and not list(exported.parent.glob("*imported*"))
+
+
+def test_import_refuses_a_table_of_another_export_under_the_same_stem(exported, capsys):
+    steps = exported.with_name("rows-steps.csv")
+    steps.write_text(steps.read_text().replace("\n", "\n", 1) + "")  # same bytes: accepted
+    assert run_cli("import", "--rows", exported, "--store", exported.parent / "same.sqlite") == 0
+    lines = steps.read_text().splitlines(keepends=True)
+    steps.write_text("".join(lines[:-1]))  # one row short: another export's table
+    capsys.readouterr()
+    assert run_cli("import", "--rows", exported, "--store", exported.parent / "mixed.sqlite") == 2
+    assert "rows-steps.csv is not the file rows-manifest.json lists" in one_error_line(capsys)
+
+
+# --- a store with one hostile cell: read-only commands give the one-line damaged error --------------
+
+
+HOSTILE_CELLS = [
+    ("UPDATE policies SET config = '{\"a\":' WHERE policy = 'greedy'", ["store", "list"]),
+    ("UPDATE policies SET config = '{\"a\":' WHERE policy = 'greedy'", ["export", "--format", "csv", "--out", "x/rows"]),
+    ("UPDATE policies SET policy = NULL WHERE policy = 'greedy'", ["store", "list"]),
+    ("UPDATE episodes SET nfev = 'many' WHERE episode_id = 1", ["export", "--format", "parquet", "--out", "x/rows"]),
+    ("UPDATE window_runs SET nfev = 'abc'", ["leaderboard", "--out", "lb"]),
+    ("UPDATE episodes SET seed = '[]' WHERE episode_id = 1", ["leaderboard", "--out", "lb"]),
+    ("UPDATE window_runs SET history_nfev = -1e308", ["leaderboard", "--out", "lb"]),
+    ("UPDATE steps SET x_km = ' ' WHERE step = 3", ["export", "--format", "csv", "--tracks", "--out", "x/tr"]),
+]
+
+
+@pytest.mark.parametrize(("sql", "argv"), HOSTILE_CELLS, ids=[f"{i}" for i in range(len(HOSTILE_CELLS))])
+def test_a_hostile_cell_gives_the_one_line_damaged_error(small_store, tmp_path, monkeypatch, capsys, sql, argv):
+    store = copied(small_store, tmp_path, sql)
+    monkeypatch.chdir(tmp_path)
+    head = argv[:2] if argv[0] == "store" else argv[:1]
+    code = run_cli(*head, "--store", store, *argv[len(head) :])
+    line = one_error_line(capsys)
+    assert code == 2 and line.startswith(f"uav-bench: error: --store {store}: damaged"), line
