@@ -286,3 +286,60 @@ def test_a_hostile_cell_gives_the_one_line_damaged_error(small_store, tmp_path, 
     code = run_cli(*head, "--store", store, *argv[len(head) :])
     line = one_error_line(capsys)
     assert code == 2 and line.startswith(f"uav-bench: error: --store {store}: damaged"), line
+
+
+# --- best-known checkpoints: never unpickled -------------------------------------------------------
+
+
+class _Payload:
+    """Unpickling this runs ``touch MARKER``."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.marker}",))
+
+
+@pytest.mark.parametrize("suffix", [".pkl", ".json"])
+def test_a_foreign_checkpoint_is_refused_without_running_its_code(tmp_path, suffix):
+    import pickle
+
+    from uav_penetration_env.benchmark.bestknown.checkpoint import checkpoint_path, load_checkpoint
+
+    marker = tmp_path / "CODE_RAN"
+    path = checkpoint_path(tmp_path, "0db1ca29d98736f3", "unseeded")
+    path.with_suffix(suffix).write_bytes(pickle.dumps(_Payload(marker)))
+    with pytest.raises(ValueError, match=r"^--work .*: not a best-known search checkpoint; expected") as error:
+        load_checkpoint(path, "0db1ca29d98736f3", {"seed": 0})
+    assert "\n" not in str(error.value) and not marker.exists()
+
+
+@pytest.mark.parametrize("stops", [(7,), (3, 40, 41)])
+def test_a_checkpoint_state_continues_through_json_to_the_uninterrupted_result(stops):
+    import json
+
+    from optimizers.sep_cma_restarts import SepCMARestarts, Start
+    from uav_penetration_env.benchmark.bestknown.checkpoint import state_from_json, state_to_json
+
+    search = SepCMARestarts(population=6, stall_generations=4)
+    target = np.array([0.3, -0.2, 0.5])
+
+    def sphere(x):
+        return ((x - target) ** 2).sum(axis=1)
+
+    def started():
+        return search.begin(sphere, [(-1.0, 1.0)] * 3, [Start("corner", -np.ones(3))], np.random.default_rng(2))
+
+    def outcome(state):
+        return (state.best_x.tobytes(), state.best_f, state.evals, state.generations, state.runs, state.trace)
+
+    whole = outcome(search.run(started(), sphere, max_evals=900))
+    state = started()
+    for stop in stops:
+        search.run(state, sphere, max_evals=900, callback=lambda s, _share, at=stop: s.generations == at)
+        assert state.optimizer is not None  # stopped inside a CMA-ES run
+        state = state_from_json(json.loads(json.dumps(state_to_json(state))))
+    search.run(state, sphere, max_evals=900)
+    assert outcome(state)[:-1] == whole[:-1]
+    assert [(e, f) for e, _, f in outcome(state)[-1]] == [(e, f) for e, _, f in whole[-1]]  # not the seconds
