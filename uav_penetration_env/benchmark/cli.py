@@ -111,8 +111,19 @@ def unrecognized(parser: argparse.ArgumentParser, command: str, unknown: Sequenc
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``uav-bench`` console script; returns the exit status."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    """Entry point of the ``uav-bench`` console script; returns the exit status.
+
+    Standard output is the one place names from plug-ins and stores reach the terminal: for the
+    whole command it escapes control characters (an escape sequence in a policy name would
+    recolour or retitle the terminal; :mod:`~.safe_text`).
+    """
+    from uav_penetration_env.benchmark.safe_text import safe_stdout
+
+    with safe_stdout():
+        return _main(list(sys.argv[1:] if argv is None else argv))
+
+
+def _main(argv: list[str]) -> int:
     try:
         parser = build_parser(argv)
     except CLIError as error:  # a clashing plug-in: say so even for --help
