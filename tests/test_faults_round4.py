@@ -343,3 +343,234 @@ def test_a_checkpoint_state_continues_through_json_to_the_uninterrupted_result(s
     search.run(state, sphere, max_evals=900)
     assert outcome(state)[:-1] == whole[:-1]
     assert [(e, f) for e, _, f in outcome(state)[-1]] == [(e, f) for e, _, f in whole[-1]]  # not the seconds
+
+
+# --- hostile names: the terminal, Markdown tables and spreadsheets --------------------------------
+
+HOSTILE = "\x1b[31mRED\x1b]0;pwned-title\x07"
+
+
+def test_text_printed_by_a_command_has_its_control_characters_escaped(monkeypatch, capsys):
+    from uav_penetration_env.benchmark import cli as cli_module
+
+    def hostile_command(args):
+        print(f"policy {HOSTILE}\ttwo\nlines")
+        return 0
+
+    class Args:
+        extensions = ()
+        handler = type("H", (), {"needs": type("N", (), {"check": staticmethod(lambda *a: None)})(),
+                                 "run": staticmethod(hostile_command)})()  # fmt: skip
+        command = "x"
+
+    parser = type("P", (), {"parse_known_args": staticmethod(lambda argv: (Args(), []))})()
+    monkeypatch.setattr(cli_module, "build_parser", lambda argv: parser)
+    assert cli_module.main(["x"]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\x07" not in out
+    assert out == "policy \\x1b[31mRED\\x1b]0;pwned-title\\x07\ttwo\nlines\n"
+
+
+def test_markdown_cells_keep_one_row_per_line():
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+
+    table = markdown_table(["policy", "J"], [["two\nlines", "1"], [HOSTILE, "2"], ["a|b", "3"]], ["l", "r"])
+    lines = table.splitlines()
+    assert len(lines) == 5 and all(line.startswith("| ") and line.endswith(" |") for line in lines)
+    assert "\x1b" not in table and "two\\nlines" in table and "a\\|b" in table
+
+
+def test_csv_cells_that_a_spreadsheet_would_run_get_a_leading_apostrophe(tmp_path):
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.safe_text import write_csv_table
+
+    frame = pd.DataFrame(
+        {
+            "policy": ["=cmd|' /C calc'!A0", "+x", "-y", "@z", "\tt", "\rr", "greedy", "-0.5", "-", "pso-2"],
+            "total_cost": [-0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, -1e-3],
+            "text": ["-1.5", "=1+1", "", None, "ok", "a", "b", "c", "d", "e"],
+        }
+    )
+    path = write_csv_table(frame, tmp_path / "t.csv")
+    back = pd.read_csv(path, keep_default_na=False)
+    assert list(back["policy"]) == [
+        "'=cmd|' /C calc'!A0", "'+x", "'-y", "'@z", "'\tt", "\\rr", "greedy", "-0.5", "'-", "pso-2",
+    ]  # fmt: skip
+    assert list(back["total_cost"]) == [-0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, -1e-3]
+    assert list(back["text"])[:2] == ["-1.5", "'=1+1"]
+
+
+def test_the_leaderboard_of_hostile_names_keeps_its_table_rows_and_csv_cells(small_store, tmp_path):
+    import sqlite3
+
+    store = copied(small_store, tmp_path)
+    with sqlite3.connect(store) as connection:
+        connection.execute("UPDATE episodes SET policy = 'two' || char(10) || 'lines' WHERE policy = 'pso'")
+        connection.execute("UPDATE episodes SET policy = '=cmd|x' WHERE policy = 'greedy'")
+    connection.close()
+    assert run_cli("leaderboard", "--store", store, "--out", tmp_path / "lb") == 0
+    markdown = (tmp_path / "lb" / "tiny.md").read_text().splitlines()
+    start = next(i for i, line in enumerate(markdown) if line.startswith("| policy"))
+    end = next(i for i in range(start, len(markdown)) if not markdown[i].strip())
+    assert all(line.startswith("|") for line in markdown[start:end])
+    csv = (tmp_path / "lb" / "tiny.csv").read_text()
+    assert "\n=cmd" not in csv and "\n'=cmd" in csv
+
+
+# --- the env's API edges -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def env():
+    from uav_penetration_env.env import UAVPenetrationEnv
+
+    environment = UAVPenetrationEnv(scenario=tiny_scenario())
+    environment.reset(seed=0)
+    yield environment
+    environment.close()
+
+
+@pytest.mark.parametrize("action", [np.array([0.1 + 5j, 0.0, 0.1]), [0.1, 1j, 0.0], (0j, 0j, 0j)])
+def test_a_complex_action_is_refused_naming_action(env, action):
+    import warnings
+
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning: refused before any conversion
+        with pytest.raises(ValueError, match=r"^action: got .*complex.*expected") as error:
+            env.step(action)
+    assert "\n" not in str(error.value)
+
+
+def test_the_vector_env_refuses_complex_actions_too():
+    from uav_penetration_env.vector_env import UAVPenetrationVectorEnv
+
+    vector = UAVPenetrationVectorEnv(num_envs=2, scenario=tiny_scenario())
+    vector.reset(seed=0)
+    with pytest.raises(ValueError, match=r"^action: got .*complex"):
+        vector.step(np.zeros((2, 3), dtype=complex))
+    vector.close()
+
+
+@pytest.mark.parametrize("state", [["a"] * 6, [1j] * 6, {"x": 1}, None, "abcdef", [[1, 2, 3]] * 2])
+def test_a_bad_state_is_refused_naming_state_and_what_was_expected(env, state):
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"^state: got .*, expected 6 finite (real )?numbers") as error:
+        env.unwrapped.set_state(state)
+    assert "\n" not in str(error.value)
+
+
+def test_the_env_ids_are_registered_through_a_gymnasium_entry_point():
+    from importlib.metadata import entry_points
+
+    import gymnasium
+
+    (point,) = [e for e in entry_points(group="gymnasium.envs") if e.value.startswith("uav_penetration_env")]
+    point.load()()
+    from uav_penetration_env import ENV_IDS
+
+    assert set(ENV_IDS) <= set(gymnasium.registry)
+
+
+def test_the_guide_documents_the_module_qualified_id():
+    guide = (Path(__file__).parent.parent / "docs" / "guide.md").read_text(encoding="utf-8")
+    assert "uav_penetration_env:UAVPenetration-v0" in guide
+
+
+def test_the_module_qualified_id_works_in_a_fresh_interpreter():
+    import subprocess
+    import sys
+
+    code = "import gymnasium as gym; e = gym.make('uav_penetration_env:UAVPenetration-v0'); print(e.spec.id)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and done.stdout.strip().endswith("UAVPenetration-v0"), done.stderr[-500:]
+
+
+# --- distill:PATH from an untrusted folder: headers checked before any array is read ---------------
+
+
+def distill_folder(tmp_path: Path, name: str, write_npz) -> Path:
+    import hashlib
+    import json
+
+    from uav_penetration_env.model import OBSERVATION_SIZE
+
+    folder = tmp_path / name
+    folder.mkdir()
+    write_npz(folder / "policy.npz")
+    sidecar = {
+        "format": "uav-penetration-distill/1", "observation_size": OBSERVATION_SIZE, "input_size": OBSERVATION_SIZE,
+        "hidden": [4], "features": [], "head": "controls",
+        "weights_sha256": hashlib.sha256((folder / "policy.npz").read_bytes()).hexdigest(),
+    }  # fmt: skip
+    (folder / "policy.json").write_text(json.dumps(sidecar))
+    return folder
+
+
+def tiny_network() -> dict[str, np.ndarray]:
+    from uav_penetration_env.model import OBSERVATION_SIZE
+
+    rng = np.random.default_rng(0)
+    return {
+        "obs_mean": np.zeros(OBSERVATION_SIZE, np.float32), "obs_scale": np.ones(OBSERVATION_SIZE, np.float32),
+        "W0": rng.normal(size=(4, OBSERVATION_SIZE)).astype(np.float32), "b0": np.zeros(4, np.float32),
+        "W1": rng.normal(size=(3, 4)).astype(np.float32), "b1": np.zeros(3, np.float32),
+    }  # fmt: skip
+
+
+def test_a_well_formed_distilled_network_still_loads(tmp_path):
+    pytest.importorskip("baselines.distill.policy")
+    from baselines.distill.policy import load_distill_policy
+
+    folder = distill_folder(tmp_path, "ok", lambda p: np.savez(p, **tiny_network()))
+    assert load_distill_policy(folder).arrays["W0"].shape == (4, 67)
+
+
+def test_a_member_declaring_a_huge_array_is_refused_from_its_header(tmp_path):
+    import io
+    import zipfile
+
+    pytest.importorskip("baselines.distill.policy")
+    from baselines.distill.policy import load_distill_policy
+
+    def bomb(path):
+        with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+            for key, value in tiny_network().items():
+                if key != "W0":
+                    buffer = io.BytesIO()
+                    np.lib.format.write_array(buffer, value)
+                    archive.writestr(f"{key}.npy", buffer.getvalue())
+            header = io.BytesIO()  # 512 MiB declared, none of it stored
+            np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (16, 2**22)})
+            archive.writestr("W0.npy", header.getvalue() + bytes(64))
+
+    folder = distill_folder(tmp_path, "bomb", bomb)
+    with pytest.raises(ValueError, match=r"member 'W0' declares shape \(16, 4194304\), beyond the sizes") as error:
+        load_distill_policy(folder)
+    assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, np.complex64])
+def test_complex_weights_are_refused(tmp_path, dtype):
+    pytest.importorskip("baselines.distill.policy")
+    from baselines.distill.policy import load_distill_policy
+
+    network = tiny_network()
+    network["W0"] = network["W0"].astype(dtype) * (1 + 1j)
+    folder = distill_folder(tmp_path, "complex", lambda p: np.savez(p, **network))
+    with pytest.raises(ValueError, match=r"member 'W0' declares dtype complex\d+, not real floating point"):
+        load_distill_policy(folder)
+
+
+def test_a_sidecar_declaring_absurd_widths_is_refused(tmp_path):
+    import json
+
+    pytest.importorskip("baselines.distill.policy")
+    from baselines.distill.policy import load_distill_policy
+
+    folder = distill_folder(tmp_path, "wide", lambda p: np.savez(p, **tiny_network()))
+    sidecar = json.loads((folder / "policy.json").read_text())
+    (folder / "policy.json").write_text(json.dumps({**sidecar, "hidden": [10**9]}))
+    with pytest.raises(ValueError, match=r"policy\.json: sidecar: input_size and hidden got"):
+        load_distill_policy(folder)
