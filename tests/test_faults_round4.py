@@ -574,3 +574,66 @@ def test_a_sidecar_declaring_absurd_widths_is_refused(tmp_path):
     (folder / "policy.json").write_text(json.dumps({**sidecar, "hidden": [10**9]}))
     with pytest.raises(ValueError, match=r"policy\.json: sidecar: input_size and hidden got"):
         load_distill_policy(folder)
+
+
+# --- sb3:PATH.zip without a sidecar: the header is read without unpickling ------------------------
+
+
+def pickled_space_model(path: Path, marker: Path, *, low: str = "[-10.]", shape=(1,)) -> Path:
+    import base64
+    import json
+    import pickle
+    import zipfile
+
+    blob = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
+    box = "<class 'gymnasium.spaces.box.Box'>"
+
+    def space(lo, hi, size):
+        return {":type:": box, ":serialized:": blob, "dtype": "float32", "_shape": list(size), "low": lo, "high": hi}
+
+    data = {
+        "policy_class": {":type:": "<class 'abc.ABCMeta'>", "__module__": "stable_baselines3.common.policies"},
+        "observation_space": space(low, low.replace("-", ""), shape),
+        "action_space": space("[-1. -1. -1.]", "[1. 1. 1.]", (3,)),
+        "num_timesteps": 1, "clip_range": {},
+    }  # fmt: skip
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("data", json.dumps(data))
+        archive.writestr("policy.pth", b"")
+    return path
+
+
+def test_the_sb3_header_reader_never_unpickles(tmp_path):
+    pytest.importorskip("gymnasium")
+    from baselines.foreign import read_model_header
+
+    marker = tmp_path / "CODE_RAN"
+    model = pickled_space_model(tmp_path / "model.zip", marker, low="[" + " ".join(["-10."] * 67) + "]", shape=(67,))
+    header = read_model_header(model)
+    assert not marker.exists()
+    assert header.algorithm == "ppo" and header.observation_space.shape == (67,)
+    assert float(header.observation_space.low.min()) == -10.0 and float(header.action_space.high.max()) == 1.0
+
+
+def test_a_model_without_a_sidecar_needs_the_trust_opt_in(tmp_path, monkeypatch):
+    pytest.importorskip("stable_baselines3")
+    from baselines.foreign import TRUST_VARIABLE
+    from baselines.policy import load_policy
+
+    marker = tmp_path / "CODE_RAN"
+    low = "[" + " ".join(["-10."] * 67) + "]"
+    model = pickled_space_model(tmp_path / "model.zip", marker, low=low, shape=(67,))
+    monkeypatch.delenv(TRUST_VARIABLE, raising=False)
+    with pytest.raises(ValueError, match=rf"model\.zip: a model without a sidecar .*expected {TRUST_VARIABLE}=1"):
+        load_policy(f"{model}?vecnormalize=none")
+    assert not marker.exists()
+
+
+def test_the_sb3_reproducer_model_is_refused_without_running_its_code(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    marker = tmp_path / "CODE_RAN"
+    model = pickled_space_model(tmp_path / "model.zip", marker)
+    code = run_cli("run", "--policies", f"sb3:{model}?vecnormalize=none", "--seeds", "1", "--jobs", "1",
+                   "--no-report", "--no-progress", "--store", tmp_path / "s.sqlite")  # fmt: skip
+    assert code == 2 and not marker.exists()
+    assert "sb3 model" in one_error_line(capsys)
