@@ -7,9 +7,10 @@ SHA-256; its presence says the export finished, and its digests say that every t
 that export wrote (not a table of an earlier export under the same stem).
 
 DECISION (api.md §4.9): an import with a manifest needs every table it lists, byte for byte; an
-import without one (an export written before manifests existed) needs the episodes, runs, window
-runs and steps tables, and the scenarios and policies tables both or neither (the legacy form
-without them is rebuilt from the package, each scenario checked against its hash). Anything less
+import without one (an export written before manifests existed, or rows merged by ``benchmarks/publish.py``)
+needs the episodes, runs and steps tables, and the scenarios and policies tables both or neither
+(the legacy form without them is rebuilt from the package, each scenario checked against its
+hash); the window runs are optional, as ``leaderboard --rows`` reads them. Anything less
 is refused in one line before anything is written. Each table is written atomically, so a table
 that exists is whole; the rows' agreement with each other is the store's to check (a step of a
 missing episode is refused by its foreign key).
@@ -95,7 +96,8 @@ def check_export(stem: str | Path) -> None:
     present = {t for t in EXPORT_TABLES if any(row_path(stem, t, ext).is_file() for ext in ROW_FORMATS)}
     if "episodes" not in present:
         return  # read_rows says what is missing, as before
-    needed = [t for t in EXPORT_TABLES if t not in LEGACY_OPTIONAL or present & set(LEGACY_OPTIONAL)]
+    optional = {"window_runs"} | (set() if present & set(LEGACY_OPTIONAL) else set(LEGACY_OPTIONAL))
+    needed = [t for t in EXPORT_TABLES if t not in optional]
     missing = [t for t in needed if t not in present]
     if missing:
         raise _incomplete(stem, f"no {manifest.name} (an export writes it last) and no {missing[0]} table")

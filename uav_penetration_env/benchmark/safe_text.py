@@ -25,9 +25,10 @@ import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
-import pandas as pd
+if TYPE_CHECKING:  # pandas only where a table is written: `uav-bench --help` imports this module
+    import pandas as pd
 
 UNSAFE_CATEGORIES = ("Cc", "Cf", "Zl", "Zp")  # controls, format (bidi overrides), line/paragraph separators
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
@@ -112,6 +113,8 @@ def spreadsheet_cell(value: Any) -> Any:
 
 def write_csv_table(frame: pd.DataFrame, path: str | Path) -> Path:
     """Write a table meant for people as CSV, atomically, its formula-like text cells neutralised."""
+    import pandas as pd
+
     from uav_penetration_env.atomic import atomic_path
 
     safe = frame.copy()
