@@ -156,10 +156,9 @@ def validate_action(action: Any, high: FloatArray, shape: tuple[int, ...] = (3,)
         ValueError: the action is complex, has the wrong shape or a non-finite value.
     """
     if np.iscomplexobj(action):  # numpy would drop the imaginary part with only a ComplexWarning
-        raise ValueError(
-            f"action: got complex values {np.asarray(action).tolist()}, expected real numbers of shape {shape} "
-            "[dv, dphi, dtheta]"
-        )
+        values = np.asarray(action)
+        shown = values.tolist() if values.size <= 12 else f"of shape {values.shape}"
+        raise ValueError(f"action: got complex values {shown}, expected real numbers of shape {shape} [dv, dphi, dtheta]")
     try:
         array = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as error:
