@@ -6,14 +6,17 @@ the files: the algorithm, the observation and action spaces and the timesteps tr
 the ``data`` JSON inside the ``.zip`` (:func:`read_model_header`); the observation statistics
 from the ``?vecnormalize=`` option or the places the project and the zoo save them
 (:func:`find_statistics`); the env id from the zoo's log layout. No torch here: the evaluator's
-parent process reads headers without it (the spaces are unpickled with gymnasium alone).
+parent process reads headers without it, and never unpickles anything (the spaces are rebuilt from
+the JSON SB3 writes beside their pickles, :func:`_space`). Loading the model itself (SB3's
+``load``) unpickles parts of the ``.zip``, so a model without a sidecar is loaded only when the
+user opts in (:data:`TRUST_VARIABLE`, :func:`check_trusted`).
 """
 
 from __future__ import annotations
 
-import base64
 import json
-import pickle
+import math
+import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +29,9 @@ from baselines.artifacts import ModelFiles
 from uav_penetration_env import ENV_IDS
 
 STATISTICS_OPTION = "vecnormalize"
+MAX_DATA_BYTES = 64 * 2**20  # SB3's 'data' JSON takes kilobytes
+# DECISION (docs/rl.md §5.2): the opt-in to load a model without a sidecar, whose .zip SB3 unpickles.
+TRUST_VARIABLE = "UAV_PENETRATION_TRUST_MODELS"
 # ``?vecnormalize=none``: the model was trained on raw observations.
 NO_STATISTICS = "none"
 ZOO_STATISTICS = (
@@ -98,19 +104,14 @@ def read_model_header(path: Path) -> ModelHeader:
     """
     try:
         with zipfile.ZipFile(path) as archive:
+            if archive.getinfo("data").file_size > MAX_DATA_BYTES:
+                raise ValueError(f"a 'data' entry of {archive.getinfo('data').file_size} bytes")
             data = json.loads(archive.read("data"))
         policy = data["policy_class"]
         module = str(policy["__module__"])
         observation_space = _space(data["observation_space"])
         action_space = _space(data["action_space"])
-    except (
-        zipfile.BadZipFile,
-        KeyError,
-        TypeError,
-        ValueError,
-        pickle.UnpicklingError,
-        AttributeError,
-    ) as error:
+    except (zipfile.BadZipFile, KeyError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(
             f"{path}: not a Stable-Baselines3 model (its 'data' entry with the policy class and spaces "
             f"could not be read: {type(error).__name__}: {error})"
@@ -131,11 +132,68 @@ def read_model_header(path: Path) -> ModelHeader:
     return ModelHeader(algorithm, observation_space, action_space, int(data.get("num_timesteps", 0)))
 
 
-def _space(entry: dict[str, Any]) -> spaces.Space[Any]:
-    space = pickle.loads(base64.b64decode(entry[":serialized:"].encode()))
-    if not isinstance(space, spaces.Space):
-        raise TypeError(f"the serialized space is a {type(space).__name__}")
-    return space
+BOX_TYPE = "<class 'gymnasium.spaces.box.Box'>"
+SPACE_DTYPES = ("float32", "float64")
+MAX_SPACE_SIZE = 100_000  # far above the env's 67 observations and 3 actions
+
+
+def _space(entry: Any) -> spaces.Box:
+    """A ``Box`` from the plain JSON SB3 writes beside a space's pickle; the pickle itself is never read.
+
+    DECISION (docs/rl.md §5.2): SB3 stores each space as a base64 pickle (``:serialized:``) plus its
+    attributes as JSON (``dtype``, ``_shape``, and ``low``/``high`` as NumPy prints them). Unpickling
+    a file from outside the project runs whatever code it names, so the header is read from the JSON
+    attributes alone: a ``Box`` of a float dtype whose printed bounds list every entry. Any other
+    space cannot be the env's, and is refused as such.
+
+    Raises:
+        ValueError: naming what the entry holds instead.
+    """
+    if not isinstance(entry, dict) or entry.get(":type:") != BOX_TYPE:
+        kind = entry.get(":type:") if isinstance(entry, dict) else type(entry).__name__
+        raise ValueError(f"a space of type {kind!r}, expected {BOX_TYPE} (read without unpickling)")
+    shape, dtype = entry.get("_shape"), entry.get("dtype")
+    if not (isinstance(shape, list) and all(isinstance(n, int) and n >= 0 for n in shape)):
+        raise ValueError(f"a Box of shape {shape!r}, expected a list of sizes")
+    if dtype not in SPACE_DTYPES or math.prod(shape) > MAX_SPACE_SIZE:
+        raise ValueError(f"a Box of dtype {dtype!r} and shape {shape}, expected {' or '.join(SPACE_DTYPES)}")
+    low, high = (_printed_array(entry.get(name), shape).astype(dtype) for name in ("low", "high"))
+    return spaces.Box(low, high, tuple(shape), dtype=np.dtype(dtype))
+
+
+def _printed_array(text: Any, shape: list[int]) -> np.ndarray:
+    """An array from NumPy's ``str`` of it (every entry printed, none summarised as ``...``).
+
+    NumPy prints each float in its shortest form that reads back to the same value in its own
+    dtype, so the bounds come back exactly once cast to the space's dtype.
+    """
+    if not isinstance(text, str) or "..." in text:
+        raise ValueError(f"Box bounds {str(text)[:80]!r}, expected every entry printed")
+    words = text.replace("[", " ").replace("]", " ").split()
+    if len(words) != math.prod(shape):
+        raise ValueError(f"Box bounds of {len(words)} entries, expected {math.prod(shape)}")
+    return np.array([float(word) for word in words], dtype=np.float64).reshape(shape)
+
+
+def check_trusted(path: Path) -> None:
+    """Refuse to load a model without a sidecar unless :data:`TRUST_VARIABLE` is ``1``.
+
+    DECISION (docs/rl.md §5.2): SB3's ``load`` unpickles parts of a ``.zip`` (the spaces, the
+    schedules, the policy's arguments), and unpickling runs whatever code a file names. A model
+    without the project's sidecar comes from outside the project, so it is loaded only after the
+    user says they trust it, as ``huggingface_sb3`` gates pickles behind ``TRUST_REMOTE_CODE``.
+    Its header is read before (no pickle), so a model that could not be scored anyway is refused
+    for that reason first.
+
+    Raises:
+        ValueError: one line naming the model and the variable to set.
+    """
+    if os.environ.get(TRUST_VARIABLE) != "1":
+        raise ValueError(
+            f"{path}: a model without a sidecar comes from outside this project, and loading it unpickles "
+            f"parts of it (which can run code); expected {TRUST_VARIABLE}=1 in the environment to load a "
+            "model whose source you trust (docs/rl.md §5.2)"
+        )
 
 
 def check_spaces(path: Path, header: ModelHeader, observation: spaces.Box) -> None:

@@ -33,6 +33,7 @@ from baselines.foreign import (
     STATISTICS_OPTION,
     ModelHeader,
     check_spaces,
+    check_trusted,
     find_statistics,
     read_model_header,
     split_spec,
@@ -350,9 +351,10 @@ def load_policy(path: str | Path) -> SB3Policy:
 
 def _load_without_sidecar(files: ModelFiles, statistics_option: str | None) -> SB3Policy:
     """A model trained outside the project: header, spaces and statistics (:func:`load_policy`)."""
-    header = read_model_header(files.model)
+    header = read_model_header(files.model)  # JSON only: nothing unpickled yet
     check_spaces(files.model, header, observation_space())
     statistics = find_statistics(files, statistics_option)
+    check_trusted(files.model)  # SB3's load unpickles the .zip (and the statistics): only with the user's opt-in
     env_id = zoo_env_id(files)
     if statistics is not None:
         files = dataclasses.replace(files, vecnormalize=statistics)

@@ -49,6 +49,7 @@ __all__ = [
     "load_scenario",
     "paper_scenario",
     "random_scenario",
+    "register_envs",
 ]
 
 # model.md §7a: four ids. Each truncates itself at its scenario's K_max (time.max_steps) and
@@ -74,12 +75,24 @@ ENV_IDS = {
 REGISTERED_MAX_STEPS = {"paper": 150, "dem": 150, None: 150}
 
 
-for _id, (_entry, _vector_entry, _kwargs) in ENV_IDS.items():
-    if _id not in registry:
-        register(
-            id=_id,
-            entry_point=_entry,
-            vector_entry_point=_vector_entry,
-            kwargs=_kwargs,
-            max_episode_steps=REGISTERED_MAX_STEPS[_kwargs.get("default_scenario")],
-        )
+def register_envs() -> None:
+    """Register the four ids with Gymnasium (idempotent); importing the package calls it.
+
+    Also the entry point of the ``gymnasium.envs`` group (pyproject.toml, under ``__root__`` so
+    the ids keep no namespace), for tools that load that group. Gymnasium 1.x itself loads no
+    plug-ins, so a process that has not imported this package (a ``SubprocVecEnv`` worker started
+    by forkserver or spawn) finds an id through its module-qualified form,
+    ``gym.make("uav_penetration_env:UAVPenetration-v0")``, which imports it (docs/guide.md).
+    """
+    for env_id, (entry, vector_entry, kwargs) in ENV_IDS.items():
+        if env_id not in registry:
+            register(
+                id=env_id,
+                entry_point=entry,
+                vector_entry_point=vector_entry,
+                kwargs=kwargs,
+                max_episode_steps=REGISTERED_MAX_STEPS[kwargs.get("default_scenario")],
+            )
+
+
+register_envs()

@@ -13,16 +13,56 @@ figure and per table is not worth that case here. The temporary file keeps the t
 (``.leaderboard.md.k3j9.tmp.md``), so writers that choose their format by the suffix
 (``savefig``, SB3's ``save``) write the same bytes as to the final name; it gets the mode a
 plain ``open`` would have given (``0o666`` less the umask), not ``mkstemp``'s ``0o600``.
+
+Only a regular file, or a path that does not exist yet, is replaced: the rename would put a
+regular file in place of a device, a FIFO or a socket (``--out /dev/null`` run as root would
+replace the null device), so such a target is refused with :class:`NotRegularFileError` before
+anything is written.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
+
+
+class NotRegularFileError(OSError):
+    """The target exists and is not a regular file (a device, a FIFO, a socket or a folder)."""
+
+
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def check_replaceable(path: str | Path) -> None:
+    """Refuse ``path`` if it exists (through symbolic links) and is not a regular file.
+
+    Raises:
+        NotRegularFileError: naming ``path`` and what it is.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError:
+        return  # unreadable metadata: the write itself will say why
+    if stat.S_ISREG(mode):
+        return
+    kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    raise NotRegularFileError(
+        errno.EEXIST, f"it exists and is {kind}, not a regular file; expected a regular file or a new path", str(path)
+    )
 
 
 def _file_mode() -> int:
@@ -44,10 +84,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         ``KeyboardInterrupt``, it is removed and ``path`` is left as it was.
 
     Raises:
+        NotRegularFileError: ``path`` exists and is not a regular file (nothing is written).
         OSError: the folder cannot be created or written (an error while writing the temporary
             file names ``path``).
     """
     path = Path(path)
+    check_replaceable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     handle, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
     os.close(handle)

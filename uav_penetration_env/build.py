@@ -172,14 +172,51 @@ def rcs_table(scenario: Scenario) -> FloatArray:
     raise TypeError(f"unknown RCS model {config!r}")
 
 
+def check_reachable(scenario: Scenario, grid: GridSpec, heights: FloatArray) -> None:
+    """Refuse a start or goal that the ceiling makes impossible (model.md §2.6).
+
+    The start's altitude is the terrain under it plus ``start.z_agl_m``; at or above the ceiling,
+    every episode would end out of the area at its first step. DECISION (model.md §2.6): the goal
+    is refused when the terrain at the goal and at every grid node inside its disc lies above
+    ``map.ceiling_m - uav.min_clearance_m``: no altitude there is both clear of the terrain and
+    below the ceiling, so no planner can reach it. One low node inside the disc is enough to keep
+    the goal, so a reachable goal is never refused on a peak at its edge.
+
+    Raises:
+        ScenarioError: naming ``start.z_agl_m`` or ``goal``.
+    """
+    ceiling = scenario.map.ceiling_m
+    start, goal = scenario.start, scenario.goal
+    ground = float(bilinear(heights, *grid.fractional_index(np.array(start.x_km * 1e3), np.array(start.y_km * 1e3))))
+    if ground + start.z_agl_m >= ceiling:
+        raise ScenarioError(
+            "start.z_agl_m",
+            start.z_agl_m,
+            f"a start altitude below the ceiling {ceiling:g} m (the terrain under the start is {ground:.1f} m)",
+        )
+    gx, gy = grid.mesh()
+    inside = np.hypot(gx - goal.x_km * 1e3, gy - goal.y_km * 1e3) <= goal.radius_km * 1e3
+    centre = bilinear(heights, *grid.fractional_index(np.array(goal.x_km * 1e3), np.array(goal.y_km * 1e3)))
+    lowest = float(min(np.min(heights[inside], initial=np.inf), centre))
+    if lowest + scenario.uav.min_clearance_m > ceiling:
+        raise ScenarioError(
+            "goal",
+            {"x_km": goal.x_km, "y_km": goal.y_km, "radius_km": goal.radius_km},
+            f"a goal with ground that can be flown over below the ceiling {ceiling:g} m (the lowest terrain "
+            f"within its radius is {lowest:.1f} m, plus uav.min_clearance_m = {scenario.uav.min_clearance_m:g} m)",
+        )
+
+
 def build_scenario(scenario: Scenario) -> BuiltScenario:
     """Precompute (or load from the cache) everything the physics model needs for ``scenario``.
 
     Raises:
-        ScenarioError: a radar antenna lies below the terrain, or the DEM has no data in the map.
+        ScenarioError: a radar antenna lies below the terrain, the start or the goal lies above the
+            ceiling (:func:`check_reachable`), or the DEM has no data in the map.
     """
     grid = grid_for(scenario)
     heights = terrain_heights(scenario)
+    check_reachable(scenario, grid, heights)
     radar_xyz = np.zeros((len(scenario.radars), 3))
     for i, radar in enumerate(scenario.radars):
         x, y = radar.x_km * 1000.0, radar.y_km * 1000.0

@@ -338,8 +338,11 @@ def default_max_steps(name: str | None) -> int:
     return resolve_scenario(name).time.max_steps
 
 
-def random_seeds(spec: str) -> list[int]:
-    """The seeds of ``random:SEED`` (one) or ``random:A-B`` (A..B inclusive).
+def random_seeds(spec: str) -> range:
+    """The seeds of ``random:SEED`` (one) or ``random:A-B`` (A..B inclusive), as a lazy ``range``.
+
+    A ``range`` costs nothing to build, so a caller can count the seeds (``len``) before it
+    generates any scenario.
 
     Raises:
         ScenarioError: not of either form, or A > B.
@@ -347,7 +350,7 @@ def random_seeds(spec: str) -> list[int]:
     body = spec[len(RANDOM_PREFIX) :]
     low, _, high = body.partition("-")
     try:
-        seeds = list(range(int(low), int(high) + 1)) if high else [int(low)]
+        seeds = range(int(low), int(high) + 1) if high else range(int(low), int(low) + 1)
     except ValueError:
         raise ScenarioError("scenario", spec, "random:SEED or random:A-B (integers, A-B inclusive)") from None
     if not seeds or seeds[0] < 0:

@@ -35,6 +35,8 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,6 +59,10 @@ VALID_HEIGHT_RANGE_M = (-11_000.0, 9_000.0)
 VOID_BELOW_M = -500.0
 VOID_STEP_M = 1_000.0
 GEOTIFF_SUFFIXES = (".tif", ".tiff")
+# DECISION (model.md §2.5): a raster file is read whole into memory, so it must be a regular file of at
+# most 2 GiB. A device (/dev/zero), a FIFO or a socket is refused before it is opened for reading;
+# 2 GiB holds a 1 arc-second raster of 30 000 x 30 000 int16 cells, far beyond any map's window.
+MAX_RASTER_BYTES = 2 * 2**30
 _MAX_LISTED_CELLS = 5
 
 
@@ -274,13 +280,28 @@ def undeclared_voids(heights: FloatArray) -> np.ndarray:
 
 
 def _read_bytes(path: Path, digest: str | None) -> bytes:
-    """The file's bytes, checked against ``digest`` (SHA-256 hex) when given."""
+    """The file's bytes, checked against ``digest`` (SHA-256 hex) when given.
+
+    Only a regular file of at most :data:`MAX_RASTER_BYTES` is read: a device would be read until
+    memory runs out, and a FIFO would block. The file is opened without blocking and checked
+    again on the open descriptor, so a path swapped after the first check is refused too.
+    """
+    field, expected = "terrain.natural.file", f"a regular file of at most {MAX_RASTER_BYTES} bytes"
     try:
-        content = path.read_bytes()
+        if not stat.S_ISREG(path.stat().st_mode):
+            raise ScenarioError(field, str(path), f"{expected} (not a device, FIFO or folder)")
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(descriptor, "rb") as stream:
+            status = os.fstat(stream.fileno())
+            if not stat.S_ISREG(status.st_mode):
+                raise ScenarioError(field, str(path), f"{expected} (not a device, FIFO or folder)")
+            if status.st_size > MAX_RASTER_BYTES:
+                raise ScenarioError(field, str(path), f"{expected}, got {status.st_size} bytes")
+            content = stream.read(MAX_RASTER_BYTES + 1)
     except OSError as error:
-        raise ScenarioError(
-            "terrain.natural.file", str(path), f"a readable raster file ({error.strerror})"
-        ) from None
+        raise ScenarioError(field, str(path), f"a readable raster file ({error.strerror})") from None
+    if len(content) > MAX_RASTER_BYTES:  # grew while it was read
+        raise ScenarioError(field, str(path), f"{expected}, got more")
     if digest is not None and hashlib.sha256(content).hexdigest() != digest:
         raise ScenarioError(
             "terrain.natural.file",

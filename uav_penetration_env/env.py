@@ -153,8 +153,12 @@ def validate_action(action: Any, high: FloatArray, shape: tuple[int, ...] = (3,)
     """Convert to float64 once, reject NaN/inf and wrong shapes, clip to the action box.
 
     Raises:
-        ValueError: the action has the wrong shape or a non-finite value.
+        ValueError: the action is complex, has the wrong shape or a non-finite value.
     """
+    if np.iscomplexobj(action):  # numpy would drop the imaginary part with only a ComplexWarning
+        values = np.asarray(action)
+        shown = values.tolist() if values.size <= 12 else f"of shape {values.shape}"
+        raise ValueError(f"action: got complex values {shown}, expected real numbers of shape {shape} [dv, dphi, dtheta]")
     try:
         array = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as error:
@@ -417,11 +421,14 @@ class UAVPenetrationEnv(gym.Env):
         state queries). The numpy formulation (tests/numpy_model.py) is a test oracle, compared
         with the compiled model directly, so it does not shape the env's dispatch.
         """
+        array: np.ndarray | None
         if type(action) is np.ndarray and action.dtype == np.float64 and action.flags.c_contiguous:
             array = action
         else:
             try:
-                array = np.ascontiguousarray(action, dtype=np.float64)
+                raw = np.asarray(action)
+                # complex: refused by validate_action below, not cut to its real part
+                array = None if raw.dtype.kind == "c" else np.ascontiguousarray(raw, dtype=np.float64)
             except (TypeError, ValueError):
                 array = None
         model = self._loaded
@@ -495,15 +502,21 @@ class UAVPenetrationEnv(gym.Env):
             The observation and info of that state (zero costs, as at reset).
 
         Raises:
-            ValueError: the state is not 6 finite numbers or the step index is outside [0, K_max).
+            ValueError: the state is not 6 finite real numbers or the step index is outside [0, K_max).
         """
         if self.model is None:
             raise RuntimeError("set_state() needs a scenario: call reset() first")
-        array = np.asarray(state, dtype=np.float64)
+        expected = "expected 6 finite real numbers [x, y, z, v, phi, theta]"
+        shown = " ".join(repr(state).split())  # one line: an array's repr spans several
+        shown = shown if len(shown) <= 200 else f"{shown[:160]}..."
+        if isinstance(state, (str, bytes, dict)) or state is None or np.iscomplexobj(state):
+            raise ValueError(f"state: got {shown}, {expected}")
+        try:
+            array = np.asarray(state, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"state: got {shown}, {expected}") from None
         if array.shape != (6,) or not np.all(np.isfinite(array)):
-            raise ValueError(
-                f"state: got {np.asarray(state).tolist()}, expected 6 finite numbers [x, y, z, v, phi, theta]"
-            )
+            raise ValueError(f"state: got {shown}, {expected}")
         if not (isinstance(step_index, (int, np.integer)) and 0 <= step_index < self._loaded.max_steps):
             raise ValueError(
                 f"step_index: got {step_index!r}, expected an integer in [0, {self._loaded.max_steps})"

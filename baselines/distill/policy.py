@@ -22,6 +22,7 @@ from baselines.distill.features import check_features, features_of, input_size, 
 from baselines.distill.files import load_npz, sha256_file
 from baselines.distill.heads import head_of, network_action, turn_clearance
 from baselines.distill.network import layer_count
+from baselines.distill.weights_check import check_weights
 from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
@@ -281,8 +282,9 @@ def load_distill_policy(path: str | Path) -> DistillPolicy:
 
     Raises:
         FileNotFoundError: no weights or no sidecar (naming the path).
-        ValueError: weights whose SHA-256 is not the sidecar's, a corrupt sidecar, or a network
-            for another observation size.
+        ValueError: weights whose SHA-256 is not the sidecar's, a corrupt sidecar, a member whose
+            header declares a dtype or size the sidecar's network cannot have
+            (:func:`~.weights_check.check_weights`), or a network for another observation size.
     """
     weights = weights_path(path)
     sidecar_path = weights.with_suffix(".json")
@@ -300,6 +302,11 @@ def load_distill_policy(path: str | Path) -> DistillPolicy:
             f"{weights}: SHA-256 {found[:12]}… is not the {expected[:12]}… its sidecar {sidecar_path} records "
             "(the weights were changed or replaced)"
         )
+    try:  # the headers against the sidecar first: no array is read before its size is known to be sane
+        check_weights(weights, sidecar, OBSERVATION_SIZE)
+    except ValueError as error:
+        text = str(error)
+        raise ValueError(text if text.startswith(str(weights)) else f"{sidecar_path}: {text}") from None
     arrays = load_npz(weights)
     first = arrays["W0"].shape[1] if layer_count(arrays) else None
     features = features_of(arrays)

@@ -53,6 +53,16 @@ def _gymnasium_time_limit_restored():
             module.__dict__.pop("TimeLimit", None)  # the zoo added it (gymnasium.envs.registration has none)
         else:
             module.TimeLimit = original
+
+
+@pytest.fixture(autouse=True)
+def _models_made_here_are_trusted(monkeypatch):
+    """The models these tests score are the ones they trained: opt in to loading them (docs/rl.md §5.2)."""
+    from baselines.foreign import TRUST_VARIABLE
+
+    monkeypatch.setenv(TRUST_VARIABLE, "1")
+
+
 REPO = Path(__file__).resolve().parents[2]
 
 

@@ -66,6 +66,17 @@ def test_no_flags_is_the_main_job():
     assert (settings["mpc"].max_evals, settings["mpc"].horizon) == (10_000, 5)
 
 
+def test_seeds_above_sqlites_64_bit_integers_are_refused_when_parsed():
+    # The store's seed column is a signed 64-bit SQLite INTEGER: 2**63 used to be flown, then lost
+    # with an OverflowError traceback when its row was written.
+    last = 2**63 - 1
+    assert common.parse_seeds(f"{last}:{last + 1}") == [last]
+    for bad in (f"{last}:{last + 2}", f"{2**63}:{2**63 + 1}", f"{2**64}:{2**64 + 1}"):
+        with pytest.raises(common.CLIError, match=r"--seeds: .*0 <= START < STOP <= 2\*\*63") as error:
+            common.parse_seeds(bad)
+        assert "\n" not in str(error.value)
+
+
 def test_seed_and_scenario_grammar():
     assert common.parse_seeds("3") == [0, 1, 2]
     assert common.parse_seeds("5:8") == [5, 6, 7]

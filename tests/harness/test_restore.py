@@ -103,6 +103,7 @@ def test_rows_without_a_scenarios_table_rebuild_catalogue_scenarios_by_hash(tmp_
     assert run_cli("export", "--format", "parquet", "--store", store, "--out", tmp_path / "rows") == 0
     row_path(tmp_path / "rows", "scenarios", "parquet").unlink()  # as leaderboard v2's first exports
     row_path(tmp_path / "rows", "policies", "parquet").unlink()
+    (tmp_path / "rows-manifest.json").unlink()  # exports before the manifest had none
     restored = restore_store(tmp_path / "rows", tmp_path / "back.sqlite")
     assert restored.rebuilt_scenarios == ("random-7",)
     original, back = everything(store), everything(tmp_path / "back.sqlite")

@@ -191,3 +191,11 @@ def test_minimum_wilcoxon_pvalue():
     assert minimum_wilcoxon_pvalue(4) == 0.125
     assert minimum_wilcoxon_pvalue(6) == pytest.approx(0.03125)
     assert minimum_wilcoxon_pvalue(0) == 1.0
+
+
+def test_minimum_wilcoxon_pvalue_of_1024_pairs_or_more_underflows_instead_of_raising():
+    # 2.0 ** 1024 overflows a float; the floor 2 / 2^n is exact down to 2^-1074 and 0.0 below.
+    assert minimum_wilcoxon_pvalue(1024) == 2.0**-1023
+    assert minimum_wilcoxon_pvalue(1075) == 2.0**-1074
+    assert minimum_wilcoxon_pvalue(1100) == 0.0
+    assert minimum_wilcoxon_pvalue(10**20) == 0.0

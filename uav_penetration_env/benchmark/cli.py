@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from uav_penetration_env.atomic import NotRegularFileError
 from uav_penetration_env.benchmark.commands import available_commands
 from uav_penetration_env.benchmark.commands.common import CLIError, store_error
 from uav_penetration_env.benchmark.plugins import PluginUnavailable
@@ -110,8 +111,19 @@ def unrecognized(parser: argparse.ArgumentParser, command: str, unknown: Sequenc
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``uav-bench`` console script; returns the exit status."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    """Entry point of the ``uav-bench`` console script; returns the exit status.
+
+    Standard output is the one place names from plug-ins and stores reach the terminal: for the
+    whole command it escapes control characters (an escape sequence in a policy name would
+    recolour or retitle the terminal; :mod:`~.safe_text`).
+    """
+    from uav_penetration_env.benchmark.safe_text import safe_stdout
+
+    with safe_stdout():
+        return _main(list(sys.argv[1:] if argv is None else argv))
+
+
+def _main(argv: list[str]) -> int:
     try:
         parser = build_parser(argv)
     except CLIError as error:  # a clashing plug-in: say so even for --help
@@ -160,6 +172,8 @@ def _failure(error: Exception, args: argparse.Namespace) -> tuple[str, int] | No
     """
     if isinstance(error, OSError) and error.errno in FULL_OR_READ_ONLY:
         return f"{_written_by(error.filename, args)}: {error.strerror}", 1
+    if isinstance(error, NotRegularFileError):  # --out /dev/null: an output that is no file (input, 2)
+        return f"{_written_by(error.filename, args)}: {error.strerror}", 2
     if "StoreError" not in {kind.__name__ for kind in type(error).__mro__}:
         return None
     from uav_penetration_env.benchmark.store import StoreError, StoreWriteError

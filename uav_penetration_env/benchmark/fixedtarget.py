@@ -536,8 +536,9 @@ def write_fixed_target(
         The written paths (per scenario, sorted by stem: the Markdown, then the CSVs); none without
         window runs.
     """
-    from uav_penetration_env.atomic import atomic_path, write_text_atomic
+    from uav_penetration_env.atomic import write_text_atomic
     from uav_penetration_env.benchmark.leaderboard.groups import sanitize, scenario_groups
+    from uav_penetration_env.benchmark.safe_text import write_csv_table
 
     out_dir = Path(out_dir)
     tables = store_path if isinstance(store_path, ResultTables) else store_tables(store_path)
@@ -560,10 +561,8 @@ def write_fixed_target(
         for suffix, frame in csv_tables.items():
             if frame.empty:
                 continue
-            csv = out_dir / f"{stem}-fixed-target{suffix}.csv"
-            with atomic_path(csv) as temporary:  # whole or not at all (api.md §4.7)
-                frame.to_csv(temporary, index=False, lineterminator="\n")
-            written.append(csv)
+            # whole or not at all, formula-like names neutralised (api.md §4.7)
+            written.append(write_csv_table(frame, out_dir / f"{stem}-fixed-target{suffix}.csv"))
     return written
 
 

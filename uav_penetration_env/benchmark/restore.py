@@ -114,13 +114,15 @@ def restore_store(stem: str | Path, path: str | Path) -> Restored:
     leaves no store that looks whole.
 
     Raises:
-        RowsError: no episodes or runs table under ``stem``, or an unreadable one (:func:`read_rows`).
+        RowsError: no episodes or runs table under ``stem``, or an unreadable one (:func:`read_rows`);
+            an incomplete export (:func:`~.export_manifest.check_export`).
         RestoreError: ``path`` (or an SQLite journal of it, which would be replayed onto the new
             file) exists, a scenario cannot be rebuilt (:func:`rebuild_scenarios`), or the rows
             cannot form a store (:meth:`~.store.ResultsStore.load_exported`); nothing is left behind.
         StoreError: the target cannot be written.
     """
     from uav_penetration_env.atomic import atomic_path
+    from uav_penetration_env.benchmark.export_manifest import check_export
     from uav_penetration_env.benchmark.store import ResultsStore
 
     path = Path(path)
@@ -130,6 +132,7 @@ def restore_store(stem: str | Path, path: str | Path) -> Restored:
             raise RestoreError(
                 f"--store {path}: {what}; expected a new file path (import does not merge into a store)"
             )
+    check_export(stem)  # an export that stopped part-way is refused before anything is written
     rows = read_rows(stem)
     tables = {"episodes": rows.episodes, "runs": rows.runs, "window_runs": rows.window_runs}
     for table in EXPORT_TABLES:

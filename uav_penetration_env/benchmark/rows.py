@@ -57,10 +57,10 @@ class ResultTables:
 
 
 def store_tables(store_path: str | Path) -> ResultTables:
-    """The row tables of an existing SQLite results store (read only)."""
+    """The row tables of an existing SQLite results store (read only), in one read transaction."""
     from uav_penetration_env.benchmark.store import ResultsStore
 
-    with ResultsStore(store_path, create=False) as store:
+    with ResultsStore(store_path, create=False) as store, store.snapshot():  # tables that agree mid-run
         return ResultTables(
             store.episodes(),
             store.runs(),

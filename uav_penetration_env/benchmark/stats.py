@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -384,8 +385,11 @@ def minimum_wilcoxon_pvalue(n_pairs: int) -> float:
     """The smallest two-sided exact Wilcoxon p-value attainable with ``n_pairs`` non-zero pairs: 2 / 2^n.
 
     With 4 seeds it is 0.125, so no difference can be significant at 0.05; leaderboards say so.
+    Computed as 2**(1 - n) with ``math.ldexp``, which is exact and underflows to 0.0 for huge n
+    (``2.0 ** n`` overflows from n = 1024 on).
     """
-    return min(1.0, 2.0 / 2.0 ** int(n_pairs)) if n_pairs > 0 else 1.0
+    n = int(n_pairs)
+    return min(1.0, math.ldexp(1.0, 1 - n)) if n > 0 else 1.0
 
 
 __all__ = [

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from uav_penetration_env.benchmark.columns import EPISODE, STEP, WINDOW_RUN, sql_types, start_row
+from uav_penetration_env.benchmark.store_cells import cell_problem, configuration_problem
 
 # Version 2 (this one) stores each episode's start state as a step-0 row; version 1 had none.
 SCHEMA_VERSION = 2
@@ -568,12 +569,36 @@ class ResultsStore:
 
     # --- reading ---------------------------------------------------------------------------------------
 
+    @contextlib.contextmanager
+    def snapshot(self) -> Iterator[None]:
+        """One read transaction: every read inside sees the store as it was at the first one.
+
+        A ``run`` writing the same store commits episodes between two reads; read in one
+        transaction, an export's tables agree with each other (no step of an episode its
+        episodes table lacks). In WAL mode the writer carries on meanwhile. Nothing is written.
+        """
+        if self._connection.in_transaction:
+            yield  # already inside one (nested): its snapshot holds
+            return
+        self._connection.execute("BEGIN")
+        try:
+            # The snapshot starts at the first read, so take it now, not at the first table.
+            self._connection.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
+            yield
+        finally:
+            self._connection.rollback()
+
     @_reading
     def window_runs(self) -> pd.DataFrame:
         """All window-run rows (``history``/``history_nfev``/``state`` as JSON text), in write order."""
-        return pd.read_sql_query(
-            f"SELECT {', '.join(['window_run_id', *WINDOW_RUN_COLUMNS])} FROM window_runs ORDER BY window_run_id",
-            self._connection,
+        return self._checked(
+            "window_runs",
+            pd.read_sql_query(
+                f"SELECT {', '.join(['window_run_id', *WINDOW_RUN_COLUMNS])} FROM window_runs ORDER BY window_run_id",
+                self._connection,
+            ),
+            WINDOW_RUN_COLUMNS,
+            "window_run_id",
         )
 
     @_reading
@@ -600,7 +625,7 @@ class ResultsStore:
             + ("" if include_errors else " WHERE error = ''")
             + " ORDER BY episode_id"
         )
-        return pd.read_sql_query(query, self._connection)
+        return self._checked("episodes", pd.read_sql_query(query, self._connection), EPISODE_COLUMNS, "episode_id")
 
     @_reading
     def steps(self, episode_ids: Iterable[int] | None = None, *, include_start: bool = False) -> pd.DataFrame:
@@ -618,16 +643,18 @@ class ResultsStore:
         where = "" if include_start else " AND step > 0"
         columns = ", ".join(["episode_id", *STEP_COLUMNS])
         if episode_ids is None:
-            return pd.read_sql_query(
+            frame = pd.read_sql_query(
                 f"SELECT {columns} FROM steps WHERE 1{where} ORDER BY episode_id, step", self._connection
             )
-        ids = [int(i) for i in episode_ids]
-        marks = ", ".join("?" for _ in ids)
-        return pd.read_sql_query(
-            f"SELECT {columns} FROM steps WHERE episode_id IN ({marks}){where} ORDER BY episode_id, step",
-            self._connection,
-            params=ids,
-        )
+        else:
+            ids = [int(i) for i in episode_ids]
+            marks = ", ".join("?" for _ in ids)
+            frame = pd.read_sql_query(
+                f"SELECT {columns} FROM steps WHERE episode_id IN ({marks}){where} ORDER BY episode_id, step",
+                self._connection,
+                params=ids,
+            )
+        return self._checked("steps", frame, STEP_COLUMNS, "episode_id")
 
     @_reading
     def tracks(self) -> pd.DataFrame:
@@ -638,10 +665,11 @@ class ResultsStore:
         :meth:`steps` and an export leave them out, so a store and its exported rows give the
         same kinds.
         """
-        return pd.read_sql_query(
+        frame = pd.read_sql_query(
             f"SELECT {', '.join(TRACK_COLUMNS)} FROM steps WHERE step > 0 ORDER BY episode_id, step",
             self._connection,
         )
+        return self._checked("steps", frame, {"step": "INTEGER", **STEP_COLUMNS}, "episode_id")
 
     @_reading
     def count(self, table: str) -> int:
@@ -658,18 +686,32 @@ class ResultsStore:
     @_reading
     def scenarios(self) -> dict[str, tuple[str, str]]:
         """Stored scenarios: ``hash -> (name, yaml text)``."""
-        return {
-            h: (n, y)
-            for h, n, y in self._connection.execute("SELECT scenario_hash, scenario, yaml FROM scenarios")
-        }
+        rows = self._connection.execute("SELECT scenario_hash, scenario, yaml FROM scenarios").fetchall()
+        for _, name, text in rows:
+            self._refuse(configuration_problem("scenarios", name, text))
+        return {h: (n, y) for h, n, y in rows}
 
     @_reading
     def policies(self) -> dict[str, tuple[str, dict[str, Any]]]:
         """Stored policy configurations: ``hash -> (name, config)``."""
-        return {
-            h: (n, json.loads(c))
-            for h, n, c in self._connection.execute("SELECT policy_hash, policy, config FROM policies")
-        }
+        found = {}
+        for h, name, text in self._connection.execute("SELECT policy_hash, policy, config FROM policies"):
+            self._refuse(configuration_problem("policies", name, text))
+            try:
+                found[h] = (name, json.loads(text))
+            except ValueError as error:
+                self._refuse(f"policies row {name!r} holds a configuration that is not JSON ({error})")
+        return found
+
+    def _refuse(self, problem: str | None) -> None:
+        """Raise the store's one-line ``damaged`` error for ``problem`` (nothing when it is None)."""
+        if problem is not None:
+            raise StoreError(self.path, f"damaged, cannot read it: {problem}")
+
+    def _checked(self, table: str, frame: pd.DataFrame, declared: Mapping[str, str], key: str) -> pd.DataFrame:
+        """``frame`` after checking each cell against its declared type (:mod:`~.store_cells`)."""
+        self._refuse(cell_problem(table, frame, declared, key))
+        return frame
 
     def close(self) -> None:
         """Close the connection."""

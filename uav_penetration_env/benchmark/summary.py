@@ -124,16 +124,19 @@ def summary_table(frame: pd.DataFrame, title: str, reference: str | None = None)
     """A ``rich`` table of one leaderboard: numbers right-aligned, policy names folded when long."""
     from rich import box
     from rich.table import Table
+    from rich.text import Text
+
+    from uav_penetration_env.benchmark.safe_text import terminal_safe
 
     header, rows = summary_rows(frame, reference)
-    table = Table(title=title, box=box.SIMPLE_HEAD, title_justify="left", pad_edge=False, expand=False)
+    table = Table(title=Text(terminal_safe(title, keep="")), box=box.SIMPLE_HEAD, title_justify="left", pad_edge=False, expand=False)
     for i, name in enumerate(header):
         if i == 0:
             table.add_column(name, overflow="fold", min_width=12, max_width=34, no_wrap=False)
         else:
             table.add_column(name, justify="right", no_wrap=True)  # numbers never break
-    for cells in rows:
-        table.add_row(*cells)
+    for cells in rows:  # as Text: a name's [brackets] are not markup, its control characters escaped
+        table.add_row(*(Text(terminal_safe(cell, keep="")) for cell in cells))
     return table
 
 
@@ -159,8 +162,11 @@ def print_summary(
     """
     from rich.console import Console
 
+    from uav_penetration_env.benchmark.safe_text import unescaped
+
     stream = sys.stdout if file is None else file
-    console = Console(file=stream, width=width, highlight=False, soft_wrap=False)
+    # rich styles the table itself, from cells made safe in summary_table, so it writes unescaped
+    console = Console(file=unescaped(stream), width=width, highlight=False, soft_wrap=False)
     if width is None:  # a terminal's own width up to MAX_WIDTH; a file or pipe gets MAX_WIDTH
         console.width = min(console.width, MAX_WIDTH) if console.is_terminal else MAX_WIDTH
     for path in (Path(p) for p in tables):

@@ -11,7 +11,7 @@ from typing import Any
 
 import yaml
 
-from uav_penetration_env.atomic import write_text_atomic
+from uav_penetration_env.atomic import NotRegularFileError, write_text_atomic
 from uav_penetration_env.scenario.errors import ScenarioError
 
 __all__ = ["load_yaml_text", "read_yaml", "write_yaml"]
@@ -130,11 +130,14 @@ def write_yaml(data: Any, path: Path) -> Path:
     """Write plain ``data`` to ``path`` as YAML, keys in their given order (lists of scalars inline); returns ``path``.
 
     Raises:
+        NotRegularFileError: ``path`` is a device, a FIFO or a folder (the caller names its flag).
         ScenarioError: the path (or its folder) cannot be written.
     """
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
+    except NotRegularFileError:
+        raise  # a device or FIFO in the way: the caller names the flag that chose the path
     except OSError as error:
         raise ScenarioError("path", str(path), f"a writable file path ({error.strerror})") from error
     return path

@@ -7,6 +7,7 @@ import inspect
 import sys
 from pathlib import Path
 
+from uav_penetration_env.atomic import NotRegularFileError, check_replaceable
 from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
@@ -81,6 +82,10 @@ def run(args: argparse.Namespace) -> int:
     (scenario,) = resolve_scenarios([args.scenario], flag="--scenario")
     out = Path(args.out)
     check_writable_folder(out.parent, "--out")
+    try:  # refused before the minutes of calibration, not after them
+        check_replaceable(out)
+    except NotRegularFileError as error:
+        raise CLIError(f"--out {args.out}: {error.strerror}") from None
     try:
         payoff = payoff_table(
             scenario, args.optimizer, max_evals=args.max_evals, runs=args.runs, horizon=args.horizon,

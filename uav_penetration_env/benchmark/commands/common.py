@@ -98,29 +98,33 @@ def int_at_least(minimum: int) -> Callable[[str], int]:
     return parse
 
 
-def parse_seeds(text: str | int) -> list[int]:
+SEED_LIMIT = 2**63
+"""Seeds are stored as SQLite INTEGERs (signed 64-bit), so every seed is below 2**63."""
+
+
+def parse_seeds(text: str | int, flag: str = "--seeds") -> list[int]:
     """``20`` -> 0..19; ``5:10`` -> 5..9 (half-open, like ``range``).
 
     Raises:
-        CLIError: anything else, or no seed, or a negative seed.
+        CLIError: anything else, no seed, a negative seed, or a seed of 2**63 or more (the store
+            could not hold it, and the flown episode would be lost when its row is written).
     """
     text = str(text).strip()
     try:
         if ":" in text:
             start, stop = (int(part) for part in text.split(":", 1))
-            seeds = list(range(start, stop))
         else:
-            seeds = list(range(int(text)))
+            start, stop = 0, int(text)
     except ValueError:
         raise CLIError(
-            f"--seeds: got {text!r}, expected a count N (seeds 0..N-1) or START:STOP (half-open)"
+            f"{flag}: got {text!r}, expected a count N (seeds 0..N-1) or START:STOP (half-open)"
         ) from None
-    if not seeds or min(seeds) < 0:
+    if not 0 <= start < stop <= SEED_LIMIT:
         raise CLIError(
-            f"--seeds: got {text!r}, expected a count N >= 1 (seeds 0..N-1) or START:STOP with "
-            "0 <= START < STOP"
+            f"{flag}: got {text!r}, expected a count N with 1 <= N <= 2**63 (seeds 0..N-1) or START:STOP "
+            "with 0 <= START < STOP <= 2**63 (seeds are signed 64-bit integers in the store)"
         )
-    return seeds
+    return list(range(start, stop))
 
 
 def parse_weights(text: str | Sequence[float] | None) -> tuple[float, float, float] | None:

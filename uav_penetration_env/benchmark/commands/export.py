@@ -83,11 +83,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write ``<stem>-{episodes,runs,window_runs,steps,scenarios,policies}.<format>``; print their paths."""
+    """Write ``<stem>-{episodes,runs,window_runs,steps,scenarios,policies}.<format>``, then ``<stem>-manifest.json``; print their paths.
+
+    The tables are read in one transaction (:meth:`~.store.ResultsStore.snapshot`), so an export
+    taken while a ``run`` writes the store is consistent; the manifest, written last, lets
+    ``uav-bench import`` refuse an export that stopped part-way (:mod:`~..export_manifest`).
+    """
     import json
 
     import pandas as pd
 
+    from uav_penetration_env.benchmark.export_manifest import write_manifest
     from uav_penetration_env.benchmark.rows import row_path, write_table
     from uav_penetration_env.benchmark.store import ResultsStore
 
@@ -105,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out and (args.out.endswith(("/", "\\")) or out.is_dir()):
         out = out / store_path.stem  # a folder: the rows go inside it, named after the store
     check_writable_folder(out.parent, "--out")  # --out is a file stem: <stem>-episodes.csv, ...
-    with ResultsStore(store_path, create=False) as store:
+    with ResultsStore(store_path, create=False) as store, store.snapshot():  # one consistent read
         if args.tracks:
             return _export_tracks(store, out, args.format)
         tables = {
@@ -125,10 +131,13 @@ def run(args: argparse.Namespace) -> int:
                 columns=["policy_hash", "policy", "config"],
             ),
         }
+    written = {}
     for name, frame in tables.items():
         path = row_path(out, name, args.format)
         write_table(frame, path, args.format)
+        written[name] = (path, len(frame))
         print(path)
+    print(write_manifest(out, written))  # last: its presence says the export is complete
     return 0
 
 

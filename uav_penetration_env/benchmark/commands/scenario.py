@@ -43,9 +43,13 @@ def run(args: argparse.Namespace) -> int:
             check_writable_folder(out.parent, "--out")
             print(scenarios[0].to_yaml(out))
         else:
+            # The scenario's name may come from an untrusted file: its file name is the
+            # leaderboard's sanitised stem, so `../x` or `/abs/x` cannot leave --out.
+            from uav_penetration_env.benchmark.leaderboard.groups import sanitize
+
             check_writable_folder(out, "--out")
             for scenario in scenarios:
-                print(scenario.to_yaml(out / f"{scenario.name}.yaml"))
+                print(scenario.to_yaml(out / f"{sanitize(scenario.name)}.yaml"))
         return 0
     if args.action == "show":
         for scenario in scenarios:

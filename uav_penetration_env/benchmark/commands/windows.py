@@ -79,6 +79,28 @@ def parse_steps(text: str) -> list[int]:
     return steps
 
 
+def _check_one_scenario(spec: str) -> None:
+    """Refuse a ``random:A-B`` range: ``--scenario`` names ONE stored scenario.
+
+    Checked on the seeds' count, before any scenario is generated (a range of 100 000 used to be
+    generated whole before the store was read).
+    """
+    from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds
+    from uav_penetration_env.scenario import ScenarioError
+
+    if not spec.startswith(RANDOM_PREFIX):
+        return
+    try:
+        count = len(random_seeds(spec))
+    except ScenarioError:
+        return  # not a random: form; collect_windows may still find it as a stored name
+    if count != 1:
+        raise CLIError(
+            f"--scenario: got {spec!r}, expected one stored scenario: a name, a hash prefix or random:SEED "
+            f"(this range names {count} scenarios)"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     """Collect the windows, run the optimisers, store the rows and print one line per window."""
     from optimizers import available_optimizers
@@ -91,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
     steps = parse_steps(args.steps)
     seeds = parse_seeds(args.seeds)
-    episode_seeds = parse_seeds(args.episode_seeds) if args.episode_seeds else None
+    episode_seeds = parse_seeds(args.episode_seeds, "--episode-seeds") if args.episode_seeds else None
     optimizers = split_list(args.optimizers)
     known = available_optimizers()
     for name in optimizers:
@@ -100,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
                 f"--optimizers: unknown optimiser {name!r} — {did_you_mean(name, known)}known: {', '.join(known)}"
             )
     mpc = window_settings(args)
+    _check_one_scenario(args.scenario)
     with ResultsStore(existing_store(args.store)) as store:
         scenario = args.scenario
         if scenario not in set(store.episodes()["scenario"].astype(str)):

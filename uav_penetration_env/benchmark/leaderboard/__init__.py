@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from uav_penetration_env.atomic import atomic_path, write_text_atomic
+from uav_penetration_env.atomic import write_text_atomic
 from uav_penetration_env.benchmark.failure_kinds import with_failure_kinds
 from uav_penetration_env.benchmark.leaderboard.formatting import (
     compact_names,
@@ -64,6 +64,7 @@ from uav_penetration_env.benchmark.leaderboard.table import (
     leaderboard_table,
 )
 from uav_penetration_env.benchmark.rows import ResultTables, store_tables
+from uav_penetration_env.benchmark.safe_text import write_csv_table
 
 # Imported for its registration (@register_tables("suite")): the frozen suites' tables.
 from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # noqa: F401  # isort: skip
@@ -194,7 +195,5 @@ def _write_group(out_dir: Path, stem: str, text: str, table: pd.DataFrame, rl: p
     for path, frame in ((out_dir / f"{stem}.csv", table), (out_dir / f"{stem}-rl.csv", rl)):
         if frame is rl and rl.empty:
             continue
-        with atomic_path(path) as temporary:  # uav_penetration_env.atomic
-            frame.to_csv(temporary, index=False, lineterminator="\n")
-        written.append(path)
+        written.append(write_csv_table(frame, path))  # whole, formula-like names neutralised (safe_text)
     return written

@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from uav_penetration_env.benchmark.safe_text import markdown_cell
+
 
 def format_number(value: Any, digits: int = 4) -> str:
     """``value`` to ``digits`` significant digits, positional (no exponent); blank for NaN/None.
@@ -60,7 +62,7 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]], align: 
     Returns:
         The table, one line per row, no trailing newline.
     """
-    cells = [[str(c).replace("|", "\\|") for c in line] for line in [header, *rows]]
+    cells = [[markdown_cell(c) for c in line] for line in [header, *rows]]  # one line each, | escaped
     widths = [max(3, *(len(line[i]) for line in cells)) for i in range(len(header))]
 
     def render(line: Sequence[str]) -> str:

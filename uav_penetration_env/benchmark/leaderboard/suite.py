@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from uav_penetration_env.atomic import atomic_path, write_text_atomic
+from uav_penetration_env.atomic import write_text_atomic
 from uav_penetration_env.benchmark import stats
 from uav_penetration_env.benchmark.columns import legend_lines
 from uav_penetration_env.benchmark.leaderboard.formatting import format_number, markdown_table
@@ -48,6 +48,7 @@ from uav_penetration_env.benchmark.leaderboard.markdown import (
 from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables
 from uav_penetration_env.benchmark.leaderboard.rl import rl_markdown, rl_table
 from uav_penetration_env.benchmark.leaderboard.table import CONFIDENCE, leaderboard_table
+from uav_penetration_env.benchmark.safe_text import write_csv_table
 from uav_penetration_env.benchmark.stats import label_seed
 
 if TYPE_CHECKING:  # imported where used: the suites package reads YAML and builds scenarios
@@ -414,10 +415,7 @@ def members_markdown(suite: Suite, frame: pd.DataFrame, stacked: pd.DataFrame, c
 def _write_pair(out_dir: Path, stem: str, markdown: str, table: pd.DataFrame) -> list[Path]:
     path = out_dir / f"{stem}.md"
     write_text_atomic(path, markdown)
-    csv = out_dir / f"{stem}.csv"
-    with atomic_path(csv) as temporary:  # whole or not at all (uav_penetration_env.atomic)
-        table.to_csv(temporary, index=False, lineterminator="\n")
-    return [path, csv]
+    return [path, write_csv_table(table, out_dir / f"{stem}.csv")]  # whole, formula-like names neutralised
 
 
 def write_suite_tables(context: TableContext, suite_name: str) -> list[Path]:
@@ -452,10 +450,7 @@ def write_suite_tables(context: TableContext, suite_name: str) -> list[Path]:
         rl = rl_table(rows, seed=context.seed, n_resamples=context.n_resamples)
         written += _write_pair(context.out_dir, title, markdown + ("\n" + rl_markdown(rl) if not rl.empty else ""), table)
         if not rl.empty:
-            rl_csv = context.out_dir / f"{title}-rl.csv"
-            with atomic_path(rl_csv) as temporary:
-                rl.to_csv(temporary, index=False, lineterminator="\n")
-            written.append(rl_csv)
+            written.append(write_csv_table(rl, context.out_dir / f"{title}-rl.csv"))
     stacked = member_tables(frame, **settings)
     written += _write_pair(
         context.out_dir, f"{suite.name}-members", members_markdown(suite, frame, stacked, context), stacked
