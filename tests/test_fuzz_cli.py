@@ -22,7 +22,7 @@ from uav_penetration_env.benchmark import cli
 
 # compile --clear would remove the compile cache; the plug-in commands (RL) train.
 FUZZED = ("run", "leaderboard", "plot", "report", "export", "import", "replay", "calibrate", "scenario",
-          "windows", "best-known", "suite", "store")  # fmt: skip
+          "windows", "best-known", "suite", "store", "protocol", "timing")  # fmt: skip
 # Where each command's work starts once its inputs are checked.
 WORK = (
     ("uav_penetration_env.benchmark.evaluate", "evaluate"),
@@ -37,6 +37,8 @@ WORK = (
     ("uav_penetration_env.build", "build_scenario"),
     ("uav_penetration_env.benchmark.replay", "animate_episode"),
     ("uav_penetration_env.benchmark.minari_export", "write_datasets"),
+    ("uav_penetration_env.benchmark.timing", "time_planners"),
+    ("uav_penetration_env.benchmark.protocol", "primary_answers"),
 )
 JUNK = ["", " ", "-1", "0", "1", "3", "0.5", "nan", "inf", "-inf", "1e999", "x", "a" * 300, "\x00", "é",
         "1,2", "0-2", "-", "--", "none", "None", "/", ".", "paper", "random:3", "random:x", "greedy", "pso",

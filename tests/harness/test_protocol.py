@@ -185,3 +185,61 @@ def test_the_command_prints_and_writes_the_answers(tmp_path, capsys):
     broken.write_text("publication: [\n")
     assert cli.main(["protocol", str(broken), "--rows", str(stem)]) == 2
     assert "not valid YAML" in capsys.readouterr().err
+
+
+# --- fuzzing: any mutation of a valid protocol is a ProtocolError or a protocol, never another exception ---
+
+JUNK = [None, True, 0, -1, 1.5, float("nan"), "", "x", "0:0", "5:1", [], {}, [1, "a"], {"a": 1}, "paper", "holm"]
+
+
+def _mutations():
+    from hypothesis import strategies as st
+
+    def paths(node, prefix=()):
+        yield prefix
+        if isinstance(node, dict):
+            for key, value in node.items():
+                yield from paths(value, (*prefix, key))
+        elif isinstance(node, list):
+            for i, value in enumerate(node):
+                yield from paths(value, (*prefix, i))
+
+    data = yaml.safe_load((ROOT / "leaderboards" / "protocols" / "v4.yaml").read_text())
+    return data, st.lists(st.tuples(st.sampled_from(list(paths(data))[1:]), st.sampled_from([*JUNK, "DELETE"])), min_size=1, max_size=3)
+
+
+def _fuzz(examples):
+    from hypothesis import HealthCheck, given, settings
+
+    data, mutations = _mutations()
+
+    @settings(max_examples=examples, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(mutations)
+    def check(changes):
+        mutated = copy.deepcopy(data)
+        for path, value in changes:
+            node = mutated
+            try:
+                for key in path[:-1]:
+                    node = node[key]
+                if value == "DELETE":
+                    del node[path[-1]]
+                else:
+                    node[path[-1]] = value
+            except (KeyError, IndexError, TypeError):
+                continue  # an earlier change removed or replaced this path
+        try:
+            parse_protocol(mutated, source="fuzz")
+        except ProtocolError as error:
+            assert "\n" not in str(error) and str(error).startswith("fuzz")
+
+    check()
+
+
+def test_mutated_protocols_are_refused_in_one_line_or_accepted():
+    _fuzz(300)
+
+
+@pytest.mark.slow
+def test_five_thousand_mutated_protocols():
+    _fuzz(5_000)
