@@ -19,7 +19,9 @@ def test_the_sdist_carries_tests_docs_and_examples_but_not_the_leaderboards(tmp_
     # A clean copy: setuptools adds the files an existing *.egg-info/SOURCES.txt lists (an editable
     # install writes one), which would hide a missing MANIFEST.in line.
     source = tmp_path / "source"
-    ignore = shutil.ignore_patterns(".git", ".venv*", "*.egg-info", "leaderboards", "site", "results", "__pycache__")
+    ignore = shutil.ignore_patterns(
+        ".git", ".venv*", "*.egg-info", "leaderboards", "site", "results", "__pycache__"
+    )
     shutil.copytree(ROOT, source, ignore=ignore)
     (source / "leaderboards").mkdir()
     (source / "leaderboards" / "README.md").write_text("published outputs\n")  # to be left out
