@@ -233,3 +233,16 @@ def test_the_ioh_export_writes_what_iohexperimenter_writes(tmp_path):
 def test_a_black_box_problem_is_a_plain_dataclass():
     problem = BlackBoxProblem("x", "window", lambda x: x.sum(axis=1), -np.ones(2), np.ones(2))
     assert problem.dimension == 2 and problem(np.ones(2)) == 2.0
+
+
+@pytest.mark.parametrize("module", ["ioh", "nevergrad"])
+def test_a_missing_library_is_named_with_the_install_line(module, monkeypatch):
+    from uav_penetration_env.benchmark.blackbox import ioh_problem, nevergrad_function
+
+    monkeypatch.setitem(__import__("sys").modules, module, None)  # as if not installed
+    adapter = ioh_problem if module == "ioh" else nevergrad_function
+    with pytest.raises(
+        ImportError,
+        match=rf"{module} is missing; install the blackbox extra: pip install -e '\.\[blackbox\]'",
+    ):
+        adapter(BlackBoxProblem("x", "window", lambda x: x.sum(axis=1), -np.ones(2), np.ones(2)))
