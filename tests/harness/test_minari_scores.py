@@ -86,3 +86,11 @@ def test_a_jittered_start_or_a_record_no_better_than_greedy_gives_no_scores(tmp_
     scores = reference_scores(SCENARIO, tmp_path / "records")
     assert scores["best_known_total_cost"] == scores["greedy_total_cost"]
     assert "is not below the greedy floor's" in scores["reason"] and scores["ref_max_score"] is None
+
+
+def test_a_relative_out_folder_is_written_where_it_names(flown, tmp_path, monkeypatch):
+    store_path, _ = flown
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["export", "--minari", "--store", str(store_path), "--out", "relative-datasets"]) == 0
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "relative-datasets"))
+    assert sorted(minari.list_local_datasets()) == ["uav-penetration/tiny-cem-v0", "uav-penetration/tiny-greedy-v0"]

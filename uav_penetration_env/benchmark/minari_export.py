@@ -431,6 +431,7 @@ def write_datasets(
     """
     import gymnasium as gym
 
+    out = Path(out).resolve()  # Minari joins a relative datasets root onto its own paths twice
     for plan in plans:
         if (out / plan.dataset_id).exists():
             raise MinariExportError(
