@@ -246,3 +246,14 @@ def test_a_missing_library_is_named_with_the_install_line(module, monkeypatch):
         match=rf"{module} is missing; install the blackbox extra: pip install -e '\.\[blackbox\]'",
     ):
         adapter(BlackBoxProblem("x", "window", lambda x: x.sum(axis=1), -np.ones(2), np.ones(2)))
+
+
+@needs_blackbox
+def test_the_adapters_stay_functions_after_their_first_call():
+    """A submodule named like a function of the package would replace it once imported."""
+    from uav_penetration_env.benchmark import blackbox
+
+    blackbox.nevergrad_function(window_problem(TINY, horizon=2))
+    blackbox.ioh_problem(window_problem(TINY, horizon=2))
+    assert callable(blackbox.nevergrad_function) and callable(blackbox.ioh_problem)
+    assert callable(blackbox.export_window_runs)

@@ -114,6 +114,6 @@ def nevergrad_function(problem: BlackBoxProblem) -> Any:
         ImportError: nevergrad is not installed (with the install line).
     """
     _require("nevergrad")
-    from uav_penetration_env.benchmark.blackbox.nevergrad_function import UAVPenetrationFunction
+    from uav_penetration_env.benchmark.blackbox.ng_experiment import UAVPenetrationFunction
 
     return UAVPenetrationFunction(problem)
