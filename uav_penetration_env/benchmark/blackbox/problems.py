@@ -54,6 +54,8 @@ class BlackBoxProblem:
         scenario: the scenario's name; ``scenario_hash`` its hash.
         suite_member: the suite member's name (``uavpen-v1/paper``), ``""`` outside a suite.
         step: the window's step index k (0 for an offline problem).
+        metadata: a window problem's warm start ``x0`` (the source episode's next actions) and its
+            ``settings`` (:class:`~uav_penetration_env.mpc.MPCSettings`); empty for an offline problem.
     """
 
     name: str
