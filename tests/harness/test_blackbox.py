@@ -257,3 +257,29 @@ def test_the_adapters_stay_functions_after_their_first_call():
     blackbox.ioh_problem(window_problem(TINY, horizon=2))
     assert callable(blackbox.nevergrad_function) and callable(blackbox.ioh_problem)
     assert callable(blackbox.export_window_runs)
+
+
+@needs_blackbox
+def test_export_ioh_on_the_command_line(tmp_path, capsys):
+    from uav_penetration_env.benchmark import cli
+
+    store_path = tmp_path / "w.sqlite"
+    with ResultsStore(store_path) as store:
+        store.write_window_runs([window_run("pso", 0, [5.0, 3.0], [3, 6]), window_run("cem", 0, [4.0], [6])])
+    assert cli.main(["export", "--ioh", "--store", str(store_path)]) == 0  # default --out: STORE-ioh/
+    assert sorted(p.name for p in (tmp_path / "w-ioh").iterdir()) == ["cem", "pso"]
+    assert "pso: 1 windows" in capsys.readouterr().out
+    assert (
+        cli.main(
+            ["export", "--ioh", "--format", "csv", "--store", str(store_path), "--out", str(tmp_path / "x")]
+        )
+        == 2
+    )
+    assert "--format: not an option of --ioh" in capsys.readouterr().err
+    with ResultsStore(tmp_path / "empty.sqlite"):
+        pass
+    assert (
+        cli.main(["export", "--ioh", "--store", str(tmp_path / "empty.sqlite"), "--out", str(tmp_path / "y")])
+        == 2
+    )
+    assert "--ioh: store: no window runs in" in capsys.readouterr().err

@@ -33,7 +33,12 @@ from typing import Any
 import numpy as np
 
 from uav_penetration_env.benchmark.blackbox.adapters import _require
+from uav_penetration_env.benchmark.plugins import Needs
 
+IOH = Needs(
+    modules=("ioh",),
+    install="the blackbox extra: pip install -e '.[blackbox]' in a checkout, or pip install 'uav-penetration[blackbox]'",
+)
 UNREACHED = float(np.finfo(np.float64).max)  # the logged cost of a run that never found a finite one
 WINDOW_KEY = ("scenario", "scenario_hash", "source_policy", "episode_seed", "step", "horizon")
 
