@@ -15,7 +15,7 @@ try:
 except ImportError as error:  # one line that says how to get it, for `uav-bench run --import`
     raise ImportError("examples.nevergrad_de needs nevergrad: pip install -e '.[examples]'") from error
 
-from optimizers import BoundsLike, OptimizeResult, normalize_bounds, register_optimizer
+from optimizers import BoundsLike, BudgetedObjective, OptimizeResult, normalize_bounds, register_optimizer
 
 
 @register_optimizer("ng-twopointsde")
@@ -67,29 +67,16 @@ class NevergradTwoPointsDE:
         )
         if x0 is not None:
             optimizer.suggest(start)  # the next ask returns the warm start itself
-        best_x, best_f, used = start.copy(), np.inf, 0
-        history, history_nfev = [], []
-        while used < max_evals:
-            asked = [optimizer.ask() for _ in range(min(self.workers, max_evals - used))]
-            points = np.array([candidate.value for candidate in asked], dtype=np.float64)
-            costs = np.asarray(fun(points), dtype=np.float64)
-            costs = np.where(np.isnan(costs), np.inf, costs)
-            for candidate, cost in zip(asked, costs, strict=True):
-                optimizer.tell(
-                    candidate, float(cost) if np.isfinite(cost) else 1e300
-                )  # nevergrad wants finite losses
-            used += len(asked)
-            i = int(np.argmin(costs))
-            if costs[i] < best_f:
-                best_x, best_f = points[i].copy(), float(costs[i])
-            history.append(best_f)
-            history_nfev.append(used)
-        return OptimizeResult(
-            x=best_x,
-            fun=best_f,
-            nfev=used,
-            nit=len(history) - 1,
-            history=np.array(history),
-            history_nfev=np.array(history_nfev),
-            message="max_evals reached",
-        )
+        # The package's budgeted objective is the only caller of `fun`: it never evaluates more than
+        # max_evals rows, checks the returned shape, reads NaN as +inf and keeps the best point.
+        objective = BudgetedObjective(fun, lo.size, max_evals)
+        iterations = 0
+        while objective.remaining > 0:
+            asked = [optimizer.ask() for _ in range(min(self.workers, objective.remaining))]
+            costs = objective(np.array([candidate.value for candidate in asked], dtype=np.float64))
+            # nevergrad wants finite losses: +inf becomes a cost worse than any finite one seen
+            for candidate, cost in zip(asked, objective.finite_costs(costs), strict=True):
+                optimizer.tell(candidate, float(cost))
+            objective.record()  # best-so-far cost and evaluations after this iteration
+            iterations += 1
+        return objective.result(nit=iterations - 1, message="max_evals reached")

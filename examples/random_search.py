@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimizers import BoundsLike, OptimizeResult, normalize_bounds, register_optimizer
+from optimizers import BoundsLike, BudgetedObjective, OptimizeResult, normalize_bounds, register_optimizer
 
 
 @register_optimizer("random-search")
@@ -52,27 +52,15 @@ class RandomSearch:
         """
         lo, hi = normalize_bounds(bounds)
         rng = np.random.default_rng(rng)
-        best_x, best_f, used = (lo + hi) / 2, np.inf, 0
-        history, history_nfev = [], []
-        while used < max_evals:
-            n = min(self.batch, max_evals - used)
-            points = rng.uniform(lo, hi, size=(n, lo.size))
-            if x0 is not None and used == 0:
+        # The package's budgeted objective is the only caller of `fun`: it never evaluates more than
+        # max_evals rows, checks the returned shape, reads NaN as +inf and keeps the best point.
+        objective = BudgetedObjective(fun, lo.size, max_evals)
+        iterations = 0
+        while objective.remaining > 0:
+            points = rng.uniform(lo, hi, size=(min(self.batch, objective.remaining), lo.size))
+            if x0 is not None and objective.nfev == 0:
                 points[0] = np.clip(x0, lo, hi)
-            costs = np.asarray(fun(points), dtype=np.float64)
-            costs = np.where(np.isnan(costs), np.inf, costs)  # a NaN cost never wins
-            used += n
-            i = int(np.argmin(costs))
-            if costs[i] < best_f:
-                best_x, best_f = points[i].copy(), float(costs[i])
-            history.append(best_f)
-            history_nfev.append(used)
-        return OptimizeResult(
-            x=best_x,
-            fun=best_f,
-            nfev=used,
-            nit=len(history) - 1,
-            history=np.array(history),
-            history_nfev=np.array(history_nfev),
-            message="max_evals reached",
-        )
+            objective(points)
+            objective.record()  # best-so-far cost and evaluations after this iteration
+            iterations += 1
+        return objective.result(nit=iterations - 1, message="max_evals reached")

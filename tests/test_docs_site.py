@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -29,6 +30,13 @@ def test_the_site_builds_strictly(tmp_path):
     assert (site / "index.html").is_file() and (site / "plugins" / "index.html").is_file()
     reference = (site / "reference" / "optimizers" / "index.html").read_text(encoding="utf-8")
     assert "normalize_bounds" in reference and "register_optimizer" in reference  # docstrings rendered
+    # Sphinx roles in docstrings are links where the site documents the object (benchmarks/docs_roles.py),
+    # never literal ":func:<code>x</code>" text
+    for page in (site / "reference").glob("*/index.html"):
+        text = page.read_text(encoding="utf-8")
+        assert not re.search(r":(?:func|class|mod|data|meth|attr):<code>", text), page
+    model = (site / "reference" / "model" / "index.html").read_text(encoding="utf-8")
+    assert 'href="#uav_penetration_env.model.PenetrationModel.rollout_cost"><code>rollout_cost()</code></a>' in model
 
 
 def test_links_that_leave_docs_become_repository_paths(tmp_path):
@@ -45,3 +53,16 @@ def test_links_that_leave_docs_become_repository_paths(tmp_path):
     assert out.startswith("See the README (`README.md` in the repository), [model](model.md#7a), [nowhere](../nowhere.md), ")
     assert "[a site](https://example.org/x.md)" in out and "![a figure](../README.md)" in out
     assert out.endswith("```\n[README](../README.md)\n```\n")  # code blocks are printed as they are
+
+
+def test_sphinx_roles_become_optional_cross_references():
+    roles = load("docs_roles")
+    griffe = pytest.importorskip("griffe", reason=DOCS_EXTRA)
+    module = griffe.visit("pkg.mod", filepath=Path("pkg/mod.py"), code="from pkg.other import Thing\n\ndef f():\n    pass\n")
+    text = "See :class:`Thing`, :func:`~pkg.other.helper`, :meth:`Thing.run` and :mod:`.sibling`."
+    out = roles.rewrite(module["f"], text)
+    assert '<autoref identifier="pkg.other.Thing" optional><code>Thing</code></autoref>' in out
+    assert '<autoref identifier="pkg.other.helper" optional><code>helper()</code></autoref>' in out
+    assert '<autoref identifier="pkg.other.Thing.run" optional><code>Thing.run()</code></autoref>' in out
+    assert '<autoref identifier="pkg.sibling" optional><code>sibling</code></autoref>' in out
+    assert ":class:" not in out and ":func:" not in out

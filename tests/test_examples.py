@@ -70,7 +70,11 @@ def test_an_example_keeps_the_interface(module, name):
     result = opt.minimize(counted, bounds, rng=np.random.default_rng(3), max_evals=300)
     assert isinstance(result, OptimizeResult)
     assert sum(calls) == result.nfev <= 300 and result.nfev == result.history_nfev[-1]
-    assert np.all(result.x >= -1) and np.all(result.x <= 1) and result.fun == pytest.approx(sphere(result.x[None])[0])
+    assert (
+        np.all(result.x >= -1)
+        and np.all(result.x <= 1)
+        and result.fun == pytest.approx(sphere(result.x[None])[0])
+    )
     assert np.all(np.diff(result.history) <= 0) and result.history[-1] == result.fun
     assert result.fun < sphere(np.zeros((1, 6)))[0]  # it found something better than the box's centre
     again = opt.minimize(sphere, bounds, rng=np.random.default_rng(3), max_evals=300)
@@ -109,7 +113,16 @@ def test_the_pages_cli_line_runs_as_printed(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)  # --import finds examples/ under the current folder, as the page says
     scenario = tiny_scenario(time={"max_steps": 8}).to_yaml(tmp_path / "tiny.yaml")
     store = tmp_path / "plugins.sqlite"
-    extra = ["--scenarios", str(scenario), "--seeds", "1", "--store", str(store), "--no-report", "--no-progress"]
+    extra = [
+        "--scenarios",
+        str(scenario),
+        "--seeds",
+        "1",
+        "--store",
+        str(store),
+        "--no-report",
+        "--no-progress",
+    ]
     assert "random-search" not in registry._REGISTRY  # the page's --import is what registers it
     assert cli.main([*argv, *extra]) == 0
     with ResultsStore(store) as results:
@@ -129,4 +142,18 @@ def test_the_page_prints_each_example_file_exactly():
     """docs/plugins.md shows the examples inline (GitHub renders no include), and they cannot drift."""
     blocks = re.findall(r"^```python\n(.*?)^```", PAGE.read_text(), flags=re.M | re.S)
     for name in ("random_search.py", "nevergrad_de.py"):
-        assert (ROOT / "examples" / name).read_text() in blocks, f"docs/plugins.md no longer shows examples/{name}"
+        assert (ROOT / "examples" / name).read_text() in blocks, (
+            f"docs/plugins.md no longer shows examples/{name}"
+        )
+
+
+@pytest.mark.parametrize(("module", "name"), EXAMPLES)
+def test_an_example_calls_fun_through_the_packages_budgeted_objective(module, name):
+    """The examples use optimizers.BudgetedObjective: its checks and its result, not a loop of their own."""
+    opt = optimizer(module, name)
+    with pytest.raises(ValueError, match=r"objective returned shape \(\d+, 2\), expected \(\d+,\)"):
+        opt.minimize(lambda X: np.column_stack([sphere(X)] * 2), [(-1.0, 1.0)] * 3, rng=0, max_evals=40)
+    with pytest.raises(ValueError, match=r"max_evals: got 0, expected an integer >= 1"):
+        opt.minimize(sphere, [(-1.0, 1.0)] * 3, rng=0, max_evals=0)
+    nothing = opt.minimize(lambda X: np.full(len(X), np.nan), [(-1.0, 1.0)] * 3, rng=0, max_evals=40)
+    assert nothing.fun == np.inf and nothing.message.endswith("no finite cost found") and nothing.nfev == 40

@@ -39,6 +39,7 @@ WORK = (
     ("uav_penetration_env.benchmark.minari_export", "write_datasets"),
     ("uav_penetration_env.benchmark.timing", "time_planners"),
     ("uav_penetration_env.benchmark.protocol", "primary_answers"),
+    ("uav_penetration_env.benchmark.blackbox.ioh_export", "export_window_runs"),
 )
 JUNK = ["", " ", "-1", "0", "1", "3", "0.5", "nan", "inf", "-inf", "1e999", "x", "a" * 300, "\x00", "é",
         "1,2", "0-2", "-", "--", "none", "None", "/", ".", "paper", "random:3", "random:x", "greedy", "pso",

@@ -90,3 +90,28 @@ def test_a_plugin_that_exits_is_an_error_row_and_the_other_episodes_are_kept(tmp
     by_policy = frame.groupby("policy")["outcome"].apply(set).to_dict()
     assert by_policy["quitter"] == {"error"} and "error" not in by_policy["greedy"]
     assert frame.loc[frame["policy"] == "quitter", "error"].str.startswith("SystemExit: 0").all()
+
+
+def _library_call(x):
+    raise ValueError("setting an array element with a sequence (inside the library)")
+
+
+@dataclass(frozen=True)
+class LibraryWrapper:
+    """Wraps a 'library' that raises its own exception mid-run (docs/plugins.md §7)."""
+
+    def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
+        fun(np.zeros((2, bounds.lb.size)))
+        return _library_call(bounds.lb)
+
+
+def test_a_librarys_own_exception_names_itself_in_the_row_and_the_summary(tmp_path, capsys):
+    from uav_penetration_env.benchmark.commands.run import print_outcome
+
+    frame = evaluate({"wrapped": MPCPolicy(LibraryWrapper(), SETTINGS)}, [tiny_scenario(time={"max_steps": 4})], [0],
+                     progress=False)  # fmt: skip
+    error = frame.iloc[0]["error"]
+    assert error.startswith("ValueError: setting an array element with a sequence (inside the library)\n")
+    assert "_library_call" in error  # the library's frame is in the stored traceback
+    assert print_outcome(frame, tmp_path / "s.sqlite") == 1
+    assert "first error (wrapped, seed 0): ValueError: setting an array element" in capsys.readouterr().err

@@ -36,6 +36,18 @@ of summing J and the penalty apart (about 1e-15 relative); the tolerance admits 
 differences of another compiler or CPU (the compiled model agrees with the numpy oracle to about
 1e-15 relative), six orders of magnitude below the four significant digits a leaderboard prints.
 An episode outside it is refused with its id, and nothing is written.
+
+DECISION (api.md §4.10, reference scores): Minari's normalised score is
+``(return - ref_min_score) / (ref_max_score - ref_min_score)`` and the env's return is minus the
+episode's total cost, so a dataset's ``ref_min_score`` is minus the greedy floor's total cost
+(``GreedyPolicy``, the harness's floor) and its ``ref_max_score`` minus the best-known total J*
+(docs/best-known.md): the floor scores 0 and the best-known track 1. They are those of the
+dataset's evaluation env, its first scenario (``recover_environment(eval_env=True)``), the env whose
+returns ``get_normalized_score`` is meant for; every scenario's pair is in the project's metadata
+entry (``reference_scores``). A dataset gets none when that scenario has no best-known record, a
+jittered start (a record is one start state), or a record no cheaper than the greedy floor (the
+score would divide by zero or flip); ``get_normalized_score`` then raises Minari's own error, and
+``reference_scores`` says why.
 """
 
 from __future__ import annotations
@@ -276,6 +288,47 @@ def stored_scenario(store: ResultsStore, scenario_hash: str) -> Any:
     return scenario
 
 
+def reference_scores(scenario: Any, records: str | Path | None = None) -> dict[str, Any]:
+    """The greedy floor's and the best-known total cost of a scenario, as Minari reference scores.
+
+    Args:
+        scenario: the scenario.
+        records: a best-known records folder (default: the package's committed records).
+
+    Returns:
+        ``greedy_total_cost``, ``best_known_total_cost`` (``None`` without a record),
+        ``ref_min_score`` and ``ref_max_score`` (minus those costs; both ``None`` when they cannot
+        normalise, DECISION api.md §4.10) and ``reason`` (why not, ``""`` when they can).
+    """
+    from uav_penetration_env.benchmark.bestknown import best_known_total
+    from uav_penetration_env.benchmark.bestknown.compute import greedy_track
+
+    jitter = scenario.start.jitter
+    if jitter.xy_km > 0 or jitter.heading_deg > 0:
+        return {
+            "greedy_total_cost": None,
+            "best_known_total_cost": None,
+            "ref_min_score": None,
+            "ref_max_score": None,
+            "reason": "a jittered start: no best-known record, and the greedy floor's cost depends on the seed",
+        }
+    _, greedy = greedy_track(scenario)
+    best = best_known_total(scenario.hash, records)
+    if best is None:
+        reason = "no best-known record of this scenario (uav-bench best-known compute)"
+    elif not best < greedy:
+        reason = f"the best-known total {best!r} is not below the greedy floor's {greedy!r}"
+    else:
+        reason = ""
+    return {
+        "greedy_total_cost": greedy,
+        "best_known_total_cost": best,
+        "ref_min_score": None if reason else -greedy,
+        "ref_max_score": None if reason else -float(best),  # type: ignore[arg-type]
+        "reason": reason,
+    }
+
+
 def refly_episode(env: Any, episode: Mapping[str, Any], steps: pd.DataFrame) -> Reflown:
     """Fly a stored episode again with its stored actions and check it against the store (the module's tolerance).
 
@@ -360,7 +413,9 @@ def _state_row(info: Mapping[str, Any]) -> list[float]:
     return [*map(float, info["position"]), *map(float, info["state"][3:])]
 
 
-def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path) -> list[Path]:
+def write_datasets(
+    store: ResultsStore, plans: Sequence[DatasetPlan], out: Path, *, records: str | Path | None = None
+) -> list[Path]:
     """Re-fly every planned episode, then write the datasets under the local Minari root ``out``.
 
     Each dataset is built in a temporary root inside ``out`` and renamed into place once whole, so
@@ -414,7 +469,10 @@ def write_datasets(store: ResultsStore, plans: Sequence[DatasetPlan], out: Path)
         with _datasets_root(temporary):
             for plan, episodes, specs in flown:
                 metadata = dataset_metadata(store, plan, episodes, specs, scenarios, policies, runs)
-                _create(plan, episodes, specs, metadata)
+                references = {h: reference_scores(scenarios[h], records) for h in specs}
+                metadata["reference_scenario"] = next(iter(specs))  # the evaluation env's scenario
+                metadata["reference_scores"] = references
+                _create(plan, episodes, specs, metadata, references[next(iter(specs))])
                 built.append(plan.dataset_id)
         for dataset_id in built:
             target = out / dataset_id
@@ -441,7 +499,8 @@ def dataset_metadata(
     Keys: ``project_version``, ``env_id``, ``policy`` (name, hash, config), ``scenario_set``,
     ``scenarios`` (hash -> name, episodes and the ``gym.make`` kwargs of its env), ``store`` (path,
     the provenance of the runs that wrote the episodes), ``replay`` (tolerances and the largest
-    differences measured), ``reward`` (what a step's reward is).
+    differences measured), ``reward`` (what a step's reward is); :func:`write_datasets` adds
+    ``reference_scenario`` and ``reference_scores`` (DECISION api.md §4.10).
     """
     _, config = policies.get(plan.policy_hash, (plan.policy, {}))
     run_ids = sorted({int(r) for r in plan.episodes["run_id"].dropna()})
@@ -470,7 +529,13 @@ def dataset_metadata(
     }
 
 
-def _create(plan: DatasetPlan, episodes: Sequence[Reflown], specs: Mapping[str, Any], metadata: dict) -> None:
+def _create(
+    plan: DatasetPlan,
+    episodes: Sequence[Reflown],
+    specs: Mapping[str, Any],
+    metadata: dict,
+    references: Mapping[str, Any],
+) -> None:
     """One dataset in the current Minari root (:func:`_datasets_root`), with its per-episode metadata."""
     import gymnasium as gym
     import minari
@@ -494,6 +559,14 @@ def _create(plan: DatasetPlan, episodes: Sequence[Reflown], specs: Mapping[str, 
         )
         for i, e in enumerate(episodes)
     ]
+    # Both or neither: given ref_max_score alone, Minari would fly a random policy for ref_min_score.
+    scores: dict[str, Any] = {}
+    if references["ref_min_score"] is not None:
+        scores = {
+            "ref_min_score": references["ref_min_score"],
+            "ref_max_score": references["ref_max_score"],
+            "num_episodes_average_score": 1,  # one deterministic episode each: the floor, the record
+        }
     commit = git_commit().removesuffix("-dirty")  # the permalink names the commit the code is based on
     with warnings.catch_warnings():
         # Minari asks for an author e-mail; the testbed has none to give.
@@ -514,6 +587,7 @@ def _create(plan: DatasetPlan, episodes: Sequence[Reflown], specs: Mapping[str, 
             ),
             data_format="arrow",
             requirements=[f"uav-penetration=={__version__}"],
+            **scores,
         )
     env.close()
     dataset.storage.update_metadata({METADATA_KEY: metadata})

@@ -12,6 +12,10 @@ LineString per episode; longitude/latitude for DEM scenarios), :mod:`~..track_ex
 With ``--minari``: the stored episodes re-flown through the env and written as Farama Minari
 datasets under a local root (``--out DIR``, default ``<store stem>-minari/``), one per policy
 configuration and scenario set (:mod:`~..minari_export`, api.md §4.10; the ``offline`` extra).
+
+With ``--ioh``: the store's window runs (``uav-bench windows``) in IOHprofiler's file format, one
+folder per optimiser configuration under ``--out DIR`` (default ``<store stem>-ioh/``), for
+IOHanalyzer (:mod:`~..blackbox.ioh_export`, docs/blackbox.md §3; the ``blackbox`` extra).
 """
 
 from __future__ import annotations
@@ -48,6 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tracks",
         action="store_true",
         help="write the track points of every episode (from step 0) and a GeoJSON file instead",
+    )
+    parser.add_argument(
+        "--ioh",
+        action="store_true",
+        help="write the window runs (uav-bench windows) as IOHprofiler data for IOHanalyzer, one folder per "
+        "optimiser configuration under --out DIR (default: STORE-ioh/; the blackbox extra; docs/blackbox.md)",
     )
     minari = parser.add_argument_group("Minari datasets (--minari; the offline extra)")
     minari.add_argument(
@@ -97,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.rows import row_path, write_table
     from uav_penetration_env.benchmark.store import ResultsStore
 
+    if args.ioh:
+        return _export_ioh(args)
     if args.minari:
         return _export_minari(args)
     if args.format is None:
@@ -202,9 +214,34 @@ def _export_minari(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_ioh(args: argparse.Namespace) -> int:
+    """``--ioh``: the window runs as IOHprofiler data under ``--out``; print the folders written."""
+    from uav_penetration_env.benchmark.blackbox.ioh_export import IOH, export_window_runs
+    from uav_penetration_env.benchmark.store import ResultsStore
+
+    for flag in ("format", "tracks", "minari", "policy", "scenarios", "dataset_id", "dataset_version"):
+        if getattr(args, flag) not in (None, False):
+            raise CLIError(
+                f"--{flag.replace('_', '-')}: not an option of --ioh; expected --ioh with --store and --out"
+            )
+    IOH.check("export --ioh")  # one line naming the extra, before the store is read
+    store_path = existing_store(args.store)
+    out = Path(args.out) if args.out else store_path.with_name(f"{store_path.stem}-ioh")
+    check_writable_folder(out, "--out")
+    with ResultsStore(store_path, create=False) as store:
+        try:
+            written = export_window_runs(store, out)
+        except ValueError as error:
+            raise CLIError(f"--ioh: {error}") from None
+    for folder in sorted({path.parent for path in written}):
+        print(f"{folder}: {sum(path.parent == folder for path in written)} windows")
+    print(f"load {out} in IOHanalyzer (docs/blackbox.md §3)")
+    return 0
+
+
 COMMAND = Command(
     name="export",
-    help="write the store as tables (episodes, runs, window runs, steps, scenarios, policies), or the tracks (--tracks, also GeoJSON), as CSV or Parquet; or its episodes as Minari datasets (--minari)",
+    help="write the store as tables (episodes, runs, window runs, steps, scenarios, policies), or the tracks (--tracks, also GeoJSON), as CSV or Parquet; or its episodes as Minari datasets (--minari), or its window runs as IOHprofiler data (--ioh)",
     add_arguments=add_arguments,
     run=run,
 )
