@@ -428,16 +428,29 @@ class Scenario(Checked):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self._check_places()
+        self._check_start()
+        self._check_radars()
+        if self.normalisation_mode == "payoff":
+            require(
+                self.normalisation.payoff is not None,
+                "normalisation.payoff",
+                None,
+                "payoff constants for the 'payoff' normalisation (run `uav-bench calibrate`)",
+            )
+
+    def _require_inside(self, prefix: str, x: float, y: float) -> None:
+        """Refuse a point outside the map, naming the coordinate that is out of range."""
         (x_lo, x_hi), (y_lo, y_hi) = self.map.x_km, self.map.y_km
+        field = f"{prefix}.x_km" if not x_lo <= x <= x_hi else f"{prefix}.y_km"
+        bounds = f"inside the map x in [{x_lo:g}, {x_hi:g}] km, y in [{y_lo:g}, {y_hi:g}] km"
+        require(x_lo <= x <= x_hi and y_lo <= y <= y_hi, field, (x, y), bounds)
 
-        def require_inside(prefix: str, x: float, y: float) -> None:
-            # Name the coordinate that is out of range; the value shows the point.
-            field = f"{prefix}.x_km" if not x_lo <= x <= x_hi else f"{prefix}.y_km"
-            bounds = f"inside the map x in [{x_lo:g}, {x_hi:g}] km, y in [{y_lo:g}, {y_hi:g}] km"
-            require(x_lo <= x <= x_hi and y_lo <= y <= y_hi, field, (x, y), bounds)
-
-        require_inside("start", self.start.x_km, self.start.y_km)
-        require_inside("goal", self.goal.x_km, self.goal.y_km)
+    def _check_places(self) -> None:
+        """The start and goal inside the map, the goal two turn radii from every edge, the terrain's scale."""
+        (x_lo, x_hi), (y_lo, y_hi) = self.map.x_km, self.map.y_km
+        self._require_inside("start", self.start.x_km, self.start.y_km)
+        self._require_inside("goal", self.goal.x_km, self.goal.y_km)
         natural = self.terrain.natural
         if isinstance(natural, GaussianField):
             side = max(x_hi - x_lo, y_hi - y_lo)
@@ -459,6 +472,9 @@ class Scenario(Checked):
             (self.goal.x_km, self.goal.y_km),
             f"a goal at least {margin:.1f} km (two turn radii) inside every map edge; it is {edge:.1f} km from one",
         )
+
+    def _check_start(self) -> None:
+        """The start's speed, pitch and height within the airframe's limits and under the ceiling."""
         v_min, v_max = self.uav.speed_m_s
         require(
             v_min <= self.start.speed_m_s <= v_max,
@@ -485,8 +501,12 @@ class Scenario(Checked):
             self.start.z_agl_m,
             f"below the ceiling {self.map.ceiling_m:g} m",
         )
+
+    def _check_radars(self) -> None:
+        """Radars inside the map, uniquely named, few enough for their masking floors."""
+        (x_lo, x_hi), (y_lo, y_hi) = self.map.x_km, self.map.y_km
         for i, radar in enumerate(self.radars):
-            require_inside(f"radars[{i}]", radar.x_km, radar.y_km)
+            self._require_inside(f"radars[{i}]", radar.x_km, radar.y_km)
         names = [r.name for r in self.radars]
         require(len(set(names)) == len(names), "radars", names, "unique radar names")
         require(
@@ -505,13 +525,6 @@ class Scenario(Checked):
             f"radars x grid nodes <= {MAX_FLOOR_NODES:,} when terrain masks (one visibility floor per radar): "
             "fewer radars, a coarser map.grid_m, or radar_model.masking: off",
         )
-        if self.normalisation_mode == "payoff":
-            require(
-                self.normalisation.payoff is not None,
-                "normalisation.payoff",
-                None,
-                "payoff constants for the 'payoff' normalisation (run `uav-bench calibrate`)",
-            )
 
     # --- profile resolution (model.md §7a: null fields come from the profile) --------------------
 
