@@ -339,105 +339,14 @@ def _finished_result(plan: TrainingPlan) -> TrainResult | None:
 
 
 def _callbacks(run: _Run) -> list[Any]:
-    """Periodic evaluation, checkpoints and the progress bar, as SB3 callbacks."""
-    from stable_baselines3.common.callbacks import BaseCallback
+    """Periodic evaluation, checkpoints and the progress bar, as SB3 callbacks (:mod:`baselines.callbacks`)."""
+    from baselines.callbacks import CriticWarmup, Periodic, ProgressBar, StartEvaluation
 
-    plan = run.plan
-
-    class ProgressBar(BaseCallback):
-        """The harness's progress bar over environment steps: done/total, elapsed, ETA, last evaluation."""
-
-        bar: Any = None
-
-        def _on_training_start(self) -> None:
-            from uav_penetration_env.benchmark.progress import ProgressBar as Bar
-
-            self.bar = Bar(plan.total_timesteps, f"train {plan.algo}", unit="steps")
-            self.bar.update(int(self.model.num_timesteps))  # a resumed run starts where it stopped
-
-        def _on_step(self) -> bool:
-            self.bar.update(min(self.training_env.num_envs, plan.total_timesteps - self.bar.n))
-            if run.evaluations:
-                last = run.evaluations[-1]
-                self.bar.set_postfix(
-                    eval_return=f"{last['mean_return']:.2f}", success=f"{last['success_rate']:.0%}"
-                )
-            return True
-
-        def _on_training_end(self) -> None:
-            self.close()
-
-        def close(self) -> None:
-            """Stop drawing (also when Ctrl-C ends ``learn`` before ``_on_training_end``)."""
-            if self.bar is not None:
-                self.bar.close()
-
-    class Periodic(BaseCallback):
-        """Evaluate and checkpoint every ``eval_freq`` / ``checkpoint_freq`` environment steps.
-
-        Both happen at the start of a rollout, i.e. right after the update that used every step
-        counted so far (mid-rollout, PPO's policy would still be the one before its last update).
-        """
-
-        def _on_training_start(self) -> None:
-            # After a resume: the next multiples after the last evaluation and the checkpoint's steps.
-            last_eval = int(run.evaluations[-1]["timesteps"]) if run.evaluations else 0
-            steps = int(self.model.num_timesteps)
-            self.next_eval = (last_eval // plan.eval_freq + 1) * plan.eval_freq if plan.eval_freq else 0
-            self.next_checkpoint = (
-                (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq if plan.checkpoint_freq else 0
-            )
-
-        def _on_step(self) -> bool:
-            return True
-
-        def _on_rollout_start(self) -> None:
-            steps = self.model.num_timesteps
-            if plan.eval_freq and steps >= self.next_eval:
-                run.evaluate()
-                self.next_eval = (steps // plan.eval_freq + 1) * plan.eval_freq
-            if plan.checkpoint_freq and steps >= self.next_checkpoint:
-                run.checkpoint()
-                self.next_checkpoint = (steps // plan.checkpoint_freq + 1) * plan.checkpoint_freq
-
-    class CriticWarmup(BaseCallback):
-        """Keep the actor frozen for the warm start's first steps, so only the critic learns (docs/rl.md §6.5).
-
-        The freeze is set or lifted at the start of each rollout, from the step count, so a resumed
-        run is frozen exactly when the run it continues would be.
-        """
-
-        def _set(self) -> None:
-            from baselines.warm_start import set_actor_trainable
-
-            warm = plan.warm_start
-            assert warm is not None
-            set_actor_trainable(self.model, self.model.num_timesteps >= warm.critic_warmup_steps)
-
-        def _on_training_start(self) -> None:
-            self._set()
-
-        def _on_rollout_start(self) -> None:
-            self._set()
-
-        def _on_step(self) -> bool:
-            return True
-
-    class StartEvaluation(BaseCallback):
-        """A warm-started run's curve starts with the network it was given (an evaluation at step 0)."""
-
-        def _on_training_start(self) -> None:
-            if plan.eval_freq and not run.evaluations and self.model.num_timesteps == 0:
-                run.evaluate()
-
-        def _on_step(self) -> bool:
-            return True
-
-    callbacks: list[Any] = [Periodic()]
-    if plan.warm_start is not None:
-        callbacks = [StartEvaluation(), CriticWarmup(), *callbacks]
-    if plan.progress_bar:
-        callbacks.append(ProgressBar())
+    callbacks: list[Any] = [Periodic(run)]
+    if run.plan.warm_start is not None:
+        callbacks = [StartEvaluation(run), CriticWarmup(run), *callbacks]
+    if run.plan.progress_bar:
+        callbacks.append(ProgressBar(run))
     return callbacks
 
 
