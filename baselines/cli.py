@@ -195,19 +195,13 @@ def _is_random(env_id: str) -> bool:
     return cls is not None and issubclass(cls, UAVPenetrationRandomVectorEnv)
 
 
-def train_command(args: argparse.Namespace) -> int:
-    """Run ``uav-bench train``: validate, train with a progress bar, print where everything went.
-
-    Returns:
-        0 on success, 130 when interrupted (the partly trained model is saved; ``--resume``
-        continues from the last checkpoint).
+def _train_config(args: argparse.Namespace) -> TrainConfig:
+    """The :class:`TrainConfig` of ``uav-bench train``'s flags (the default model path from the scenario as typed).
 
     Raises:
-        CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
+        CLIError: ``--difficulty`` where it does not apply, or a scenario that does not resolve.
     """
     from baselines.formulation import formulation_for
-    from baselines.plan import prepare_training
-    from baselines.run import run_training
 
     scenario = _scenario(args)
     difficulty = args.difficulty
@@ -223,15 +217,11 @@ def train_command(args: argparse.Namespace) -> int:
     try:
         tag = formulation_for(args.algo, args.shaping, args.action, args.clearance_m, args.features).tag
     except ValueError:
-        pass  # prepare_training names the bad flag below
+        pass  # prepare_training names the bad flag
     if args.init_from is not None:
         tag = f"{tag}-warm"
-    out = (
-        Path(args.out)
-        if args.out
-        else default_model_path(args.algo, args.env_id, args.scenario, args.seed, tag)
-    )
-    config = TrainConfig(
+    out = Path(args.out) if args.out else default_model_path(args.algo, args.env_id, args.scenario, args.seed, tag)
+    return TrainConfig(
         algo=args.algo, env_id=args.env_id, scenario=scenario, total_timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, out=out, hyperparams=args.hyperparams, profile=args.profile, difficulty=difficulty,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
@@ -239,6 +229,41 @@ def train_command(args: argparse.Namespace) -> int:
         shaping=args.shaping, action=args.action, clearance_m=args.clearance_m, features=args.features,
         init_from=args.init_from, critic_warmup_steps=args.critic_warmup_steps,
     )  # fmt: skip
+
+
+def _print_trained(result: Any) -> None:
+    """Where the model, its sidecar and its evaluations went, and the last evaluation."""
+    files = result.files
+    print(f"model: {files.model}")
+    print(f"sidecar: {files.sidecar}")
+    if result.sidecar["vecnormalize"]:
+        print(f"observation statistics: {files.vecnormalize}")
+    if result.evaluations:
+        last = result.evaluations[-1]
+        print(f"evaluations: {files.evaluations}")
+        print(
+            f"final evaluation ({last['episodes']} episodes, {last['timesteps']} steps): return "
+            f"{last['mean_return']:.3f} ± {last['std_return']:.3f}, success {last['success_rate']:.0%}"
+        )
+    print(
+        f"trained in {result.sidecar['wall_seconds']:.1f} s; evaluate with: uav-bench run --policies sb3:{files.model}"
+    )
+
+
+def train_command(args: argparse.Namespace) -> int:
+    """Run ``uav-bench train``: validate, train with a progress bar, print where everything went.
+
+    Returns:
+        0 on success, 130 when interrupted (the partly trained model is saved; ``--resume``
+        continues from the last checkpoint).
+
+    Raises:
+        CLIError: invalid input (printed by ``uav-bench`` with exit status 2).
+    """
+    from baselines.plan import prepare_training
+    from baselines.run import run_training
+
+    config = _train_config(args)
     try:
         plan = prepare_training(config)
     except (ValueError, FileNotFoundError) as error:
@@ -264,19 +289,5 @@ def train_command(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 130
-    files = result.files
-    print(f"model: {files.model}")
-    print(f"sidecar: {files.sidecar}")
-    if result.sidecar["vecnormalize"]:
-        print(f"observation statistics: {files.vecnormalize}")
-    if result.evaluations:
-        last = result.evaluations[-1]
-        print(f"evaluations: {files.evaluations}")
-        print(
-            f"final evaluation ({last['episodes']} episodes, {last['timesteps']} steps): return "
-            f"{last['mean_return']:.3f} ± {last['std_return']:.3f}, success {last['success_rate']:.0%}"
-        )
-    print(
-        f"trained in {result.sidecar['wall_seconds']:.1f} s; evaluate with: uav-bench run --policies sb3:{files.model}"
-    )
+    _print_trained(result)
     return 0
