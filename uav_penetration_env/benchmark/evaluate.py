@@ -298,15 +298,7 @@ def evaluate(
         KeyboardInterrupt: propagated after the store is left consistent.
     """
     seed_list = check_arguments(policies, scenarios, seeds, n_jobs, backend, store)
-    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
-        raise ValueError(f"threads: got {threads!r}, expected None or an integer >= 1")
-    import_plugins(imports)
-    scenario_list = [load_scenario(s) for s in scenarios]
-    hashes = {name: policy_hash(policy) for name, policy in policies.items()}
-    if len(set(hashes.values())) < len(hashes):
-        raise ValueError(
-            f"policies: two names share one configuration ({hashes}); give each configuration one name"
-        )
+    hashes, scenario_list = _checked_inputs(policies, scenarios, imports, threads)
     tasks = episode_tasks(policies, hashes, scenario_list, seed_list, tuple(imports), include, threads)
     own_store = store is not None and not isinstance(store, ResultsStore)
     results: ResultsStore | None = (
@@ -320,8 +312,8 @@ def evaluate(
             connection = workers.dask_client(_resolve_jobs(n_jobs), scheduler, tuple(imports))
         pending, run_id = tasks, None
         if results is not None:
-            settings = {"policies": list(policies), "scenarios": [s.name for s in scenario_list],
-                        "seeds": seed_list, "n_jobs": n_jobs, "backend": backend, **dict(run_settings or {})}  # fmt: skip
+            settings = {"policies": list(policies), "scenarios": [s.name for s in scenario_list], "seeds": seed_list,
+                        "n_jobs": n_jobs, "backend": backend, **dict(run_settings or {})}  # fmt: skip
             pending, run_id = _start_run(results, tasks, policies, hashes, scenario_list, command, settings)
         for scenario in {s.hash: s for s in scenario_list}.values():
             build_scenario(scenario)  # warm the disk cache once, so workers only load it
@@ -334,13 +326,38 @@ def evaluate(
             bar.close()
         return _frame(rows) if results is None else _requested(results, tasks)
     finally:
-        if connection is not None:  # closed by the sweep already, unless nothing was pending
-            client, cluster = connection
-            client.close()
-            if cluster is not None:
-                cluster.close()
-        if own_store and results is not None:
-            results.close()
+        _close(connection, results if own_store else None)
+
+
+def _close(connection: Any, results: ResultsStore | None) -> None:
+    """Close the dask client and cluster (already closed by the sweep unless nothing was pending) and our store."""
+    if connection is not None:
+        client, cluster = connection
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    if results is not None:
+        results.close()
+
+
+def _checked_inputs(
+    policies: Mapping[str, Any], scenarios: Sequence[Any], imports: Sequence[str], threads: int | None
+) -> tuple[dict[str, str], list[Scenario]]:
+    """The policies' configuration hashes (one name each) and the loaded scenarios, after the plug-ins' imports.
+
+    Raises:
+        ValueError: a bad ``threads``, two names of one configuration, or a scenario that does not load.
+    """
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
+        raise ValueError(f"threads: got {threads!r}, expected None or an integer >= 1")
+    import_plugins(imports)
+    scenario_list = [load_scenario(s) for s in scenarios]
+    hashes = {name: policy_hash(policy) for name, policy in policies.items()}
+    if len(set(hashes.values())) < len(hashes):
+        raise ValueError(
+            f"policies: two names share one configuration ({hashes}); give each configuration one name"
+        )
+    return hashes, scenario_list
 
 
 def episode_tasks(
