@@ -310,7 +310,8 @@ def compute_section(folder: Path) -> list[str]:
     rl_root = folder / "rl" if (folder / "rl").is_dir() else folder.parent / "rl"
     table = publish.compute_table(attempts, rl_root=rl_root, worker=worker,
                                   order=publish.V3_ORDER if v3 else publish.ORDER,
-                                  distill_root=publish.DISTILLED if v3 else None)  # fmt: skip
+                                  distill_root=publish.DISTILLED if v3 else None,
+                                  distill_names=publish.V3_NETWORKS)  # v3's own networks, not those trained since  # fmt: skip
     return ["## 6. Compute of the regeneration", "", table, ""]
 
 

@@ -473,13 +473,15 @@ def rl_compute(rl_root: Path = RL_ROOT) -> list[tuple[str, int, float]]:
             (f"RL training ({len(models)} runs)", len(models), training)]  # fmt: skip
 
 
-def imitation_compute(distill_root: Path) -> tuple[str, float] | None:
+def imitation_compute(distill_root: Path, names: Sequence[str] | None = None) -> tuple[str, float] | None:
     """The published distilled networks' training: (what, CPU seconds), from their sidecars; ``None`` without any.
 
     Each ``RUN/policy.json`` records the distillation's CPU seconds (expert labelling and fits,
     ``train_cpu_seconds``) and its expert labels (``expert_labels``, each one expert decision).
+    ``names``: only these run folders (a publication's own networks; default every one).
     """
-    sidecars = [json.loads(path.read_text()) for path in sorted((REPO / distill_root).glob("*/policy.json"))]
+    paths = sorted(p for p in (REPO / distill_root).glob("*/policy.json") if names is None or p.parent.name in names)
+    sidecars = [json.loads(path.read_text()) for path in paths]
     if not sidecars:
         return None
     labels = sum(int(s.get("expert_labels") or 0) for s in sidecars)
@@ -512,6 +514,7 @@ def compute_table(
     worker: dict[str, tuple[int, float]] | None = None,
     order: Sequence[str] = ORDER,
     distill_root: Path | None = None,
+    distill_names: Sequence[str] | None = None,
 ) -> str:
     """Per part: attempts, logged wall and CPU time, and the worker time of its finished work; then the RL programme.
 
@@ -546,7 +549,7 @@ def compute_table(
     )
     for what, _, wall in rl_compute(rl_root):
         lines.append(f"| {what} | | {wall / 3600:.2f} | (one core each) | | |")
-    imitation = imitation_compute(distill_root) if distill_root is not None else None
+    imitation = imitation_compute(distill_root, distill_names) if distill_root is not None else None
     if imitation is not None:
         lines.append(f"| {imitation[0]} | | | {imitation[1] / 3600:.2f} | | |")
     return "\n".join(lines)
@@ -610,6 +613,7 @@ V3 = Layout(V3_ROOT / "leaderboard.sqlite", V3_ROOT / "out", V3_ROOT / "out" / "
             V3_ROOT / "from-rows")  # fmt: skip
 CLASSICAL = ["lattice", "lattice-c40", "value-greedy-c40"]
 DISTILLED = Path("leaderboards/distill")  # the published distilled planners (docs/rl.md §4.9)
+V3_NETWORKS = ("c40-value-s1", "c40-value64-s0")  # the distilled networks v3 trained and published
 LEARNED = [f"distill-shield:{DISTILLED.as_posix()}/c40-value-s1", f"distill:{DISTILLED.as_posix()}/c40-value-s1",
            f"distill-shield:{DISTILLED.as_posix()}/c40-value64-s0"]  # fmt: skip
 MPC_PLANNERS = [*PAPER_PLANNERS, "cmaes"]
@@ -1160,7 +1164,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 worker = {}
         # v3 publishes the distilled planners (docs/publishing.md §5.1), so their training is its compute.
         distill_root = DISTILLED if args.version == "v3" else None
-        print(compute_table(attempts, worker=worker, order=pub.order, distill_root=distill_root))
+        print(compute_table(attempts, worker=worker, order=pub.order, distill_root=distill_root, distill_names=V3_NETWORKS))
         return 0
     if args.install:
         tables = next(part for part in pub.plan() if part.name == "tables")
