@@ -22,7 +22,7 @@ from uav_penetration_env.benchmark.policies import mpc_objective
 from uav_penetration_env.benchmark.store import ResultsStore
 from uav_penetration_env.benchmark.windows import window_at
 from uav_penetration_env.model import PenetrationModel
-from uav_penetration_env.mpc import MPCSettings
+from uav_penetration_env.mpc import MPCSettings, Terminal
 
 BLACKBOX = importlib.util.find_spec("ioh") is not None and importlib.util.find_spec("nevergrad") is not None
 needs_blackbox = pytest.mark.skipif(not BLACKBOX, reason="the blackbox extra: pip install -e '.[blackbox]'")
@@ -69,7 +69,7 @@ def test_suite_problems_number_instances_by_the_members_position_in_the_suite():
 def test_the_window_problem_is_the_planners_objective_on_its_box():
     problem = window_problem(TINY, horizon=2, terminal="none")
     model = PenetrationModel(TINY)
-    reference = mpc_objective(model, model.initial_state(None), 0, MPCSettings(horizon=2, terminal="none"))
+    reference = mpc_objective(model, model.initial_state(None), 0, MPCSettings(horizon=2, terminal=Terminal("none")))
     assert problem.dimension == 6 and problem.name == "window/tiny/k0"
     np.testing.assert_array_equal(problem.lower, reference.bounds.lb)
     np.testing.assert_array_equal(problem.upper, reference.bounds.ub)
@@ -78,7 +78,7 @@ def test_the_window_problem_is_the_planners_objective_on_its_box():
     assert problem.optimum is None
     # a stored episode's window keeps its state, step and settings
     window = window_at(
-        model, model.initial_state(None), 3, [np.ones(3)], MPCSettings(horizon=3, terminal="none")
+        model, model.initial_state(None), 3, [np.ones(3)], MPCSettings(horizon=3, terminal=Terminal("none"))
     )
     again = window_problem(window)
     assert (again.step, again.dimension, again.name) == (3, 9, "window//k3")

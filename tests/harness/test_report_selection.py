@@ -89,8 +89,8 @@ def test_export_into_a_folder_names_the_files_after_the_store(store, tmp_path):
     folder = tmp_path / "rows"
     assert cli.main(["export", "--format", "csv", "--store", str(store), "--out", f"{folder}/"]) == 0
     assert sorted(p.name for p in folder.iterdir()) == [
-        "run-episodes.csv", "run-policies.csv", "run-runs.csv", "run-scenarios.csv", "run-steps.csv",
-        "run-window_runs.csv",
+        "run-episodes.csv", "run-manifest.json", "run-policies.csv", "run-runs.csv", "run-scenarios.csv",
+        "run-steps.csv", "run-window_runs.csv",
     ]  # fmt: skip
 
 
