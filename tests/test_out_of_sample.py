@@ -62,3 +62,13 @@ def test_the_published_out_of_sample_networks_never_saw_a_published_map(folder):
     assert [s.hash for s in training] == key["scenario_hashes"]
     assert [s.hash for s in validation] == key["validation_hashes"]
     assert published_overlap([*training, *validation]) == []
+
+
+@pytest.mark.parametrize("sidecar", sorted((ROOT / "leaderboards" / "rl" / "oos").glob("*.json")), ids=lambda p: p.stem)
+def test_the_out_of_sample_agents_trained_on_an_unpublished_map_from_an_out_of_sample_network(sidecar):
+    """An agent's sidecar names its training scenario (by hash) and the network it started from."""
+    side = json.loads(sidecar.read_text())
+    scenario = resolve_scenario(f"random:{side['scenario']['name'].removeprefix('random-')}", 0.5)
+    assert scenario.hash == side["scenario"]["hash"]  # the map it trained on, rebuilt
+    assert published_overlap([scenario]) == []
+    assert Path(side["warm_start"]["folder"]).name.startswith("oos-")
