@@ -397,3 +397,16 @@ def test_rl_formulations_groups_agents_by_name_and_counts_maps_cheaper_than_gree
     assert turn["maps cheaper than greedy"] == 1 and turn["validation success"] == 0.75
     assert table.index.tolist() == ["ppo-turn", "greedy"]  # the references last
     assert "| ppo-turn | 2 | 13.00 / 15.00 | 14.00 [" in script.markdown(table.reset_index())
+
+
+def test_bench_value_quick_run_times_each_part_and_matches_the_reference(capsys):
+    results = load("bench_value").main(["--quick"])
+    out = capsys.readouterr().out
+    assert list(results) == ["0 busy processes beside it", "1 busy processes beside it"]
+    for builds, changes in results.values():
+        assert [(row["map"], row["threads"]) for row in builds] == [("random-50000", 1), ("random-50000", 2)]
+        assert all(row["difference"] <= 1e-9 for row in builds)
+        assert all(row[f"{method}_{part}"] > 0 for row in builds for method in ("reference", "sweeps") for part in ("moves", "costs", "sweeps", "route"))
+        assert [row["change"] for row in changes] == ["added", "moved", "removed"]
+        assert all(row["difference"] <= 1e-9 and 0 < row["changed_moves"] < row["moves"] for row in changes)
+    assert "radar added" in out and "max rel diff" in out
