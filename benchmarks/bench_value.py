@@ -149,7 +149,7 @@ def main(argv: list[str] | None = None) -> dict[str, tuple[list[dict], list[dict
     paper = scenarios[0] if args.quick else resolve_scenario("paper")
     # Compile every kernel first (a first call compiles for minutes on a fresh cache).
     small = PenetrationModel(scenarios[0], threads=1)
-    full_builds([scenarios[0]], QUICK_LATTICE, 1, (1,))
+    full_builds([scenarios[0]], QUICK_LATTICE, 1, (1, 2))
     rebuilds(small.scenario, QUICK_LATTICE, 1)
     results = {}
     for busy in (0, load):
