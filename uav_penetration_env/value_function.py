@@ -640,6 +640,7 @@ class ValueFunctionBuilder:
     def _build_lattice(self, clock: BuildClock) -> None:
         model, settings, p = self.model, self.settings, self.scenario_index
         starts, ends, move_t = _transitions(model, settings, p)
+        self._shared = _shared_steps(model, settings) is not None
         self._starts, self._ends, self._move_t = starts, ends, move_t
         self._ex = np.ascontiguousarray(ends[:, 0])
         self._ey = np.ascontiguousarray(ends[:, 1])
@@ -647,14 +648,50 @@ class ValueFunctionBuilder:
         xs, ys, headings = lattice_nodes(model, settings)
         self._shape = (xs.size, ys.size, headings.size)
         self._grid = _grid_slots(model, settings)
-        x_min, x_max, y_min, y_max = model.bounds
-        m = settings.edge_margin_m
-        self._near_edge = (self._ex < x_min + m) | (self._ex > x_max - m) | (self._ey < y_min + m) | (self._ey > y_max - m)
+        self._move_near = self._near_edge_moves(starts, ends, move_t)
         node = np.arange(move_t.shape[0])
         goal = model.goal[p]
         ix, iy = node // (ys.size * headings.size), (node // headings.size) % ys.size
         self._inside_goal = np.hypot(xs[ix] - goal[0], ys[iy] - goal[1]) <= goal[2]
         clock.lap("moves")
+
+    def _near_edge_moves(self, starts: np.ndarray, ends: np.ndarray, move_t: np.ndarray) -> np.ndarray:
+        """(N, A) whether each move ends in the edge margin, tested on the move's own end point.
+
+        A shared transition's end differs from each of its moves' by rounding (its heading is the
+        node heading, theirs heading + turn), and on a map whose edge and nodes fall on multiples
+        of the margin an end can lie on the margin exactly (a 60-degree move of 3 km from the edge
+        ends 1500 m from it). So the moves from nodes within a step and a margin of the edge are
+        flown as :func:`lattice_moves` flies them and tested on their own ends.
+        """
+        model, settings = self.model, self.settings
+        x_min, x_max, y_min, y_max = model.bounds
+        m = settings.edge_margin_m
+
+        def near(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+            return (x < x_min + m) | (x > x_max - m) | (y < y_min + m) | (y > y_max - m)
+
+        move_near = near(ends[:, 0], ends[:, 1])[move_t]
+        if not self._shared:
+            return move_near
+        x, y, h = starts[move_t[:, 0], 0], starts[move_t[:, 0], 1], self._node_headings()
+        reach = m + model.limits.max_step_length + settings.spacing_m
+        border = near(x, y) | (x < x_min + reach) | (x > x_max - reach) | (y < y_min + reach) | (y > y_max - reach)
+        if border.any():
+            z = starts[move_t[border, 0], 2]
+            turns = np.asarray(settings.turns) * model.limits.dheading_max
+            hb = h[border]
+            _, own = _moves(
+                model, settings, self.scenario_index, x[border, None], y[border, None], z[:, None], hb[:, None],
+                wrap_angle(hb[:, None] + turns[None, :]),
+            )  # fmt: skip
+            move_near[border] = near(own[..., 0], own[..., 1])
+        return move_near
+
+    def _node_headings(self) -> np.ndarray:
+        """(N,) each node's heading [rad], as :func:`lattice_nodes` spaces them."""
+        _, _, headings = lattice_nodes(self.model, self.settings)
+        return np.tile(headings, self._move_t.shape[0] // headings.size)
 
     def _price_all(self, clock: BuildClock) -> None:
         model, p = self.model, self.scenario_index
@@ -666,12 +703,13 @@ class ValueFunctionBuilder:
             model.threads, value_kernels.transition_costs,
             model.arrays, p, self._starts, self._ends, cost, reached, collided, outside, terrain_n, third_n, per_radar,
         )  # fmt: skip
-        edge = (outside | self._near_edge) & ~reached
-        self._forbidden = collided | outside | edge
+        # A move that leaves the map or ends in its margin (without reaching the goal) is an edge
+        # move: forbidden, and its node edge-doomed when no move is feasible.
+        self._blocked = (outside[self._move_t] | self._move_near) & ~reached[self._move_t]
+        self._forbidden = collided | outside
         self._reached, self._terrain_n, self._third_n, self._per_radar = reached, terrain_n, third_n, per_radar
-        self._cost = np.where(edge, np.inf, cost)
-        moves_edge = edge[self._move_t]
-        terrain_doomed = np.all(~np.isfinite(self._cost[self._move_t]), axis=1) & ~np.any(moves_edge, axis=1)
+        self._cost = cost
+        terrain_doomed = np.all(~np.isfinite(cost[self._move_t]), axis=1) & ~np.any(self._blocked, axis=1)
         self._table = np.full(self._shape, np.inf)
         flat = self._table.reshape(-1)
         flat[terrain_doomed] = -np.inf
@@ -712,7 +750,7 @@ class ValueFunctionBuilder:
         kernels.with_threads(
             self.model.threads, value_kernels.jacobi_pass,
             self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh,
-            self._move_t, self._fixed, self._q, new,
+            self._move_t, self._blocked, self._fixed, self._q, new,
         )  # fmt: skip
 
     # --- solving -----------------------------------------------------------------------------
@@ -726,7 +764,7 @@ class ValueFunctionBuilder:
             while dirty.any():
                 value_kernels.dirty_sweep(
                     self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh, self._move_t,
-                    self._order, self._fixed, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev, threshold,
+                    self._blocked, self._order, self._fixed, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev, threshold,
                 )  # fmt: skip
                 self.sweeps += 1
                 self._check_sweeps()
@@ -798,7 +836,7 @@ class ValueFunctionBuilder:
 
     def _inherit(self, old: ValueFunctionBuilder) -> None:
         for name in (
-            "_starts", "_ends", "_move_t", "_ex", "_ey", "_eh", "_shape", "_grid", "_near_edge", "_inside_goal",
+            "_starts", "_ends", "_move_t", "_shared", "_ex", "_ey", "_eh", "_shape", "_grid", "_move_near", "_blocked", "_inside_goal",
             "_forbidden", "_reached", "_terrain_n", "_third_n", "_rev_ptr", "_rev", "_users_ptr", "_users", "_fixed",
         ):  # fmt: skip
             setattr(self, name, getattr(old, name))  # read-only after a build: shared, not copied

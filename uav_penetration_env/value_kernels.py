@@ -111,10 +111,12 @@ def _q_value(table, grid, cost, reached, ex, ey, eh, t):
 
 
 @njit(inline="always", cache=True)
-def _node_value(q, move_t, n, cap):
-    """The least q over the node's moves, capped at the crash price (value_function.value_iteration)."""
+def _node_value(q, move_t, blocked, n, cap):
+    """The least q over the node's moves (``blocked`` ones left out), capped at the crash price (value_function.value_iteration)."""
     best = math.inf
     for a in range(move_t.shape[1]):
+        if blocked[n, a]:
+            continue
         v = q[move_t[n, a]]
         if v < best:
             best = v
@@ -124,17 +126,18 @@ def _node_value(q, move_t, n, cap):
 
 
 @njit(parallel=True, cache=True)
-def jacobi_pass(table, grid, cost, reached, ex, ey, eh, move_t, fixed, q, new):
+def jacobi_pass(table, grid, cost, reached, ex, ey, eh, move_t, blocked, fixed, q, new):
     """One Jacobi application of the Bellman operator: q (T,) of every move, then new (N,) of every node.
 
-    ``fixed`` nodes (inside the goal disc, or terrain-doomed) keep their value.
+    ``fixed`` nodes (inside the goal disc, or terrain-doomed) keep their value; ``blocked`` (N, A)
+    moves (ending in the edge margin) are left out.
     """
     for t in prange(cost.shape[0]):
         q[t] = _q_value(table, grid, cost, reached, ex, ey, eh, t)
     flat = table.reshape(-1)
     cap = grid[G_MISSING]
     for n in prange(move_t.shape[0]):
-        new[n] = flat[n] if fixed[n] else _node_value(q, move_t, n, cap)
+        new[n] = flat[n] if fixed[n] else _node_value(q, move_t, blocked, n, cap)
 
 
 @njit(cache=True)
@@ -252,10 +255,12 @@ def nearest_values(table_shape, grid, cost, reached, ex, ey, eh, move_t, users_p
 
 
 @njit(cache=True)
-def dirty_sweep(table, grid, cost, reached, ex, ey, eh, move_t, order, fixed, dirty, users_ptr, users, rev_ptr, rev, threshold):
+def dirty_sweep(
+    table, grid, cost, reached, ex, ey, eh, move_t, blocked, order, fixed, dirty, users_ptr, users, rev_ptr, rev, threshold
+):
     """A Gauss-Seidel sweep in ``order`` over the dirty nodes only; returns (the reference's change measure, nodes updated).
 
-    Each dirty node takes its Bellman update (as :func:`ordered_sweep`) and is cleaned; a node
+    Each dirty node takes its Bellman update (its ``blocked`` moves left out) and is cleaned; a node
     whose value moved by more than ``threshold`` (``inf`` counting as the crash price, as the
     interpolation reads it) dirties every node with a move whose end pose interpolates over it,
     later in this sweep or in the next.
@@ -275,6 +280,8 @@ def dirty_sweep(table, grid, cost, reached, ex, ey, eh, move_t, order, fixed, di
         updated += 1
         best = math.inf
         for a in range(move_t.shape[1]):
+            if blocked[n, a]:
+                continue
             v = _q_value(table, grid, cost, reached, ex, ey, eh, move_t[n, a])
             if v < best:
                 best = v

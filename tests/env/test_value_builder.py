@@ -99,3 +99,21 @@ def test_bad_method_and_pool_are_refused(model):
     pool = PenetrationModel([tiny_scenario(), tiny_scenario(goal={"x_km": 24, "y_km": 26})])
     with pytest.raises(ValueError, match="with_radars: got a pool of 2 scenarios"):
         ValueFunctionBuilder(pool, 1, COARSE).with_radars(())
+
+
+def test_moves_ending_on_the_edge_margin_are_judged_on_their_own_end_points():
+    """A flat map whose edge lies at 0: a level 60-degree move of 3 km from an edge node ends on the 1.5 km margin.
+
+    A shared transition's end differs from its moves' by rounding; the margin test must see each
+    move's own end, as the reference does (the DEM member's map, model.md §7e.2), or a node's doom
+    flips and V moves by a per mille.
+    """
+    shifted = tiny_scenario(
+        map={"x_km": [0, 75], "y_km": [0, 75]},
+        start={"x_km": 25, "y_km": 25},
+        goal={"x_km": 50, "y_km": 50},
+        terrain={"natural": {"height_m": 0}, "mountains": [{"x_km": 37, "y_km": 39, "height_m": 400}]},
+        radars=[{"name": "A", "x_km": 30, "y_km": 50, "z_m": 300}, {"name": "B", "x_km": 50, "y_km": 30, "mast_m": 15}],
+    )
+    model = PenetrationModel(shifted, threads=1)
+    assert_same_values(build_arrays(model, LATTICE_DEFAULTS, 0)["table"], build_arrays(model, LATTICE_DEFAULTS, 0, method="reference")["table"])
