@@ -437,3 +437,16 @@ def test_the_quick_start_check_runs_the_readmes_own_commands(tmp_path):
         module.quick_start_commands("# README\n\n## Set up and run\n\nno block\n\n## Next\n")
     contributing = (path.parents[1] / "CONTRIBUTING.md").read_text(encoding="utf-8")
     assert "python3 .ci/quickstart_under_load.py" in contributing
+
+
+def test_bench_value_quick_run_times_each_part_and_matches_the_reference(capsys):
+    results = load("bench_value").main(["--quick"])
+    out = capsys.readouterr().out
+    assert list(results) == ["0 busy processes beside it", "1 busy processes beside it"]
+    for builds, changes in results.values():
+        assert [(row["map"], row["threads"]) for row in builds] == [("random-50000", 1), ("random-50000", 2)]
+        assert all(row["difference"] <= 1e-9 for row in builds)
+        assert all(row[f"{method}_{part}"] > 0 for row in builds for method in ("reference", "sweeps") for part in ("moves", "costs", "sweeps", "route"))
+        assert [row["change"] for row in changes] == ["added", "moved", "removed"]
+        assert all(row["difference"] <= 1e-9 and 0 < row["changed_moves"] < row["moves"] for row in changes)
+    assert "radar added" in out and "max rel diff" in out

@@ -495,51 +495,62 @@ def swerling1(ratio, params):
 
 
 @njit(inline="always", cache=True)
-def radar_threats(arrays, p, x, y, z, heading, pitch, per_radar, visible):
-    """Per-radar threat (D or P_d) and visibility into the (M,) rows given; returns P_d of the network.
+def radar_threat(arrays, p, m, x, y, z, cos_h, sin_h, cos_p, sin_p):
+    """Radar ``m``'s threat (D or P_d) and visibility of a UAV at (x, y, z) with the given attitude.
 
     Model.md §4-5: range (floored at the minimum range), body-frame aspect, RCS, ratio D, the
-    horizon and terrain masking; the ``paper`` profile keeps D where it counts (eqs. 11/13), the
-    ``benchmark`` profile turns it into the Swerling-I probability.
+    horizon and terrain masking; the ``paper`` profile keeps D where it counts (eqs. 11/13: D >= 1
+    inside the horizon and, with masking on, in sight; else 0), the ``benchmark`` profile turns it
+    into the Swerling-I probability times the visibility. One radar at a time, so a changed radar
+    can be re-priced alone (the lattice's incremental rebuild, model.md §7e.2).
     """
     params = arrays.params
     options = arrays.options
     masking = options[O_MASKING]
-    ratio_detection = options[O_DETECTION] == 0
     softness = params[P_SOFTNESS] if masking == 2 else 0.0
+    ox = arrays.radar_xyz[p, m, 0] - x
+    oy = arrays.radar_xyz[p, m, 1] - y
+    oz = arrays.radar_xyz[p, m, 2] - z
+    distance = max(math.sqrt(ox * ox + oy * oy + oz * oz), params[P_MIN_RANGE])
+    az, el = aspect_angles(ox / distance, oy / distance, oz / distance, cos_h, sin_h, cos_p, sin_p)
+    sigma = rcs_value(arrays.rcs_table, az, el)
+    ratio = detection_ratio(sigma, arrays.ref_rcs[p, m], arrays.ref_range[p, m], distance)
+    in_horizon = distance <= horizon_range(arrays.radar_xyz[p, m, 2], z, params)
+    if masking == 0:
+        seen = 1.0 if in_horizon else 0.0
+    else:
+        floor = grid_value(arrays.floors, arrays.floor_layer[p, m], x, y, params)
+        seen = visibility(z, floor, softness)
+    seen = seen * arrays.radar_present[p, m]
+    if options[O_DETECTION] == 0:
+        if ratio >= 1.0 and in_horizon and seen >= 0.5:
+            return ratio, seen
+        return 0.0, seen
+    return seen * swerling1(ratio, params), seen
+
+
+@njit(inline="always", cache=True)
+def radar_threats(arrays, p, x, y, z, heading, pitch, per_radar, visible):
+    """Per-radar threat (D or P_d) and visibility into the (M,) rows given; returns P_d of the network.
+
+    Each radar by :func:`radar_threat`; the network's detection is 1 when any D counts (the
+    ``paper`` profile, eqs. 11/13) or the largest P_d (the ``benchmark`` profile).
+    """
+    ratio_detection = arrays.options[O_DETECTION] == 0
     cos_h = math.cos(heading)
     sin_h = math.sin(heading)
     cos_p = math.cos(pitch)
     sin_p = math.sin(pitch)
     detection = 0.0
     for m in range(arrays.radar_xyz.shape[1]):
-        ox = arrays.radar_xyz[p, m, 0] - x
-        oy = arrays.radar_xyz[p, m, 1] - y
-        oz = arrays.radar_xyz[p, m, 2] - z
-        distance = max(math.sqrt(ox * ox + oy * oy + oz * oz), params[P_MIN_RANGE])
-        az, el = aspect_angles(ox / distance, oy / distance, oz / distance, cos_h, sin_h, cos_p, sin_p)
-        sigma = rcs_value(arrays.rcs_table, az, el)
-        ratio = detection_ratio(sigma, arrays.ref_rcs[p, m], arrays.ref_range[p, m], distance)
-        in_horizon = distance <= horizon_range(arrays.radar_xyz[p, m, 2], z, params)
-        if masking == 0:
-            seen = 1.0 if in_horizon else 0.0
-        else:
-            floor = grid_value(arrays.floors, arrays.floor_layer[p, m], x, y, params)
-            seen = visibility(z, floor, softness)
-        seen = seen * arrays.radar_present[p, m]
+        threat, seen = radar_threat(arrays, p, m, x, y, z, cos_h, sin_h, cos_p, sin_p)
         visible[m] = seen
+        per_radar[m] = threat
         if ratio_detection:
-            # Eqs. 11/13 (A19): D counts iff D >= 1 inside the horizon and, with masking on, in sight.
-            if ratio >= 1.0 and in_horizon and seen >= 0.5:
-                per_radar[m] = ratio
+            if threat > 0.0:  # a ratio D >= 1 that counts
                 detection = 1.0
-            else:
-                per_radar[m] = 0.0
-        else:
-            threat = seen * swerling1(ratio, params)
-            per_radar[m] = threat
-            if m == 0 or threat > detection:
-                detection = threat
+        elif m == 0 or threat > detection:
+            detection = threat
     return detection
 
 
@@ -640,6 +651,14 @@ def segment_events(arrays, p, start, end):
 
 
 @njit(inline="always", cache=True)
+def weighted_cost(params, terrain_n, threat_r, third_n):
+    """(radar_n, J): the normalised radar term and the weighted cost J of eq. 37 from the normalised terms (model.md §7)."""
+    radar_n = (threat_r - params[P_RADAR_LO]) / (params[P_RADAR_HI] - params[P_RADAR_LO])
+    cost = params[P_W_TERRAIN] * terrain_n + params[P_W_RADAR] * radar_n + params[P_W_THIRD] * third_n
+    return radar_n, cost
+
+
+@njit(inline="always", cache=True)
 def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags):
     """Score one transition ``start -> end`` (6-vectors) taken into step ``k_next`` (model.md §7a).
 
@@ -670,9 +689,8 @@ def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags
     third = third_term(options[O_THIRD], fuel, end[3] * params[P_DT], before, after, params)
 
     terrain_n = (threat_e - params[P_TERRAIN_LO]) / (params[P_TERRAIN_HI] - params[P_TERRAIN_LO])
-    radar_n = (threat_r - params[P_RADAR_LO]) / (params[P_RADAR_HI] - params[P_RADAR_LO])
     third_n = (third - params[P_THIRD_LO]) / (params[P_THIRD_HI] - params[P_THIRD_LO])
-    cost = params[P_W_TERRAIN] * terrain_n + params[P_W_RADAR] * radar_n + params[P_W_THIRD] * third_n
+    radar_n, cost = weighted_cost(params, terrain_n, threat_r, third_n)
     penalty = failure_penalty(collided or out_of_area, k_next, max_steps, params[P_CRASH_PER_STEP])
 
     scalars[S_J] = cost

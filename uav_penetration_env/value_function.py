@@ -38,6 +38,7 @@ ground between them (such moves are forbidden, not repaired).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import time
@@ -48,10 +49,15 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit, prange
 
-from uav_penetration_env import compile_cache  # noqa: F401  (numba's cache folder, before any compiled function)
+from uav_penetration_env import (
+    compile_cache,  # noqa: F401  (numba's cache folder, before any compiled function)
+    kernels,
+    value_kernels,
+)
 from uav_penetration_env.cache import cached_arrays
 from uav_penetration_env.kinematics import HEADING, PITCH, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.scenario import Radar
 from uav_penetration_env.terminal_kernels import (
     G_DX,
     G_DY,
@@ -67,7 +73,7 @@ from uav_penetration_env.types import FloatArray
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
-ALGORITHM_VERSION = 4
+ALGORITHM_VERSION = 5  # 5: the dirty-sweep builder (V equal to the tolerance), build_cpu_seconds stored
 _CHUNK_ROWS = 131_072  # transitions scored per model.costs call while building (bounds memory)
 
 
@@ -129,6 +135,8 @@ class ValueFunction:
         settings: the lattice it was built on.
         sweeps: value-iteration sweeps until convergence.
         build_seconds: wall time of the build (0 when loaded from the cache).
+        build_cpu_seconds: CPU time of the build (``time.process_time``; 0 when loaded from the
+            cache).
         route_j_per_step: mean J per step of the lattice planner flown from the scenario's start
             (the calibration of the ``dubins`` form's c_T).
         route_steps: steps of that flight.
@@ -141,6 +149,7 @@ class ValueFunction:
     build_seconds: float
     route_j_per_step: float
     route_steps: int
+    build_cpu_seconds: float = 0.0
 
     @property
     def missing(self) -> float:
@@ -294,30 +303,46 @@ def lattice_moves(
     index = np.full(x.size, scenario_index)
     z = model.height(x, y, index) + settings.clearance_m
     turns = np.asarray(settings.turns) * limits.dheading_max
-    length = limits.max_step_length
     new_heading = wrap_angle(h[:, None] + turns[None, :])
-    level_x = x[:, None] + length * np.cos(new_heading)
-    level_y = y[:, None] + length * np.sin(new_heading)
+    starts, ends = _moves(model, settings, scenario_index, x[:, None], y[:, None], z[:, None], h[:, None], new_heading)
+    return starts, ends, index
+
+
+def _moves(
+    model: PenetrationModel,
+    settings: LatticeSettings,
+    scenario_index: int,
+    x: np.ndarray,
+    y: np.ndarray,
+    z: np.ndarray,
+    heading: np.ndarray,
+    new_heading: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end states (..., 6) of lattice moves from (x, y, z, heading) to ``new_heading`` (broadcast)."""
+    limits = model.limits
+    length = limits.max_step_length
+    x, y, z, heading, new_heading = np.broadcast_arrays(x, y, z, heading, new_heading)
+    level_x = x + length * np.cos(new_heading)
+    level_y = y + length * np.sin(new_heading)
     target = model.height(level_x, level_y, np.broadcast_to(scenario_index, level_x.shape)) + settings.clearance_m
-    climb = np.clip((target - z[:, None]) / length, -1.0, 1.0)
+    climb = np.clip((target - z) / length, -1.0, 1.0)
     pitch = np.clip(np.arcsin(climb), -limits.pitch_max, limits.pitch_max)
     horizontal = length * np.cos(pitch)
-    moves = len(turns)
-    starts = np.empty((x.size, moves, 6))
-    starts[..., 0] = x[:, None]
-    starts[..., 1] = y[:, None]
-    starts[..., 2] = z[:, None]
+    starts = np.empty((*x.shape, 6))
+    starts[..., 0] = x
+    starts[..., 1] = y
+    starts[..., 2] = z
     starts[..., 3] = limits.speed_max
-    starts[..., 4] = h[:, None]
+    starts[..., 4] = heading
     starts[..., 5] = 0.0
     ends = np.empty_like(starts)
-    ends[..., 0] = x[:, None] + horizontal * np.cos(new_heading)
-    ends[..., 1] = y[:, None] + horizontal * np.sin(new_heading)
-    ends[..., 2] = z[:, None] + length * np.sin(pitch)
+    ends[..., 0] = x + horizontal * np.cos(new_heading)
+    ends[..., 1] = y + horizontal * np.sin(new_heading)
+    ends[..., 2] = z + length * np.sin(pitch)
     ends[..., 3] = limits.speed_max
     ends[..., 4] = new_heading
     ends[..., 5] = pitch
-    return starts, ends, index
+    return starts, ends
 
 
 def move_costs(
@@ -367,10 +392,40 @@ def _grid_slots(model: PenetrationModel, settings: LatticeSettings) -> np.ndarra
     return grid
 
 
-def _iterate(model: PenetrationModel, settings: LatticeSettings, scenario_index: int) -> dict[str, np.ndarray]:
+class BuildClock:
+    """CPU (time.process_time) and wall seconds of the named parts of a build."""
+
+    def __init__(self) -> None:
+        self.cpu: dict[str, float] = {}
+        self.wall: dict[str, float] = {}
+        self._cpu = time.process_time()
+        self._wall = time.perf_counter()
+
+    def lap(self, part: str) -> None:
+        """Add the time since the last lap (or the start) to ``part``."""
+        cpu, wall = time.process_time(), time.perf_counter()
+        self.cpu[part] = self.cpu.get(part, 0.0) + cpu - self._cpu
+        self.wall[part] = self.wall.get(part, 0.0) + wall - self._wall
+        self._cpu, self._wall = cpu, wall
+
+
+def _iterate_reference(
+    model: PenetrationModel, settings: LatticeSettings, scenario_index: int, clock: BuildClock | None = None
+) -> dict[str, np.ndarray]:
+    """V by the first builder: every move scored, Gauss-Seidel sweeps from V = inf (the test oracle).
+
+    Nodes in order of distance to the goal, alternating direction, until no node changes by more
+    than ``settings.tolerance``; kept as the oracle of :class:`ValueFunctionBuilder` and as the
+    reference of ``benchmarks/bench_value.py`` (model.md §7e.2). ``clock`` (optional) records the
+    parts' times (``moves``, ``costs``, ``sweeps``, ``route``).
+    """
+    clock = clock or BuildClock()
     start_time = time.perf_counter()
+    start_cpu = time.process_time()
     starts, ends, _ = lattice_moves(model, settings, scenario_index)
+    clock.lap("moves")
     cost, reached, edge = move_costs(model, starts, ends, scenario_index)
+    clock.lap("costs")
     x_min, x_max, y_min, y_max = model.bounds
     margin = settings.edge_margin_m
     near_edge = (
@@ -409,16 +464,417 @@ def _iterate(model: PenetrationModel, settings: LatticeSettings, scenario_index:
             f"value iteration: no convergence to {settings.tolerance} in {settings.max_sweeps} sweeps "
             "(raise LatticeSettings.max_sweeps or tolerance)"
         )
+    clock.lap("sweeps")
     vf = ValueFunction(table, grid, settings, sweeps, 0.0, math.nan, 0)
     j_per_step, steps = _route_calibration(model, vf, scenario_index)
-    seconds = time.perf_counter() - start_time
+    clock.lap("route")
     return {
         "table": table,
         "grid": grid,
         "sweeps": np.array(sweeps),
-        "build_seconds": np.array(seconds),
+        "build_seconds": np.array(time.perf_counter() - start_time),
+        "build_cpu_seconds": np.array(time.process_time() - start_cpu),
         "route": np.array([j_per_step, steps]),
     }
+
+
+def build_arrays(
+    model: PenetrationModel,
+    settings: LatticeSettings,
+    scenario_index: int = 0,
+    method: str = "sweeps",
+    clock: BuildClock | None = None,
+) -> dict[str, np.ndarray]:
+    """The arrays of V for one pool member, built now (no cache): ``method`` ``sweeps`` (the default builder) or ``reference``.
+
+    Raises:
+        ValueError: an unknown ``method``.
+    """
+    if method == "reference":
+        return _iterate_reference(model, settings, scenario_index, clock)
+    if method != "sweeps":
+        raise ValueError(f"method: got {method!r}, expected 'sweeps' or 'reference'")
+    builder = ValueFunctionBuilder(model, scenario_index, settings)
+    if clock is not None:
+        clock.cpu.update(builder.cpu_seconds)
+        clock.wall.update(builder.wall_seconds)
+    return builder.arrays()
+
+
+# --- the fast builder and its incremental rebuild (model.md §7e.2) ------------------------------
+
+# DECISION (model.md §7e.2): a change of V dirties the nodes upstream only when it exceeds this
+# fraction of the tolerance; smaller changes are written but not passed upstream. The final
+# Jacobi check applies the reference's stopping rule (no node changes by more than the tolerance)
+# to the whole table, so the result passes the test the reference iteration stops on.
+PROPAGATION_FRACTION = 1e-3
+# The sweeps' order is re-sorted by the values after these sweeps: the Dijkstra guess's order is
+# wrong where the guess is far off (beside doomed nodes, whose interpolation prices a crash).
+RESORT_AFTER = (1, 2)
+
+
+def _shared_steps(model: PenetrationModel, settings: LatticeSettings) -> np.ndarray | None:
+    """Each turn in heading nodes when every turn lands on a node heading (then moves share end states), else None."""
+    steps = np.asarray(settings.turns) * model.limits.dheading_max / (2.0 * math.pi / settings.headings)
+    rounded = np.round(steps)
+    return rounded.astype(np.int64) if np.all(np.abs(steps - rounded) < 1e-9) else None
+
+
+def _transitions(
+    model: PenetrationModel, settings: LatticeSettings, scenario_index: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lattice's distinct transitions: starts, ends (T, 6), and each node's moves as transition indices (N, A).
+
+    A move's J does not depend on the start heading (the model scores a transition by its start
+    position and its end state), so when every turn lands on a node heading the moves of the
+    headings at one position that end on the same heading are one transition: T = N instead of
+    N x A. Otherwise each move is its own transition, as :func:`lattice_moves` makes them.
+    """
+    xs, ys, headings = lattice_nodes(model, settings)
+    nh = headings.size
+    steps = _shared_steps(model, settings)
+    if steps is None:
+        starts, ends, _ = lattice_moves(model, settings, scenario_index)
+        moves = starts.shape[1]
+        return starts.reshape(-1, 6), ends.reshape(-1, 6), np.arange(starts.shape[0] * moves).reshape(-1, moves)
+    px, py = np.meshgrid(xs, ys, indexing="ij")
+    px, py = px.reshape(-1), py.reshape(-1)
+    pz = model.height(px, py, np.full(px.size, scenario_index)) + settings.clearance_m
+    end_heading = wrap_angle(headings)
+    starts, ends = _moves(
+        model, settings, scenario_index, px[:, None], py[:, None], pz[:, None], end_heading[None, :], end_heading[None, :]
+    )
+    node = np.arange(px.size * nh)
+    position, heading_index = node // nh, node % nh
+    move_t = position[:, None] * nh + (heading_index[:, None] + steps[None, :]) % nh
+    return starts.reshape(-1, 6), ends.reshape(-1, 6), move_t.astype(np.int64)
+
+
+def _same_radar(old: PenetrationModel, i: int, new: PenetrationModel, j: int, p: int) -> bool:
+    """Whether slot i of ``old`` and slot j of ``new`` (member p) hold the same radar with the same masking floor."""
+    a, b = old.arrays, new.arrays
+    if not (a.radar_present[p, i] == b.radar_present[p, j] == 1.0):
+        return False
+    if not (
+        np.array_equal(a.radar_xyz[p, i], b.radar_xyz[p, j])
+        and a.ref_range[p, i] == b.ref_range[p, j]
+        and a.ref_rcs[p, i] == b.ref_rcs[p, j]
+    ):
+        return False
+    return bool(np.array_equal(a.floors[a.floor_layer[p, i]], b.floors[b.floor_layer[p, j]]))
+
+
+def _same_except_radars(old: PenetrationModel, new: PenetrationModel, p: int) -> bool:
+    """Whether member p of the two models differs at most in its radars (then only radar terms change)."""
+    a, b = old.arrays, new.arrays
+    if new.pool_size <= p or tuple(old.bounds) != tuple(new.bounds) or old.limits.action_high.tolist() != new.limits.action_high.tolist():
+        return False
+    pairs = (
+        (a.terrain[p], b.terrain[p]),
+        (a.mountain_centres[p], b.mountain_centres[p]),
+        (a.mountain_present[p], b.mountain_present[p]),
+        (a.goal[p], b.goal[p]),
+        (a.rcs_table, b.rcs_table),
+        (a.sample_t, b.sample_t),
+        (a.params, b.params),
+        (a.options, b.options),
+    )
+    return all(x.shape == y.shape and np.array_equal(x, y) for x, y in pairs)
+
+
+class ValueFunctionBuilder:
+    """V of one pool member, built by ordered sweeps over dirty nodes, and rebuilt incrementally when radars change (model.md §7e.2).
+
+    The builder scores each distinct lattice transition once with the model's own transition
+    (keeping each radar's threat, the terrain and third terms), then solves the Bellman equation of
+    :func:`value_iteration` by Gauss-Seidel sweeps in the order of a nearest-node Dijkstra guess
+    of V (from that guess), each over the dirty nodes only (a node is re-evaluated when one of its
+    moves' interpolation corners moved by more than ``tolerance x PROPAGATION_FRACTION``), and
+    checks the result with the reference's stopping rule: a full Jacobi application of the
+    Bellman operator changes no node by more than ``settings.tolerance`` (else the moved nodes'
+    upstream is swept again). :meth:`with_model` and :meth:`with_radars` rebuild after a change of
+    radars: only the changed radars' threats are computed, the moves whose fused J changed
+    re-priced, and the nodes upstream of them re-converged from the old V by the same rule.
+
+    DECISION (model.md §7e.2): a rebuild recomputes J exactly (per radar, fused in the new model's
+    radar order), rather than bounding a radar's reach: the Swerling-I P_d is never exactly 0 inside
+    the visibility's soft edge, so a range bound would change J far away by a little.
+
+    Attributes:
+        model: the model it was built on.
+        scenario_index: the pool member.
+        settings: the lattice.
+        value_function: the built :class:`ValueFunction`.
+        cpu_seconds: CPU seconds per part (``moves``, ``costs``, ``sweeps``, ``route``) of this build.
+        wall_seconds: wall seconds per part.
+        changed_moves: moves whose J changed (a rebuild; every move for a full build).
+    """
+
+    def __init__(
+        self,
+        model: PenetrationModel,
+        scenario_index: int = 0,
+        settings: LatticeSettings = LATTICE_DEFAULTS,
+        *,
+        _previous: ValueFunctionBuilder | None = None,
+    ) -> None:
+        if not (isinstance(scenario_index, (int, np.integer)) and 0 <= scenario_index < model.pool_size):
+            raise ValueError(f"scenario_index: got {scenario_index!r}, expected an integer in [0, {model.pool_size})")
+        self.model = model
+        self.scenario_index = int(scenario_index)
+        self.settings = settings
+        clock = BuildClock()
+        if _previous is None:
+            self._build_lattice(clock)
+            self._price_all(clock)
+            dirty = self._first_pass()
+        else:
+            self._inherit(_previous)
+            clock.lap("moves")
+            dirty = self._reprice(_previous, clock)
+        self._converge(dirty, clock)
+        self._finish(clock)
+
+    # --- the lattice and its move costs ------------------------------------------------------
+
+    def _build_lattice(self, clock: BuildClock) -> None:
+        model, settings, p = self.model, self.settings, self.scenario_index
+        starts, ends, move_t = _transitions(model, settings, p)
+        self._shared = _shared_steps(model, settings) is not None
+        self._starts, self._ends, self._move_t = starts, ends, move_t
+        self._ex = np.ascontiguousarray(ends[:, 0])
+        self._ey = np.ascontiguousarray(ends[:, 1])
+        self._eh = np.ascontiguousarray(ends[:, 4])
+        xs, ys, headings = lattice_nodes(model, settings)
+        self._shape = (xs.size, ys.size, headings.size)
+        self._grid = _grid_slots(model, settings)
+        self._move_near = self._near_edge_moves(starts, ends, move_t)
+        node = np.arange(move_t.shape[0])
+        goal = model.goal[p]
+        ix, iy = node // (ys.size * headings.size), (node // headings.size) % ys.size
+        self._inside_goal = np.hypot(xs[ix] - goal[0], ys[iy] - goal[1]) <= goal[2]
+        clock.lap("moves")
+
+    def _near_edge_moves(self, starts: np.ndarray, ends: np.ndarray, move_t: np.ndarray) -> np.ndarray:
+        """(N, A) whether each move ends in the edge margin, tested on the move's own end point.
+
+        A shared transition's end differs from each of its moves' by rounding (its heading is the
+        node heading, theirs heading + turn), and on a map whose edge and nodes fall on multiples
+        of the margin an end can lie on the margin exactly (a 60-degree move of 3 km from the edge
+        ends 1500 m from it). So the moves from nodes within a step and a margin of the edge are
+        flown as :func:`lattice_moves` flies them and tested on their own ends.
+        """
+        model, settings = self.model, self.settings
+        x_min, x_max, y_min, y_max = model.bounds
+        m = settings.edge_margin_m
+
+        def near(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+            return (x < x_min + m) | (x > x_max - m) | (y < y_min + m) | (y > y_max - m)
+
+        move_near = near(ends[:, 0], ends[:, 1])[move_t]
+        if not self._shared:
+            return move_near
+        x, y, h = starts[move_t[:, 0], 0], starts[move_t[:, 0], 1], self._node_headings()
+        reach = m + model.limits.max_step_length + settings.spacing_m
+        border = near(x, y) | (x < x_min + reach) | (x > x_max - reach) | (y < y_min + reach) | (y > y_max - reach)
+        if border.any():
+            z = starts[move_t[border, 0], 2]
+            turns = np.asarray(settings.turns) * model.limits.dheading_max
+            hb = h[border]
+            _, own = _moves(
+                model, settings, self.scenario_index, x[border, None], y[border, None], z[:, None], hb[:, None],
+                wrap_angle(hb[:, None] + turns[None, :]),
+            )  # fmt: skip
+            move_near[border] = near(own[..., 0], own[..., 1])
+        return move_near
+
+    def _node_headings(self) -> np.ndarray:
+        """(N,) each node's heading [rad], as :func:`lattice_nodes` spaces them."""
+        _, _, headings = lattice_nodes(self.model, self.settings)
+        return np.tile(headings, self._move_t.shape[0] // headings.size)
+
+    def _price_all(self, clock: BuildClock) -> None:
+        model, p = self.model, self.scenario_index
+        rows = self._starts.shape[0]
+        cost, terrain_n, third_n = np.empty(rows), np.empty(rows), np.empty(rows)
+        reached, collided, outside = (np.empty(rows, dtype=np.bool_) for _ in range(3))
+        per_radar = np.empty((rows, model.radar_slots))
+        kernels.with_threads(
+            model.threads, value_kernels.transition_costs,
+            model.arrays, p, self._starts, self._ends, cost, reached, collided, outside, terrain_n, third_n, per_radar,
+        )  # fmt: skip
+        # A move that leaves the map or ends in its margin (without reaching the goal) is an edge
+        # move: forbidden, and its node edge-doomed when no move is feasible.
+        self._blocked = (outside[self._move_t] | self._move_near) & ~reached[self._move_t]
+        self._forbidden = collided | outside
+        self._reached, self._terrain_n, self._third_n, self._per_radar = reached, terrain_n, third_n, per_radar
+        self._cost = cost
+        terrain_doomed = np.all(~np.isfinite(cost[self._move_t]), axis=1) & ~np.any(self._blocked, axis=1)
+        self._table = np.full(self._shape, np.inf)
+        flat = self._table.reshape(-1)
+        flat[terrain_doomed] = -np.inf
+        flat[self._inside_goal] = 0.0  # the reference writes the goal's 0 last
+        self._fixed = self._inside_goal | terrain_doomed
+        self.changed_moves = rows
+        clock.lap("costs")
+        corners = value_kernels.corner_lists(self._shape, self._grid, self._ex, self._ey, self._eh, self._cost, reached)
+        used = corners >= 0
+        self._rev_ptr, self._rev = value_kernels.grouped(corners[used], np.nonzero(used)[0], flat.size)
+        moves = self._move_t.shape[1]
+        self._users_ptr, self._users = value_kernels.grouped(
+            self._move_t.reshape(-1), np.arange(self._move_t.size) // moves, rows
+        )
+        clock.lap("sweeps")
+
+    def _first_pass(self) -> np.ndarray:
+        """The sweeps' order (a nearest-node Dijkstra guess of V, lowest first); every node starts dirty."""
+        guess = value_kernels.nearest_values(
+            self._shape, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh, self._move_t,
+            self._users_ptr, self._users, self._fixed, self._inside_goal,
+        )  # fmt: skip
+        self._order = np.argsort(guess, kind="stable").astype(np.int64)
+        start = ~self._fixed & (guess < math.inf)
+        self._table.reshape(-1)[start] = np.minimum(guess[start], self._grid[G_MISSING])
+        self._q = np.empty(self._cost.size)
+        self.sweeps = 0
+        return ~self._fixed
+
+    def _moved(self, old: np.ndarray, new: np.ndarray) -> np.ndarray:
+        """The nodes whose value moved by more than the propagation threshold (or became finite)."""
+        threshold = self.settings.tolerance * PROPAGATION_FRACTION
+        both = np.isfinite(old) & np.isfinite(new)
+        moved = np.where(both, np.abs(np.where(both, new, 0.0) - np.where(both, old, 0.0)) > threshold, np.isfinite(old) != np.isfinite(new))
+        return np.nonzero(moved & ~self._fixed)[0].astype(np.int64)
+
+    def _jacobi(self, new: np.ndarray) -> None:
+        kernels.with_threads(
+            self.model.threads, value_kernels.jacobi_pass,
+            self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh,
+            self._move_t, self._blocked, self._fixed, self._q, new,
+        )  # fmt: skip
+
+    # --- solving -----------------------------------------------------------------------------
+
+    def _converge(self, dirty: np.ndarray, clock: BuildClock) -> None:
+        """Sweeps over the dirty nodes in order, then Jacobi checks until no node changes by more than the tolerance."""
+        threshold = self.settings.tolerance * PROPAGATION_FRACTION
+        flat = self._table.reshape(-1)
+        new = np.empty(flat.size)
+        while True:
+            while dirty.any():
+                value_kernels.dirty_sweep(
+                    self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh, self._move_t,
+                    self._blocked, self._order, self._fixed, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev, threshold,
+                )  # fmt: skip
+                self.sweeps += 1
+                self._check_sweeps()
+                if self.sweeps in RESORT_AFTER:
+                    self._order = np.argsort(flat, kind="stable").astype(np.int64)
+            self._jacobi(new)
+            change = value_kernels.largest_change(flat, new)
+            moved = self._moved(flat, new)
+            flat[:] = new
+            self.sweeps += 1
+            if change <= self.settings.tolerance:
+                break
+            self._check_sweeps()
+            value_kernels.dirty_upstream(moved, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev)
+        clock.lap("sweeps")
+
+    def _check_sweeps(self) -> None:
+        if self.sweeps > self.settings.max_sweeps:
+            raise RuntimeError(
+                f"value iteration: no convergence to {self.settings.tolerance} in {self.settings.max_sweeps} sweeps "
+                "(raise LatticeSettings.max_sweeps or tolerance)"
+            )
+
+    def _finish(self, clock: BuildClock) -> None:
+        vf = ValueFunction(self._table, self._grid, self.settings, self.sweeps, 0.0, math.nan, 0)
+        j_per_step, steps = _route_calibration(self.model, vf, self.scenario_index)
+        clock.lap("route")
+        self.cpu_seconds = dict(clock.cpu)
+        self.wall_seconds = dict(clock.wall)
+        self.value_function = ValueFunction(
+            self._table.copy(), self._grid, self.settings, self.sweeps, sum(clock.wall.values()),
+            j_per_step, steps, build_cpu_seconds=sum(clock.cpu.values()),
+        )  # fmt: skip
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The arrays :func:`value_function` caches (``cache.cached_arrays``, kind ``value``)."""
+        vf = self.value_function
+        return {
+            "table": vf.table,
+            "grid": vf.grid,
+            "sweeps": np.array(vf.sweeps),
+            "build_seconds": np.array(vf.build_seconds),
+            "build_cpu_seconds": np.array(vf.build_cpu_seconds),
+            "route": np.array([vf.route_j_per_step, vf.route_steps]),
+        }
+
+    # --- rebuilding after a change of radars ---------------------------------------------------
+
+    def with_model(self, model: PenetrationModel) -> ValueFunctionBuilder:
+        """The builder of the same member of ``model``: incremental when only its radars differ, else built afresh.
+
+        Radars are matched by position, reference range and RCS and masking floor; only the
+        unmatched radars' threats are computed, and V re-converges from this builder's V.
+        """
+        if not _same_except_radars(self.model, model, self.scenario_index):
+            return ValueFunctionBuilder(model, self.scenario_index, self.settings)
+        return ValueFunctionBuilder(model, self.scenario_index, self.settings, _previous=self)
+
+    def with_radars(self, radars: Sequence[Radar]) -> ValueFunctionBuilder:
+        """The builder after the scenario's radars become ``radars`` (a single-scenario model; its threads kept).
+
+        Raises:
+            ValueError: a pool model (build its new pool and call :meth:`with_model`).
+        """
+        if self.model.pool_size != 1:
+            raise ValueError(f"with_radars: got a pool of {self.model.pool_size} scenarios, expected one (use with_model)")
+        scenario = dataclasses.replace(self.model.scenario, radars=tuple(radars))
+        return self.with_model(PenetrationModel(scenario, threads=self.model.threads))
+
+    def _inherit(self, old: ValueFunctionBuilder) -> None:
+        for name in (
+            "_starts", "_ends", "_move_t", "_shared", "_ex", "_ey", "_eh", "_shape", "_grid", "_move_near", "_blocked", "_inside_goal",
+            "_forbidden", "_reached", "_terrain_n", "_third_n", "_rev_ptr", "_rev", "_users_ptr", "_users", "_fixed",
+        ):  # fmt: skip
+            setattr(self, name, getattr(old, name))  # read-only after a build: shared, not copied
+        self._order = old._order
+        self._table = old._table.copy()
+        self._q = np.empty(old._q.size)
+        self.sweeps = 0
+
+    def _reprice(self, old: ValueFunctionBuilder, clock: BuildClock) -> np.ndarray:
+        """The new radars' threats, the moves' new J, and the nodes to re-evaluate (those with a re-priced move)."""
+        model, p = self.model, self.scenario_index
+        per_radar = np.zeros((self._starts.shape[0], model.radar_slots))
+        taken: set[int] = set()
+        for j in range(model.radar_slots):
+            if model.arrays.radar_present[p, j] != 1.0:
+                continue  # an empty slot's threat is 0 (its visibility is multiplied by 0)
+            match = next(
+                (i for i in range(old.model.radar_slots) if i not in taken and _same_radar(old.model, i, model, j, p)),
+                None,
+            )
+            if match is None:
+                kernels.with_threads(model.threads, value_kernels.radar_column, model.arrays, p, j, self._ends, per_radar[:, j])
+            else:
+                taken.add(match)
+                per_radar[:, j] = old._per_radar[:, match]
+        self._per_radar = per_radar
+        cost = np.empty(per_radar.shape[0])
+        kernels.with_threads(
+            model.threads, value_kernels.fused_costs,
+            model.arrays, per_radar, self._terrain_n, self._third_n, self._forbidden, cost,
+        )  # fmt: skip
+        self._cost = cost
+        changed = np.nonzero(cost != old._cost)[0].astype(np.int64)
+        self.changed_moves = int(changed.size)
+        clock.lap("costs")
+        dirty = np.zeros(self._move_t.shape[0], dtype=np.bool_)
+        value_kernels.dirty_users(changed, dirty, self._users_ptr, self._users)
+        return dirty
 
 
 _memo: weakref.WeakKeyDictionary[PenetrationModel, dict] = weakref.WeakKeyDictionary()
@@ -456,7 +912,7 @@ def value_function(
 
     def build() -> dict[str, np.ndarray]:
         built_now.append(True)
-        return _iterate(model, settings, int(scenario_index))
+        return build_arrays(model, settings, int(scenario_index))
 
     arrays = cached_arrays("value", inputs, build)
     vf = ValueFunction(
@@ -465,6 +921,7 @@ def value_function(
         settings=settings,
         sweeps=int(arrays["sweeps"]),
         build_seconds=float(arrays["build_seconds"]) if built_now else 0.0,
+        build_cpu_seconds=float(arrays["build_cpu_seconds"]) if built_now else 0.0,
         route_j_per_step=float(arrays["route"][0]),
         route_steps=int(arrays["route"][1]),
     )
@@ -638,9 +1095,12 @@ __all__ = [
     "ALGORITHM_VERSION",
     "LATTICE_DEFAULTS",
     "LATTICE_GUIDANCE",
+    "BuildClock",
     "LatticeGuidance",
     "LatticeSettings",
     "ValueFunction",
+    "ValueFunctionBuilder",
+    "build_arrays",
     "lattice_action",
     "lattice_moves",
     "lattice_nodes",
