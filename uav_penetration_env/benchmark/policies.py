@@ -127,15 +127,14 @@ def greedy_action(
 
 
 @dataclass
-class LatticePolicy:
-    """The lattice planner: each step, the turn that minimises J(k) + V(next pose) (model.md §7e).
+class _ValueRule:
+    """A rule on the scenario's lattice value function V: built once per scenario at ``reset``, read each step.
 
-    V is the scenario's lattice value function (:func:`value_function.value_function`, built once
-    and cached); the altitude follows the terrain at the lattice's clearance. The classical global
-    planner next to the swarm planners and the agents: no online optimisation, a few model steps
-    per decision.
+    The two classical planners on V share their settings, their configuration (hashed into the
+    results store key, with their ``KIND``) and their reset; each writes its own ``act``.
     """
 
+    KIND: ClassVar[str] = ""
     deterministic: ClassVar[bool] = True
     guidance: LatticeGuidance = LATTICE_GUIDANCE
     model: PenetrationModel | None = field(default=None, repr=False)
@@ -144,7 +143,7 @@ class LatticePolicy:
     def config(self) -> dict[str, Any]:
         """The lattice and guidance settings (hashed into the results store key)."""
         return {
-            "kind": "lattice",
+            "kind": self.KIND,
             "lattice": dataclasses.asdict(LATTICE_DEFAULTS),
             "guidance": dataclasses.asdict(self.guidance),
             "algorithm": VALUE_ALGORITHM_VERSION,
@@ -157,16 +156,33 @@ class LatticePolicy:
         self.model = model
         self._value = value_function(model)
 
-    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
-        """The lattice planner's control from the exact state in ``info``."""
+    def _bound(self, info: dict[str, Any]) -> tuple[PenetrationModel, ValueFunction, FloatArray]:
+        """The model, V and the exact state in ``info``; refused before ``reset``."""
         if self.model is None or self._value is None:
-            raise RuntimeError("LatticePolicy.act() before reset(model, seed)")
-        state = np.asarray(info["state"], dtype=np.float64)
-        return lattice_action(self.model, self._value, state, int(info["step"]), self.guidance)
+            raise RuntimeError(f"{type(self).__name__}.act() before reset(model, seed)")
+        return self.model, self._value, np.asarray(info["state"], dtype=np.float64)
 
 
 @dataclass
-class ValueGreedyPolicy:
+class LatticePolicy(_ValueRule):
+    """The lattice planner: each step, the turn that minimises J(k) + V(next pose) (model.md §7e).
+
+    V is the scenario's lattice value function (:func:`value_function.value_function`, built once
+    and cached); the altitude follows the terrain at the lattice's clearance. The classical global
+    planner next to the swarm planners and the agents: no online optimisation, a few model steps
+    per decision.
+    """
+
+    KIND: ClassVar[str] = "lattice"
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The lattice planner's control from the exact state in ``info``."""
+        model, value, state = self._bound(info)
+        return lattice_action(model, value, state, int(info["step"]), self.guidance)
+
+
+@dataclass
+class ValueGreedyPolicy(_ValueRule):
     """The turn whose point one step ahead has the lowest V, flown as the lattice's candidate (docs/rl.md §4.9).
 
     Each step: for each of the lattice's turns, V one step of v_max * dt ahead along the turned
@@ -177,34 +193,13 @@ class ValueGreedyPolicy:
     inputs competes with (``value-greedy``; ``value-greedy-cN`` at N metres, as ``lattice-cN``).
     """
 
-    deterministic: ClassVar[bool] = True
-    guidance: LatticeGuidance = LATTICE_GUIDANCE
-    model: PenetrationModel | None = field(default=None, repr=False)
-    _value: ValueFunction | None = field(default=None, repr=False)
-
-    def config(self) -> dict[str, Any]:
-        """The lattice and guidance settings (hashed into the results store key)."""
-        return {
-            "kind": "value-greedy",
-            "lattice": dataclasses.asdict(LATTICE_DEFAULTS),
-            "guidance": dataclasses.asdict(self.guidance),
-            "algorithm": VALUE_ALGORITHM_VERSION,
-            "deterministic": True,
-        }
-
-    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
-        """Bind the model and load (or build) its value function; ``seed`` is unused."""
-        del seed
-        self.model = model
-        self._value = value_function(model)
+    KIND: ClassVar[str] = "value-greedy"
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The candidate control of the turn with the lowest V ahead, from the exact state in ``info``."""
-        if self.model is None or self._value is None:
-            raise RuntimeError("ValueGreedyPolicy.act() before reset(model, seed)")
-        state = np.asarray(info["state"], dtype=np.float64)
-        _, ahead = value_ahead(self.model, self._value, state, self.guidance.turns)
-        return candidate_control(self.model, state, self.guidance.turns[int(np.argmin(ahead))], self.guidance)
+        model, value, state = self._bound(info)
+        _, ahead = value_ahead(model, value, state, self.guidance.turns)
+        return candidate_control(model, state, self.guidance.turns[int(np.argmin(ahead))], self.guidance)
 
 
 @dataclass
