@@ -74,6 +74,11 @@ from uav_penetration_env.types import FloatArray
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
 ALGORITHM_VERSION = 5  # 5: the dirty-sweep builder (V equal to the tolerance), build_cpu_seconds stored
+# DECISION (model.md §7e.2): what V is (the lattice, its moves and costs, the fixed point to the
+# tolerance), apart from how it is built. A planner's configuration, hence its store key, names
+# this: a builder that reaches the same fixed point (to the 1e-9 tolerance, tested against the
+# reference builder) flies the same episodes, so published rows stay keyed to their planners.
+DEFINITION_VERSION = 4
 _CHUNK_ROWS = 131_072  # transitions scored per model.costs call while building (bounds memory)
 
 
@@ -1093,6 +1098,7 @@ def _route_calibration(model: PenetrationModel, vf: ValueFunction, scenario_inde
 
 __all__ = [
     "ALGORITHM_VERSION",
+    "DEFINITION_VERSION",
     "LATTICE_DEFAULTS",
     "LATTICE_GUIDANCE",
     "BuildClock",

@@ -41,7 +41,7 @@ from uav_penetration_env.terminal import terminal_cost as build_terminal_cost
 from uav_penetration_env.terminal_kernels import NO_TERMINAL_COST, TerminalCost
 from uav_penetration_env.types import FloatArray
 from uav_penetration_env.value_function import (
-    ALGORITHM_VERSION as VALUE_ALGORITHM_VERSION,
+    DEFINITION_VERSION as VALUE_ALGORITHM_VERSION,
 )
 from uav_penetration_env.value_function import (
     LATTICE_DEFAULTS,
