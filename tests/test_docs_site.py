@@ -56,8 +56,8 @@ def test_links_that_leave_docs_become_repository_paths(tmp_path):
 
 
 def test_sphinx_roles_become_optional_cross_references():
-    roles = load("docs_roles")
     griffe = pytest.importorskip("griffe", reason=DOCS_EXTRA)
+    roles = load("docs_roles")  # imports griffe itself
     module = griffe.visit("pkg.mod", filepath=Path("pkg/mod.py"), code="from pkg.other import Thing\n\ndef f():\n    pass\n")
     text = "See :class:`Thing`, :func:`~pkg.other.helper`, :meth:`Thing.run` and :mod:`.sibling`."
     out = roles.rewrite(module["f"], text)
