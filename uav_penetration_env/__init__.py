@@ -52,7 +52,7 @@ __all__ = [
     "register_envs",
 ]
 
-# model.md §7a: four ids. Each truncates itself at its scenario's K_max (time.max_steps) and
+# model.md §7a: four static ids, and the dynamic one of docs/dynamic.md. Each truncates itself at its scenario's K_max (time.max_steps) and
 # registers that K_max as max_episode_steps, so gym.make's TimeLimit truncates at the same step.
 _ENV = "uav_penetration_env.env:UAVPenetrationEnv"
 _VECTOR = "uav_penetration_env.vector_env:UAVPenetrationVectorEnv"
@@ -65,6 +65,13 @@ ENV_IDS = {
         {"id_profile": "benchmark"},
     ),
     "UAVPenetrationDEM-v0": (_ENV, _VECTOR, {"default_scenario": "dem", "id_profile": "benchmark"}),
+    # docs/dynamic.md: threats that appear, move or were never on the map; Gymnasium's own
+    # synchronous/asynchronous wrappers vectorise it (each env's threats follow its own history).
+    "UAVPenetrationDynamic-v0": (
+        "uav_penetration_env.dynamic_env:UAVPenetrationDynamicEnv",
+        None,
+        {"default_scenario": "paper-dynamic", "id_profile": "benchmark"},
+    ),
 }
 
 
@@ -72,7 +79,7 @@ ENV_IDS = {
 # time settings' (procedural scenarios), written here so that importing the package reads no file
 # (`uav-bench --help` answers in a fraction of a second); tests/env/test_gym_conventions.py checks
 # that every value equals the file's.
-REGISTERED_MAX_STEPS = {"paper": 150, "dem": 150, None: 150}
+REGISTERED_MAX_STEPS = {"paper": 150, "dem": 150, "paper-dynamic": 150, None: 150}
 
 
 def register_envs() -> None:

@@ -283,10 +283,30 @@ def dem_scenario() -> Scenario:
 
 # --- names --------------------------------------------------------------------------------------------
 
+# The threats paper-dynamic adds to the paper's four known radars (docs/dynamic.md §5): one of each kind.
+PAPER_DYNAMIC_THREATS = (
+    {"name": "U1", "x_km": 62.0, "y_km": 70.0, "mast_m": 10.0, "prior": "unknown"},
+    {"name": "U2", "x_km": 45.0, "y_km": 30.0, "mast_m": 10.0, "prior": "unknown", "presence_prob": 0.5},
+    {"name": "P1", "x_km": 75.0, "y_km": 80.0, "mast_m": 10.0, "on_step": [10, 20]},
+    {"name": "T1", "x_km": 30.0, "y_km": 20.0, "mast_m": 10.0, "prior": "unknown", "trigger_range_km": 25.0},
+    {"name": "C1", "x_km": 85.0, "y_km": 88.0, "mast_m": 10.0, "prior": "uncertain", "position_error_km": 4.0},
+    {"name": "M1", "x_km": 50.0, "y_km": 85.0, "mast_m": 10.0, "prior": "unknown",
+     "route_km": [[50.0, 45.0]], "speed_m_s": 8.0},
+)  # fmt: skip
+
+
+def paper_dynamic_scenario() -> Scenario:
+    """The paper scenario (weights w1) with :data:`PAPER_DYNAMIC_THREATS` added (docs/dynamic.md §5)."""
+    paper = paper_scenario("w1")
+    radars = [*paper.to_dict()["radars"], *PAPER_DYNAMIC_THREATS]
+    return paper.updated({"name": "paper-2022-sec5-dynamic", "radars": radars})
+
+
 NAMED_SCENARIOS: dict[str, Callable[[], Scenario]] = {
     "paper": lambda: paper_scenario("w1"),
     "paper-w2": lambda: paper_scenario("w2"),
     "dem": dem_scenario,
+    "paper-dynamic": paper_dynamic_scenario,
 }
 RANDOM_PREFIX = "random:"
 RANDOM_FORMS = ("random:SEED", "random:A-B")

@@ -409,8 +409,12 @@ class UAVPenetrationEnv(gym.Env):
             self.render()
         return observation, reward, terminated, truncated, info
 
-    def _step_compiled(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """:meth:`step`'s transition in one compiled call (:meth:`PenetrationModel._env_step_one`).
+    def _step_compiled(
+        self, action: Any, model: PenetrationModel | None = None
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """:meth:`step`'s transition in one compiled call (:meth:`PenetrationModel._env_step_one`) on ``model``.
+
+        ``model`` is the one the env scores on: the scenario's (None), or a dynamic env's truth.
 
         The same action checks and numbers as the model's public ``step`` and ``observe``, without
         their per-call array checks and per-key conversions: a single env's step costs about 30 us
@@ -431,7 +435,7 @@ class UAVPenetrationEnv(gym.Env):
                 array = None if raw.dtype.kind == "c" else np.ascontiguousarray(raw, dtype=np.float64)
             except (TypeError, ValueError):
                 array = None
-        model = self._loaded
+        model = self._loaded if model is None else model
         if array is None or array.shape != (3,):
             _refuse_action(action, model.limits.action_high)  # the error of the generic path
         out = model._env_step_one(self.state, array, self.step_index)
@@ -465,13 +469,14 @@ class UAVPenetrationEnv(gym.Env):
         terminated, truncated = flags[kernels.F_TERMINATED], flags[kernels.F_TRUNCATED]
         return out.observation, -(J + penalty), terminated, truncated, info
 
-    def _describe_state(self) -> tuple[np.ndarray, dict[str, Any]]:
+    def _describe_state(self, model: PenetrationModel | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """The observation and info of ``self.state`` at ``self.step_index`` before any transition.
 
         As :meth:`PenetrationModel.reset_result` describes it (zero transition quantities, no
-        event flag), in one compiled call (:meth:`PenetrationModel._env_reset_one`).
+        event flag), in one compiled call (:meth:`PenetrationModel._env_reset_one`) on ``model``
+        (None: the scenario's).
         """
-        out = self._loaded._env_reset_one(self.state, self.step_index)
+        out = (self._loaded if model is None else model)._env_reset_one(self.state, self.step_index)
         info = step_info(
             0.0,
             0.0,

@@ -34,12 +34,12 @@ from uav_penetration_env import __version__, warmup
 from uav_penetration_env.benchmark import workers
 from uav_penetration_env.benchmark.clock import timed
 from uav_penetration_env.benchmark.columns import EpisodeSteps, start_row, step_row, summarise
+from uav_penetration_env.benchmark.information import BeliefFeed, episode_env, planning_model
 from uav_penetration_env.benchmark.plugins import has_address_repr, import_plugins, stable_parameters
 from uav_penetration_env.benchmark.provenance import provenance as run_provenance
 from uav_penetration_env.benchmark.seeding import episode_seeds
 from uav_penetration_env.benchmark.store import EPISODE_COLUMNS, ResultsStore
 from uav_penetration_env.build import build_scenario
-from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.kernels import limit_worker_threads
 from uav_penetration_env.scenario import Scenario, load_scenario
 
@@ -109,15 +109,17 @@ def run_episode(task: EpisodeTask) -> tuple[dict[str, Any], list[dict[str, Any]]
     try:
         import_plugins(task.imports)
         policy = copy.deepcopy(task.policy)  # every episode starts from the same policy state
-        env = UAVPenetrationEnv(scenario)
+        env = episode_env(scenario)  # the dynamic env for a dynamic scenario (docs/dynamic.md)
         env_seed, policy_seed = episode_seeds(task.seed, scenario.hash)
         observation, info = env.reset(seed=env_seed)
-        _, setup = timed(policy.reset, env.model, policy_seed)  # per-map setup (V, weights, ...), api.md §4.12
+        # per-map setup (V, weights, ...), api.md §4.12; the belief, or the truth for an oracle
+        _, setup = timed(policy.reset, planning_model(env, policy), policy_seed)
+        feed = BeliefFeed(env, policy)  # a new belief reaches the policy inside its timed decision
         steps.append(start_row(info))  # step 0: the start state, so no reader replays the reset
         states = [info["state"]]
         done = False
         while not done:
-            decided, clock = timed(policy.act, observation, info)
+            decided, clock = timed(feed.act, observation, info)
             action = np.asarray(decided, dtype=np.float64)
             record = {**(getattr(policy, "last_record", None) or {}),
                       "planning_seconds": clock.wall, "planning_cpu_seconds": clock.cpu}  # fmt: skip

@@ -86,6 +86,10 @@ class GreedyPolicy:
         del seed
         self.model = model
 
+    def update_model(self, model: PenetrationModel) -> None:
+        """Plan on ``model`` from the next step (a new belief, docs/dynamic.md §4)."""
+        self.model = model
+
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """Greedy control from the exact state in ``info``."""
         if self.model is None:
@@ -153,6 +157,10 @@ class _ValueRule:
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
         """Bind the model and load (or build) its value function; ``seed`` is unused."""
         del seed
+        self.update_model(model)
+
+    def update_model(self, model: PenetrationModel) -> None:
+        """Plan on ``model`` from the next step: a new belief of a dynamic scenario (docs/dynamic.md §4); V rebuilt."""
         self.model = model
         self._value = value_function(model)
 
@@ -311,6 +319,15 @@ class MPCPolicy:
         self.rng = np.random.default_rng(seed)
         self._plan = None
         self.last_record = {}
+        self._terminal = build_terminal_cost(model, self.settings.terminal)
+
+    def update_model(self, model: PenetrationModel) -> None:
+        """Plan on ``model`` from the next step: a new belief of a dynamic scenario (docs/dynamic.md §4).
+
+        The terminal cost is rebuilt on it (V for the ``value`` form); the generator and the
+        shifted plan carry over, so the next step still warm-starts from this plan.
+        """
+        self.model = model
         self._terminal = build_terminal_cost(model, self.settings.terminal)
 
     def initial_guess(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray | None:

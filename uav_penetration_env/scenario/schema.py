@@ -13,7 +13,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import MISSING, dataclass
+from dataclasses import MISSING, dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar, Union
@@ -334,6 +334,10 @@ class RadarModelConfig(Checked):
         )
 
 
+PRIORS = ("known", "unknown", "uncertain")
+DYNAMIC_FIELDS = ("prior", "position_error_km", "presence_prob", "on_step", "trigger_range_km", "route_km", "speed_m_s")
+
+
 @dataclass(frozen=True)
 class Radar(Checked):
     """A ground radar: position [km], antenna altitude above datum ``z_m`` or ``mast_m`` above terrain."""
@@ -345,12 +349,72 @@ class Radar(Checked):
     mast_m: float | None = non_negative(None)
     ref_range_km: float = positive(100.0)  # R_ref: range at which sigma_ref gives D = 1 (model.md §4.2)
     ref_rcs_m2: float = positive(0.1)  # sigma_ref
+    # --- threat dynamics (docs/dynamic.md §2); every field null for a static radar on the prior map ---
+    # What the planner's prior map holds: the site (known), nothing (unknown), or a site drawn with
+    # a position error (uncertain); null means known.
+    prior: str | None = one_of(PRIORS, default=None)
+    position_error_km: float | None = positive(None)  # uncertain: sigma of the prior site, per axis
+    presence_prob: float | None = rule(None, lambda v: 0 < v <= 1, "a probability in (0, 1]")  # unknown only
+    on_step: tuple[int, int] | None = rule(  # switched on at a step drawn uniformly in [first, last]
+        None,
+        lambda v: isinstance(v[0], int) and isinstance(v[1], int) and 0 <= v[0] <= v[1],
+        "[first, last] integer steps with 0 <= first <= last",
+    )
+    trigger_range_km: float | None = positive(None)  # switched on once the UAV comes this close
+    route_km: tuple[tuple[float, float], ...] | None = rule(  # mobile: from (x_km, y_km) through these points
+        None,
+        lambda v: len(v) >= 1 and all(abs(c) <= MAX_MAP_COORD_KM for point in v for c in point),
+        f"at least one [x_km, y_km] point, coordinates within +-{MAX_MAP_COORD_KM:,.0f} km",
+    )
+    speed_m_s: float | None = positive(None)  # mobile: ground speed along the route
 
-    OMIT_NONE: ClassVar[tuple[str, ...]] = ("z_m", "mast_m")
+    OMIT_NONE: ClassVar[tuple[str, ...]] = ("z_m", "mast_m", *DYNAMIC_FIELDS)
 
     def __post_init__(self) -> None:
         require((self.z_m is None) != (self.mast_m is None), "z_m", self.z_m, "exactly one of z_m or mast_m")
         super().__post_init__()
+        uncertain = self.prior == "uncertain"
+        require(
+            uncertain == (self.position_error_km is not None),
+            "position_error_km",
+            self.position_error_km,
+            "a position error in km exactly when prior is 'uncertain'",
+        )
+        require(
+            self.presence_prob is None or self.prior == "unknown",
+            "presence_prob",
+            self.presence_prob,
+            "null unless prior is 'unknown' (a radar on the prior map exists)",
+        )
+        require(
+            (self.route_km is None) == (self.speed_m_s is None),
+            "speed_m_s",
+            self.speed_m_s,
+            "a ground speed in m/s exactly when route_km is given",
+        )
+        require(
+            self.on_step is None or self.trigger_range_km is None,
+            "trigger_range_km",
+            self.trigger_range_km,
+            "null when on_step is given (a radar switches on by time or by range, not both)",
+        )
+        require(
+            self.mast_m is not None or not (uncertain or self.route_km is not None),
+            "z_m",
+            self.z_m,
+            "null with mast_m given for an uncertain or mobile radar (its antenna follows the terrain)",
+        )
+
+    @property
+    def is_dynamic(self) -> bool:
+        """Whether any threat-dynamics field is set (an explicit ``prior: known`` alone is static)."""
+        return any(getattr(self, name) is not None for name in DYNAMIC_FIELDS if name != "prior") or (
+            self.prior not in (None, "known")
+        )
+
+    def at(self, x_km: float, y_km: float) -> Radar:
+        """This radar as a static one at ``(x_km, y_km)``: what the physics scores (docs/dynamic.md §3)."""
+        return replace(self, x_km=x_km, y_km=y_km, **dict.fromkeys(DYNAMIC_FIELDS))
 
 
 PAPER_RADARS = (
@@ -359,6 +423,21 @@ PAPER_RADARS = (
     Radar("R3", 55.0, 65.0, z_m=468.8),
     Radar("R4", 90.0, 60.0, z_m=450.6),
 )
+
+
+@dataclass(frozen=True)
+class SensingConfig(Checked):
+    """How the UAV learns of threats that are not on its prior map (docs/dynamic.md §3).
+
+    A radar is revealed when it illuminates the UAV (line of sight past the terrain, within the
+    warning receiver's range) or, with ``reveal_on_detection``, when it detects it.
+    """
+
+    warning_range_km: float = positive(60.0)  # DECISION (docs/dynamic.md §3): a radar warning receiver's range
+    reveal_on_detection: bool = True
+
+
+SENSING_DEFAULTS = SensingConfig()
 
 
 # --- objective ---------------------------------------------------------------------------------------
@@ -425,12 +504,16 @@ class Scenario(Checked):
     radars: tuple[Radar, ...] = PAPER_RADARS
     cost: CostConfig = CostConfig()
     normalisation: NormalisationConfig = NormalisationConfig()
+    sensing: SensingConfig | None = None  # null: SENSING_DEFAULTS (read only by a dynamic scenario)
+
+    OMIT_NONE: ClassVar[tuple[str, ...]] = ("sensing",)  # a static scenario's file and hash stay as they were
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self._check_places()
         self._check_start()
         self._check_radars()
+        self._check_threat_dynamics()
         if self.normalisation_mode == "payoff":
             require(
                 self.normalisation.payoff is not None,
@@ -525,6 +608,29 @@ class Scenario(Checked):
             f"radars x grid nodes <= {MAX_FLOOR_NODES:,} when terrain masks (one visibility floor per radar): "
             "fewer radars, a coarser map.grid_m, or radar_model.masking: off",
         )
+
+    def _check_threat_dynamics(self) -> None:
+        """Mobile radars' routes inside the map, switch-on steps within the episode (docs/dynamic.md §2)."""
+        for i, radar in enumerate(self.radars):
+            for j, (x, y) in enumerate(radar.route_km or ()):
+                self._require_inside(f"radars[{i}].route_km[{j}]", x, y)
+            if radar.on_step is not None:
+                require(
+                    radar.on_step[1] < self.time.max_steps,
+                    f"radars[{i}].on_step",
+                    list(radar.on_step),
+                    f"steps below time.max_steps = {self.time.max_steps}",
+                )
+
+    @property
+    def is_dynamic(self) -> bool:
+        """Whether any radar appears, moves, or is missing from or misplaced on the prior map."""
+        return any(radar.is_dynamic for radar in self.radars)
+
+    @property
+    def sensing_config(self) -> SensingConfig:
+        """The effective sensing settings (:data:`SENSING_DEFAULTS` when the file sets none)."""
+        return SENSING_DEFAULTS if self.sensing is None else self.sensing
 
     # --- profile resolution (model.md §7a: null fields come from the profile) --------------------
 

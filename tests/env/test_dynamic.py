@@ -1,0 +1,222 @@
+"""Threat dynamics (docs/dynamic.md): the schema, the draws, truth and belief, and what planners may read."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import uav_penetration_env  # noqa: F401  (registers the ids)
+from uav_penetration_env.benchmark.information import BeliefFeed, OraclePolicy, planning_model
+from uav_penetration_env.benchmark.policies import GreedyPolicy, LatticePolicy, ValueGreedyPolicy
+from uav_penetration_env.catalogue import resolve_scenario
+from uav_penetration_env.dynamic_env import UAVPenetrationDynamicEnv
+from uav_penetration_env.env import UAVPenetrationEnv
+from uav_penetration_env.scenario import Radar, Scenario, ScenarioError
+from uav_penetration_env.threats import ThreatState, draw_threats, route_position
+
+PAPER_HASH = "cb71b7b881715851"  # the paper scenario's hash in the committed v2/v3 rows
+
+
+def paper_with(*radars: dict, sensing: dict | None = None, max_steps: int | None = None) -> Scenario:
+    """The paper scenario with ``radars`` (file-unit mappings) added."""
+    paper = resolve_scenario("paper")
+    changes: dict = {"radars": [*paper.to_dict()["radars"], *radars]}
+    if sensing is not None:
+        changes["sensing"] = sensing
+    if max_steps is not None:
+        changes["time"] = {"max_steps": max_steps}
+    return paper.updated(changes)
+
+
+def fly(env: UAVPenetrationEnv, policy, seed: int = 0, steps: int | None = None):
+    """Fly ``policy`` through the harness's belief feed; the (observation, reward, info) of each step."""
+    observation, info = env.reset(seed=seed)
+    policy.reset(planning_model(env, policy), seed)
+    feed = BeliefFeed(env, policy)
+    out, done = [(observation, 0.0, info)], False
+    while not done and (steps is None or len(out) <= steps):
+        observation, reward, terminated, truncated, info = env.step(feed.act(observation, info))
+        out.append((observation, reward, info))
+        done = terminated or truncated
+    return out
+
+
+# --- schema ------------------------------------------------------------------------------------------
+
+
+def test_a_static_scenario_keeps_its_file_and_hash():
+    paper = resolve_scenario("paper")
+    assert paper.hash == PAPER_HASH
+    assert not paper.is_dynamic
+    assert "sensing" not in paper.to_dict()
+    assert all(set(r) <= {"name", "x_km", "y_km", "z_m", "mast_m", "ref_range_km", "ref_rcs_m2"} for r in paper.to_dict()["radars"])
+
+
+def test_dynamic_fields_round_trip_through_yaml(tmp_path):
+    from uav_penetration_env.scenario import load_scenario
+
+    scenario = resolve_scenario("paper-dynamic")
+    assert scenario.is_dynamic
+    again = load_scenario(scenario.to_yaml(tmp_path / "dynamic.yaml"))
+    assert again == scenario and again.hash == scenario.hash
+
+
+@pytest.mark.parametrize(
+    ("radar", "field"),
+    [
+        ({"prior": "uncertain"}, "position_error_km"),
+        ({"position_error_km": 2.0}, "position_error_km"),
+        ({"presence_prob": 0.5}, "presence_prob"),
+        ({"prior": "unknown", "presence_prob": 0.0}, "presence_prob"),
+        ({"route_km": [[60.0, 60.0]]}, "speed_m_s"),
+        ({"on_step": [5, 4]}, "on_step"),
+        ({"on_step": [3, 6], "trigger_range_km": 10.0}, "trigger_range_km"),
+        ({"prior": "seen"}, "prior"),
+    ],
+)
+def test_a_broken_threat_is_refused_naming_its_field(radar, field):
+    with pytest.raises(ScenarioError, match=rf"radars\[4\]\.{field}"):
+        paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, **radar})
+
+
+def test_a_moving_or_uncertain_radar_needs_a_mast_and_a_route_inside_the_map():
+    with pytest.raises(ScenarioError, match=r"radars\[4\]\.z_m.*mast_m"):
+        paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "z_m": 500.0, "route_km": [[60, 70]], "speed_m_s": 5})
+    with pytest.raises(ScenarioError, match=r"radars\[4\]\.route_km\[1\]\.x_km"):
+        paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "route_km": [[60, 70], [500, 70]], "speed_m_s": 5})
+    with pytest.raises(ScenarioError, match=r"radars\[4\]\.on_step.*max_steps = 20"):
+        paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "on_step": [5, 20]}, max_steps=20)
+
+
+# --- draws and motion -----------------------------------------------------------------------------------
+
+
+def test_a_static_scenario_draws_nothing_and_a_seed_fixes_the_draw():
+    rng = np.random.default_rng(3)
+    before = rng.bit_generator.state
+    draw_threats(resolve_scenario("paper"), rng)
+    assert rng.bit_generator.state == before
+    dynamic = resolve_scenario("paper-dynamic")
+    assert draw_threats(dynamic, np.random.default_rng(5)) == draw_threats(dynamic, np.random.default_rng(5))
+
+
+def test_presence_and_switch_on_steps_follow_their_declared_laws():
+    scenario = paper_with(
+        {"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "prior": "unknown", "presence_prob": 0.3},
+        {"name": "Y", "x_km": 70.0, "y_km": 60.0, "mast_m": 10.0, "on_step": [4, 7]},
+        {"name": "Z", "x_km": 80.0, "y_km": 60.0, "mast_m": 10.0, "prior": "uncertain", "position_error_km": 2.0},
+    )
+    rng = np.random.default_rng(11)
+    draws = [draw_threats(scenario, rng) for _ in range(4000)]
+    present = np.mean([d.exists[4] for d in draws])
+    assert abs(present - 0.3) < 4 * math.sqrt(0.3 * 0.7 / 4000)  # a 4-sigma binomial bound
+    assert {d.on_step[5] for d in draws} == {4, 5, 6, 7}
+    offsets = np.array([np.subtract(d.prior_site_km[6], (80.0, 60.0)) for d in draws])
+    assert np.all(np.abs(offsets.std(axis=0) - 2.0) < 4 * 2.0 / math.sqrt(2 * 4000))  # sigma's standard error
+    assert all(d.prior_site_km[4] is None and d.prior_site_km[0] == (11.0, 55.0) for d in draws[:5])
+
+
+def test_a_mobile_radar_runs_out_and_back_along_its_route():
+    # From (0, 0) through (3, 4): one 5 km leg, at 10 m/s (hand-computed positions).
+    radar = Radar("M", 0.0, 0.0, mast_m=10.0, route_km=((3.0, 4.0),), speed_m_s=10.0)
+    assert route_position(radar, 250.0) == pytest.approx((1.5, 2.0))  # 2.5 km out
+    assert route_position(radar, 600.0) == pytest.approx((2.4, 3.2))  # 6 km: 1 km back from the end
+    assert route_position(radar, 1000.0) == pytest.approx((0.0, 0.0))  # 10 km: home again
+    assert route_position(Radar("S", 5.0, 6.0, z_m=100.0), 1e6) == (5.0, 6.0)
+
+
+def test_reveals_need_line_of_sight_within_the_warning_range_or_a_detection():
+    scenario = paper_with(
+        {"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "prior": "unknown"},
+        sensing={"warning_range_km": 10.0, "reveal_on_detection": False},
+    )
+    state = ThreatState(scenario, draw_threats(scenario, np.random.default_rng(0)))
+    assert state.belief_indices() == (0, 1, 2, 3) and state.truth_indices() == (0, 1, 2, 3, 4)
+    seen, detection = np.ones(5), np.ones(5)
+    assert state.advance((60.0, 75.0), seen, detection) == ()  # 15 km away: out of range, detection ignored
+    assert state.advance((60.0, 65.0), np.array([1, 1, 1, 1, 0.2]), detection) == ()  # masked
+    assert state.advance((60.0, 65.0), seen, detection) == ("X",)
+    assert state.belief_indices() == (0, 1, 2, 3, 4) and state.step == 3
+
+
+def test_pop_ups_switch_on_by_time_or_by_range():
+    scenario = paper_with(
+        {"name": "T", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "on_step": [2, 2]},
+        {"name": "R", "x_km": 80.0, "y_km": 60.0, "mast_m": 10.0, "trigger_range_km": 5.0},
+    )
+    state = ThreatState(scenario, draw_threats(scenario, np.random.default_rng(0)))
+    assert state.truth_indices() == (0, 1, 2, 3)
+    assert state.belief_indices() == (0, 1, 2, 3, 4, 5)  # known sites are planned around before they switch on
+    state.advance((0.0, 0.0), np.zeros(4), np.zeros(4))
+    assert state.truth_indices() == (0, 1, 2, 3)
+    state.advance((78.0, 58.0), np.zeros(4), np.zeros(4))  # step 2: T on by time, R triggered by range
+    assert state.truth_indices() == (0, 1, 2, 3, 4, 5)
+
+
+# --- the env ---------------------------------------------------------------------------------------------
+
+
+def _same_episode(a, b) -> None:
+    assert len(a) == len(b)
+    for (obs_a, r_a, info_a), (obs_b, r_b, info_b) in zip(a, b, strict=True):
+        assert np.array_equal(obs_a, obs_b) and r_a == r_b
+        assert np.array_equal(info_a["state"], info_b["state"]) and info_a["J"] == info_b["J"]
+        per_radar_b = info_b["radar_threat_per_radar"]
+        assert np.array_equal(info_a["radar_threat_per_radar"][: len(per_radar_b)], per_radar_b)
+
+
+def test_the_dynamic_id_reproduces_the_static_id_where_every_threat_is_known():
+    static = fly(UAVPenetrationEnv("paper"), GreedyPolicy(), seed=4)
+    assert static[-1][2]["reached_goal"]
+    _same_episode(fly(UAVPenetrationDynamicEnv("paper"), GreedyPolicy(), seed=4), static)
+    # Through the dynamic path: an unknown radar that does not exist in this episode changes nothing.
+    absent = paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "prior": "unknown", "presence_prob": 1e-12})
+    env = UAVPenetrationDynamicEnv(absent)
+    episode = fly(env, GreedyPolicy(), seed=4)
+    assert env.threats is not None and env.threats.draw.exists[4] is False
+    _same_episode(episode, static)
+
+
+def test_the_id_passes_gymnasiums_checker():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("UAVPenetrationDynamic-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_a_planner_never_reads_an_unrevealed_threat():
+    # X sits 2 km off the value-greedy route (at step ~27), visible to the warning receiver only within 5 km, detection does
+    # not reveal it: the belief planner flies exactly the track it flies without X until the reveal.
+    hidden = {"name": "X", "x_km": 62.0, "y_km": 45.0, "mast_m": 10.0, "prior": "unknown"}
+    sensing = {"warning_range_km": 5.0, "reveal_on_detection": False}
+    with_x = fly(UAVPenetrationDynamicEnv(paper_with(hidden, sensing=sensing)), ValueGreedyPolicy(), seed=0)
+    without = fly(UAVPenetrationDynamicEnv(paper_with(sensing=sensing)), ValueGreedyPolicy(), seed=0)
+    reveal = next(i for i, (_, _, info) in enumerate(with_x) if info["revealed"])
+    assert reveal > 3
+    # The same states up to the one that reveals X, the same observations before it (that one shows X).
+    for (obs_a, _, info_a), (obs_b, _, info_b) in zip(with_x[: reveal + 1], without[: reveal + 1], strict=True):
+        assert np.array_equal(info_a["state"], info_b["state"])
+        assert np.array_equal(obs_a, obs_b) or info_a["revealed"] == ("X",)
+    assert not np.array_equal(with_x[reveal][0], without[reveal][0])
+    assert any(info["radar_threat_per_radar"][4] > 0 for _, _, info in with_x[:reveal])  # X did score
+
+
+def test_the_oracle_pays_less_where_a_threat_is_unknown_and_the_same_where_none_is():
+    hidden = {"name": "X", "x_km": 62.0, "y_km": 45.0, "mast_m": 10.0, "prior": "unknown"}
+    sensing = {"warning_range_km": 5.0, "reveal_on_detection": False}
+    unknown = paper_with(hidden, sensing=sensing)
+    # The lattice planner (J + V one move ahead); the one-step value-greedy rule is not a planner whose
+    # J falls with more information in every episode (docs/dynamic.md §6).
+    belief = fly(UAVPenetrationDynamicEnv(unknown), LatticePolicy(), seed=0)
+    oracle = fly(UAVPenetrationDynamicEnv(unknown), OraclePolicy(LatticePolicy()), seed=0)
+    cost = lambda episode: sum(info["J"] + info["penalty"] for _, _, info in episode[1:])  # noqa: E731
+    assert oracle[-1][2]["reached_goal"] and cost(oracle) < cost(belief)
+    known = paper_with({**hidden, "prior": "known"})
+    _same_episode(
+        fly(UAVPenetrationDynamicEnv(known), OraclePolicy(LatticePolicy()), seed=0),
+        fly(UAVPenetrationDynamicEnv(known), LatticePolicy(), seed=0),
+    )
