@@ -414,7 +414,18 @@ class Radar(Checked):
 
     def at(self, x_km: float, y_km: float) -> Radar:
         """This radar as a static one at ``(x_km, y_km)``: what the physics scores (docs/dynamic.md §3)."""
-        return replace(self, x_km=x_km, y_km=y_km, **dict.fromkeys(DYNAMIC_FIELDS))
+        return replace(
+            self,
+            x_km=x_km,
+            y_km=y_km,
+            prior=None,
+            position_error_km=None,
+            presence_prob=None,
+            on_step=None,
+            trigger_range_km=None,
+            route_km=None,
+            speed_m_s=None,
+        )
 
 
 PAPER_RADARS = (
