@@ -81,7 +81,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--policies",
         nargs="+",
-        help=f"optimiser names (MPC), NAME-eq37, greedy, random{plugin_forms} "
+        help=f"policy names KIND[PARAM=VALUE,...] (api.md §4.1): optimiser names (MPC), NAME[terminal=FORM] "
+        f"(NAME-eq37, NAME-ctg-FORM), greedy, random, lattice[clearance=N] (lattice-cN){plugin_forms} "
         f"(default: {' '.join(MAIN_JOB_POLICIES)})",
     )
     parser.add_argument("--scenarios", nargs="+", help=f"{SCENARIO_HELP} (default: paper)")
