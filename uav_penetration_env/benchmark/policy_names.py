@@ -243,7 +243,8 @@ def _unknown(
         ["greedy", "random", "lattice[clearance=N] (lattice-cN)", "value-greedy[clearance=N] (value-greedy-cN)",
          "NAME[terminal=FORM] (NAME-eq37, NAME-ctg-FORM)", *plugin_policy_forms()]
     )  # fmt: skip
-    return f"unknown policy {text!r} — {hint}known: {known} and the optimisers {', '.join(planners)}"
+    named = repr(text) if name == text else f"{name!r} (in {text!r})"
+    return f"unknown policy {named} — {hint}known: {known} and the optimisers {', '.join(planners)}"
 
 
 def policy_names() -> list[str]:
