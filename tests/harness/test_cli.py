@@ -424,11 +424,12 @@ def spy_kind(needs=MISSING_EXTRA, loaded=None):
     return fake_kind(loaded, needs)
 
 
-def test_plugin_policy_kind_is_used_and_labelled(tmp_path, tiny_yaml, monkeypatch):
+@pytest.mark.parametrize("name", ["fake:dir/agent.zip", "fake[path=dir/agent.zip]"])
+def test_plugin_policy_kind_is_used_and_labelled(name, tmp_path, tiny_yaml, monkeypatch):
     loaded = []
     fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", spy_kind(Needs(), loaded))})
     store = tmp_path / "plug.sqlite"
-    assert run_cli("run", "--policies", "fake:dir/agent.zip", "--scenarios", tiny_yaml, "--seeds", 1,
+    assert run_cli("run", "--policies", name, "--scenarios", tiny_yaml, "--seeds", 1,
                    "--store", store, "--no-report", "--no-progress", "--jobs", 1) == 0  # fmt: skip
     assert loaded == ["dir/agent.zip"]
     assert stored_rows(store)["policy"].tolist() == ["fake:agent"]

@@ -567,7 +567,7 @@ def make_policy(spec: str | PolicySpec, settings: MPCSettings = MPC_DEFAULTS, **
         TypeError: a change that names no setting.
     """
     parsed = spec if isinstance(spec, PolicySpec) else parse_policy(spec)
-    what = f"policy {spec if isinstance(spec, str) else parsed.canonical()!r}"  # for errors: the name as given
+    what = f"policy {parsed.text or parsed.canonical()!r}"  # for errors: the name as it was written
     settings = settings.with_keys(changes) if changes else settings
     if parsed.family == "floor":
         return FLOOR_POLICIES[parsed.kind]()

@@ -24,6 +24,7 @@ written from the parameters by the inverse of the same table, so ``lattice[clear
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -157,7 +158,7 @@ def parse_policy(text: str) -> PolicySpec:
     plugins = policy_kinds()
     spec = _resolve(first, text, builtins, plugins)
     if second is None:
-        return spec
+        return dataclasses.replace(spec, text=text)
     warm = _resolve(second, text, builtins, plugins)
     if spec.family != "planner":
         raise UnknownPolicyError(
@@ -170,7 +171,7 @@ def parse_policy(text: str) -> PolicySpec:
         raise UnknownPolicyError(
             f"unknown policy {text!r} — {what} {warm.kind!r} cannot warm-start a planner"
         )
-    return PolicySpec(spec.kind, spec.family, spec.params, spec.base_label, warm_start=warm)
+    return PolicySpec(spec.kind, spec.family, spec.params, spec.base_label, warm_start=warm, text=text)
 
 
 def _resolve(

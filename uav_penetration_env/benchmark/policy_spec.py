@@ -84,6 +84,8 @@ class PolicySpec:
         params: the kind's frozen parameter dataclass, values typed (api.md §4.1).
         base_label: this term's name in result tables, without the warm start.
         warm_start: the plug-in policy that warm-starts this planner (a hybrid), or ``None``.
+        text: the name as it was written, for error messages (not compared: two spellings of
+            one policy are equal specs).
     """
 
     kind: str
@@ -91,6 +93,7 @@ class PolicySpec:
     params: Any
     base_label: str
     warm_start: PolicySpec | None = None
+    text: str = dataclasses.field(default="", compare=False)
 
     @property
     def label(self) -> str:

@@ -240,12 +240,13 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     Raises:
         CLIError: an unknown name, a plug-in whose extra is missing, a bad agent file.
     """
-    from uav_penetration_env.benchmark.policies import make_policy, policy_label
+    from uav_penetration_env.benchmark.policies import make_policy, parse_policy
 
     policies = {}
     for spec in settings["policies"]:
         try:
-            policies[policy_label(spec)] = make_policy(spec, settings["mpc"])
+            parsed = parse_policy(spec)  # read once: its label is the table name, its spec builds the policy
+            policies[parsed.label] = make_policy(parsed, settings["mpc"])
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None
         except PluginUnavailable as error:  # it names the policy and what to install
