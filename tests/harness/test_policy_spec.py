@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import pytest
 from fake_policy_kind import fake_kind
+from hypothesis import given
+from hypothesis import strategies as st
 
 from uav_penetration_env.benchmark import plugins
 from uav_penetration_env.benchmark.policies import (
@@ -18,6 +20,7 @@ from uav_penetration_env.benchmark.policies import (
 from uav_penetration_env.benchmark.policy_names import ClearanceParams, PlannerParams
 from uav_penetration_env.benchmark.policy_spec import (
     PolicyValueError,
+    Term,
     UnknownPolicyError,
     format_term,
     parse_terms,
@@ -225,3 +228,10 @@ def test_every_published_name_of_the_v3_tables_is_its_own_label(fake):
     for label in builtin:
         assert policy_label(label) == label
         assert policy_label(parse_policy(label).canonical()) == label
+
+
+@given(st.text(min_size=1))
+def test_any_value_reads_back_from_its_written_form(value):
+    """Quoting is lossless: every non-empty text, written by ``quote``, parses back to itself."""
+    term, warm = parse_terms(format_term("fake", [("path", value), ("other", value)]))
+    assert term == Term("fake", params=(("path", value), ("other", value))) and warm is None
