@@ -26,14 +26,12 @@ import numpy as np
 from gymnasium import spaces
 
 from baselines.artifacts import ModelFiles
+from baselines.policy_params import NO_STATISTICS, STATISTICS_OPTION
 from uav_penetration_env import ENV_IDS
 
-STATISTICS_OPTION = "vecnormalize"
 MAX_DATA_BYTES = 64 * 2**20  # SB3's 'data' JSON takes kilobytes
 # DECISION (docs/rl.md §5.2): the opt-in to load a model without a sidecar, whose .zip SB3 unpickles.
 TRUST_VARIABLE = "UAV_PENETRATION_TRUST_MODELS"
-# ``?vecnormalize=none``: the model was trained on raw observations.
-NO_STATISTICS = "none"
 ZOO_STATISTICS = (
     "vecnormalize.pkl"  # rl_zoo3: LOG/ALGO/ENV_1/ENV/vecnormalize.pkl beside LOG/ALGO/ENV_1/ENV.zip
 )
@@ -64,32 +62,6 @@ class ModelHeader:
     observation_space: spaces.Space[Any]
     action_space: spaces.Space[Any]
     num_timesteps: int
-
-
-def split_spec(argument: str) -> tuple[str, str | None]:
-    """``PATH.zip`` and the value of ``?vecnormalize=VALUE`` (``None`` when not given).
-
-    DECISION (docs/rl.md §5.2, the option syntax): the statistics of a model without a sidecar are
-    given inside the policy name, ``sb3:PATH.zip?vecnormalize=STATS.pkl``, a URL-like query after
-    the ``PREFIX:ARGUMENT`` every plug-in kind uses, rather than by a new ``uav-bench run`` flag:
-    each policy of one ``--policies`` list can have its own statistics, the hybrid
-    ``PLANNER+sb3:PATH.zip?vecnormalize=...`` takes them the same way, and the harness, which
-    knows nothing of SB3, needs no change. A ``?`` in the model's path itself is therefore read as
-    the option's start.
-
-    Raises:
-        ValueError: an option other than ``vecnormalize``, or one without a value.
-    """
-    path, mark, option = argument.partition("?")
-    if not mark:
-        return argument, None
-    key, equals, value = option.partition("=")
-    if key != STATISTICS_OPTION or not equals or not value:
-        raise ValueError(
-            f"{path}: the option after '?' must be {STATISTICS_OPTION}=PATH.pkl or "
-            f"{STATISTICS_OPTION}={NO_STATISTICS}, got {option!r}"
-        )
-    return path, value
 
 
 def read_model_header(path: Path) -> ModelHeader:

@@ -1,4 +1,4 @@
-"""An MPC planner warm-started by an RL agent: ``uav-bench run --policies ihpso+sb3:PATH.zip``.
+"""An MPC planner warm-started by an RL agent: ``uav-bench run --policies ihpso+sb3[model=PATH.zip]``.
 
 At every step the agent's deterministic policy is rolled forward H steps through the model from
 the exact current state (``model.step`` and ``model.observe`` on a batch of one, with the
@@ -30,8 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from baselines.policy import SB3Policy, load_policy, sb3_label
-from uav_penetration_env.benchmark.policies import HYBRID_SEPARATOR, MPCPolicy
+from baselines.policy import SB3Policy, load_sb3_policy
+from baselines.policy_params import SB3Params, sb3_label
+from uav_penetration_env.benchmark.policies import MPCPolicy
+from uav_penetration_env.benchmark.policy_spec import HYBRID_SEPARATOR
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.types import FloatArray
 
@@ -137,17 +139,12 @@ class AgentWarmStartedMPC(MPCPolicy):
         return action
 
 
-def hybrid_label(planner: str, path: str) -> str:
-    """A hybrid's name in result tables: ``ihpso`` and ``DIR/ppo-paper-s0.zip`` -> ``ihpso+sb3:ppo-paper-s0``."""
-    return f"{planner}{HYBRID_SEPARATOR}{sb3_label(path)}"
-
-
-def load_hybrid(path: str, planner: MPCPolicy) -> AgentWarmStartedMPC:
-    """``PLANNER+sb3:PATH.zip``: ``planner`` (built by the harness) warm-started by the agent at ``path``.
+def load_hybrid(agent: SB3Params, planner: MPCPolicy) -> AgentWarmStartedMPC:
+    """``PLANNER+sb3[model=PATH.zip]``: ``planner`` (built by the harness) warm-started by the agent.
 
     Args:
-        path: the agent's ``.zip`` (as for ``sb3:PATH.zip``).
-        planner: the MPC planner with its settings (horizon, budget, gamma, c_T).
+        agent: the agent's parameters (as for ``sb3[...]``).
+        planner: the MPC planner with its settings (horizon, budget, gamma, c_T), named by its label.
 
     Returns:
         The :class:`AgentWarmStartedMPC`, named ``PLANNER+sb3:STEM``.
@@ -155,8 +152,9 @@ def load_hybrid(path: str, planner: MPCPolicy) -> AgentWarmStartedMPC:
     Raises:
         FileNotFoundError, ValueError: as :func:`baselines.policy.load_policy`.
     """
-    agent: SB3Policy = load_policy(path)
+    policy: SB3Policy = load_sb3_policy(agent)
     settings = {f.name: getattr(planner, f.name) for f in dataclasses.fields(MPCPolicy) if f.init}
     for transient in ("model", "rng", "last_record", "_plan", "name"):
         settings.pop(transient, None)
-    return AgentWarmStartedMPC(**settings, agent=agent, name=hybrid_label(planner.name or "mpc", path))
+    name = f"{planner.name or 'mpc'}{HYBRID_SEPARATOR}{sb3_label(agent)}"
+    return AgentWarmStartedMPC(**settings, agent=policy, name=name)

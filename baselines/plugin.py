@@ -1,12 +1,13 @@
 """What ``baselines`` adds to the harness, registered as entry points in ``pyproject.toml``.
 
-- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies ``sb3:PATH.zip`` (a model
-  without a sidecar, e.g. rl-baselines3-zoo's, takes ``?vecnormalize=STATS.pkl``, docs/rl.md §5) and
-  the hybrids ``PLANNER+sb3:PATH.zip`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
-  ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill:RUN_FOLDER`` (a planner imitated by
-  an MLP, :mod:`baselines.distill`); ``distill-safe`` -> :data:`SAFE_DISTILL_POLICY_KIND`, the same
-  network behind a safety layer on its pitch; ``distill-shield`` -> :data:`SHIELDED_DISTILL_POLICY_KIND`,
-  the same network behind a verified fallback to the greedy floor;
+- ``uav_penetration.policies``: ``sb3`` -> :data:`SB3_POLICY_KIND`, policies
+  ``sb3[model=PATH.zip]`` (published ``sb3:PATH.zip``; a model without a sidecar, e.g.
+  rl-baselines3-zoo's, takes ``vecnormalize=STATS.pkl``, docs/rl.md §5) and the hybrids
+  ``PLANNER+sb3[model=PATH.zip]`` (an MPC planner warm-started by the agent, :mod:`baselines.hybrid`);
+  ``distill`` -> :data:`DISTILL_POLICY_KIND`, policies ``distill[run=RUN_FOLDER,guard=GUARD]`` (a
+  planner imitated by an MLP, :mod:`baselines.distill`), the guard ``none``, ``safe`` (a safety
+  layer on its pitch) or ``shield`` (a verified fallback to the greedy floor); published
+  ``distill:DIR``, ``distill-safe:DIR``, ``distill-shield:DIR`` (:mod:`baselines.policy_params`);
 - ``uav_penetration.commands``: ``train`` -> :data:`TRAIN_COMMAND` (``uav-bench train``), ``tune``
   -> :data:`TUNE_COMMAND` (``uav-bench tune``, Optuna studies), ``distill`` -> :data:`DISTILL_COMMAND`
   (``uav-bench distill``) and ``plot.models`` -> :data:`LEARNING_CURVES` (``uav-bench plot --models DIR``).
@@ -24,8 +25,16 @@ from collections.abc import Callable
 from typing import Any
 
 from baselines.install import RL_INSTALL
+from baselines.policy_params import (
+    GUARD_PREFIXES,
+    DistillParams,
+    SB3Params,
+    distill_label,
+    read_sb3_argument,
+    sb3_label,
+)
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
-from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
+from uav_penetration_env.benchmark.plugins import Needs, PolicyKind, argument_as
 
 
 def later(module: str, name: str) -> Callable[..., Any]:
@@ -52,15 +61,10 @@ add_tune_arguments, tune_command = (
     later("baselines.tune", "tune_command"),
 )
 load_hybrid = later("baselines.hybrid", "load_hybrid")
-load_policy, sb3_label = later("baselines.policy", "load_policy"), later("baselines.policy", "sb3_label")
+load_sb3_policy = later("baselines.policy", "load_sb3_policy")
 add_distill_arguments = later("baselines.distill.cli", "add_distill_arguments")
 distill_command = later("baselines.distill.cli", "distill_command")
-load_distill_policy = later("baselines.distill.policy", "load_distill_policy")
-distill_label = later("baselines.distill.policy", "distill_label")
-load_safe_distill_policy = later("baselines.distill.policy", "load_safe_distill_policy")
-safe_distill_label = later("baselines.distill.policy", "safe_distill_label")
-load_shielded_distill_policy = later("baselines.distill.policy", "load_shielded_distill_policy")
-shielded_distill_label = later("baselines.distill.policy", "shielded_distill_label")
+load_guarded_distill_policy = later("baselines.distill.policy", "load_guarded_distill_policy")
 
 RL_EXTRA = Needs(
     modules=("stable_baselines3", "torch"),
@@ -69,30 +73,24 @@ RL_EXTRA = Needs(
 
 
 SB3_POLICY_KIND = PolicyKind(
-    prefix="sb3",
-    load=load_policy,
-    usage="sb3:PATH.zip[?vecnormalize=STATS.pkl]",
+    name="sb3",
+    params=SB3Params,
+    load=load_sb3_policy,
+    usage="sb3[model=PATH.zip,vecnormalize=STATS.pkl] (sb3:PATH.zip[?vecnormalize=STATS.pkl])",
     label=sb3_label,
     needs=RL_EXTRA,
     hybrid=load_hybrid,
+    prefixes={"sb3": read_sb3_argument},
 )
-# A distilled network flies with NumPy alone (docs/rl.md §4): loading it needs no extra.
+# A distilled network flies with NumPy alone (docs/rl.md §4): loading it needs no extra. The three
+# published prefixes are its guards: the safety layer (§4.7) and the verified fallback (§4.8).
 DISTILL_POLICY_KIND = PolicyKind(
-    prefix="distill", load=load_distill_policy, usage="distill:RUN_FOLDER", label=distill_label
-)
-# The same network behind the safety layer that limits its pitch toward the terrain (docs/rl.md §4.7).
-SAFE_DISTILL_POLICY_KIND = PolicyKind(
-    prefix="distill-safe",
-    load=load_safe_distill_policy,
-    usage="distill-safe:RUN_FOLDER",
-    label=safe_distill_label,
-)
-# The same network behind a verified fallback to the greedy floor (docs/rl.md §4.8).
-SHIELDED_DISTILL_POLICY_KIND = PolicyKind(
-    prefix="distill-shield",
-    load=load_shielded_distill_policy,
-    usage="distill-shield:RUN_FOLDER",
-    label=shielded_distill_label,
+    name="distill",
+    params=DistillParams,
+    load=load_guarded_distill_policy,
+    usage="distill[run=RUN_FOLDER,guard=none|safe|shield] (distill:DIR, distill-safe:DIR, distill-shield:DIR)",
+    label=distill_label,
+    prefixes={prefix: argument_as("run", guard=guard) for guard, prefix in GUARD_PREFIXES.items()},
 )
 TRAIN_COMMAND = Command(
     name="train",

@@ -30,17 +30,17 @@ from baselines.artifacts import (
     verify_artifacts,
 )
 from baselines.foreign import (
-    STATISTICS_OPTION,
     ModelHeader,
     check_spaces,
     check_trusted,
     find_statistics,
     read_model_header,
-    split_spec,
     zoo_env_id,
 )
 from baselines.formulation import Formulation, learner_observation, turn_control
 from baselines.install import RL_INSTALL
+from baselines.policy_params import STATISTICS_OPTION, SB3Params
+from baselines.policy_params import sb3_label as sb3_label  # re-exported: an agent's name in tables
 from uav_penetration_env.env import action_space, observation_space
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
 from uav_penetration_env.types import FloatArray
@@ -279,23 +279,21 @@ def _read_verified(path: Path, sha256: str) -> bytes:
     return data
 
 
-def sb3_label(path: str | Path) -> str:
-    """An agent's name in result tables: its file stem (``sb3:DIR/ppo-paper-s0.zip`` -> ``sb3:ppo-paper-s0``).
-
-    An option (``?vecnormalize=...``) is not part of the name.
-    """
-    return f"sb3:{Path(split_spec(str(path))[0]).stem}"
-
-
 class NoSidecarWarning(UnverifiedArtifactWarning):
     """A model without a ``.json`` sidecar is scored: the checks the sidecar allows could not run."""
 
 
-def load_policy(path: str | Path) -> SB3Policy:
+def load_sb3_policy(params: SB3Params) -> SB3Policy:
+    """The policy ``sb3[model=...,vecnormalize=...]`` (:func:`load_policy` with its parameters)."""
+    return load_policy(params.model, vecnormalize=params.vecnormalize)
+
+
+def load_policy(path: str | Path, vecnormalize: str | None = None) -> SB3Policy:
     """A harness Policy for the model saved at ``path`` (``.zip``; the suffix may be omitted).
 
-    ``path`` may end in ``?vecnormalize=STATS.pkl`` or ``?vecnormalize=none``, for a model without
-    a sidecar (``sb3:logs/ppo/UAVPenetration-v0_1/best_model.zip?vecnormalize=...``).
+    ``vecnormalize``: for a model without a sidecar, its observation statistics, ``STATS.pkl`` or
+    ``none`` (raw observations); the policy ``sb3[model=PATH.zip,vecnormalize=STATS.pkl]``,
+    published ``sb3:PATH.zip?vecnormalize=STATS.pkl``.
 
     DECISION (docs/rl.md §5.2, models without a sidecar): a ``.zip`` with no ``.json`` beside it
     (saved by SB3 itself or by rl-baselines3-zoo) is scored, with a :class:`NoSidecarWarning`,
@@ -313,7 +311,7 @@ def load_policy(path: str | Path) -> SB3Policy:
             the path).
         ValueError: a corrupt sidecar; a model file, observation statistics or hyper-parameters
             whose SHA-256 differs from the one the sidecar records (naming the file); a sidecar
-            for another observation shape; ``?vecnormalize=`` given to a model with a sidecar; a
+            for another observation shape; ``vecnormalize`` given to a model with a sidecar; a
             ``.zip`` without a sidecar that is not an SB3 model of a known algorithm, or whose
             spaces are not the env's.
 
@@ -324,15 +322,15 @@ def load_policy(path: str | Path) -> SB3Policy:
 
     The ``.zip`` and ``.vecnormalize.pkl`` are pickles: load models from trusted sources only.
     """
-    model_path, statistics_option = split_spec(str(path))
-    files = ModelFiles.of(model_path)
+    statistics_option = vecnormalize
+    files = ModelFiles.of(str(path))
     if not files.model.is_file():
         raise FileNotFoundError(f"{files.model}: no such SB3 model file")
     if not files.sidecar.exists():
         return _load_without_sidecar(files, statistics_option)
     if statistics_option is not None:
         raise ValueError(
-            f"{files.model}: ?{STATISTICS_OPTION}= is for models without a sidecar; {files.sidecar} names "
+            f"{files.model}: {STATISTICS_OPTION}= is for models without a sidecar; {files.sidecar} names "
             "this model's observation statistics"
         )
     sidecar = read_sidecar(files.sidecar)

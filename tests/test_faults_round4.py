@@ -625,7 +625,7 @@ def test_a_model_without_a_sidecar_needs_the_trust_opt_in(tmp_path, monkeypatch)
     model = pickled_space_model(tmp_path / "model.zip", marker, low=low, shape=(67,))
     monkeypatch.delenv(TRUST_VARIABLE, raising=False)
     with pytest.raises(ValueError, match=rf"model\.zip: a model without a sidecar .*expected {TRUST_VARIABLE}=1"):
-        load_policy(f"{model}?vecnormalize=none")
+        load_policy(model, vecnormalize="none")
     assert not marker.exists()
 
 

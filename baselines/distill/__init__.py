@@ -23,7 +23,7 @@ _EXPORTS = {
     "DistillPolicy": "baselines.distill.policy",
     "SafeDistillPolicy": "baselines.distill.policy",
     "load_distill_policy": "baselines.distill.policy",
-    "load_safe_distill_policy": "baselines.distill.policy",
+    "load_guarded_distill_policy": "baselines.distill.policy",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -23,6 +23,7 @@ from baselines.distill.files import load_npz, sha256_file
 from baselines.distill.heads import head_of, network_action, turn_clearance
 from baselines.distill.network import layer_count
 from baselines.distill.weights_check import check_weights
+from baselines.policy_params import DistillParams, weights_path
 from uav_penetration_env.benchmark.policies import GreedyPolicy
 from uav_penetration_env.kinematics import HEADING, SPEED
 from uav_penetration_env.model import OBSERVATION_SIZE, PenetrationModel
@@ -269,16 +270,8 @@ class ShieldedDistillPolicy(DistillPolicy):
         return action
 
 
-def weights_path(path: str | Path) -> Path:
-    """A run folder -> its ``policy.npz``; a file path as given (``.npz`` may be omitted)."""
-    path = Path(path)
-    if path.is_dir():
-        return path / "policy.npz"
-    return path if path.suffix == ".npz" else path.with_suffix(".npz")
-
-
 def load_distill_policy(path: str | Path) -> DistillPolicy:
-    """The harness Policy of a distilled network (``distill:PATH``).
+    """The harness Policy of a distilled network (``distill[run=PATH]``, published ``distill:PATH``).
 
     Raises:
         FileNotFoundError: no weights or no sidecar (naming the path).
@@ -322,30 +315,20 @@ def load_distill_policy(path: str | Path) -> DistillPolicy:
     return DistillPolicy(weights, arrays, sidecar)
 
 
-def load_safe_distill_policy(path: str | Path) -> SafeDistillPolicy:
-    """The harness Policy ``distill-safe:PATH``: the network of ``distill:PATH`` behind the safety layer."""
-    plain = load_distill_policy(path)
-    return SafeDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+def load_guarded_distill_policy(params: DistillParams) -> DistillPolicy:
+    """The policy ``distill[run=DIR,guard=GUARD]``: the network of ``run`` alone or behind its guard.
 
+    ``guard`` ``none``: :class:`DistillPolicy`; ``safe``: :class:`SafeDistillPolicy` (the safety
+    layer on its pitch, docs/rl.md §4.7); ``shield``: :class:`ShieldedDistillPolicy` (the
+    verified fallback to the greedy floor, §4.8). Published as ``distill:DIR``,
+    ``distill-safe:DIR``, ``distill-shield:DIR``.
 
-def load_shielded_distill_policy(path: str | Path) -> ShieldedDistillPolicy:
-    """The harness Policy ``distill-shield:PATH``: the network of ``distill:PATH`` behind the greedy fallback."""
-    plain = load_distill_policy(path)
-    return ShieldedDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
-
-
-def shielded_distill_label(path: str | Path) -> str:
-    """A shielded policy's name in result tables: ``distill-shield:NAME``."""
-    return "distill-shield:" + distill_label(path).partition(":")[2]
-
-
-def safe_distill_label(path: str | Path) -> str:
-    """A guarded policy's name in result tables: ``distill-safe:NAME``."""
-    return "distill-safe:" + distill_label(path).partition(":")[2]
-
-
-def distill_label(path: str | Path) -> str:
-    """A distilled policy's name in result tables: its run folder's name (``distill:NAME``)."""
-    weights = weights_path(path)
-    name = weights.parent.name if weights.stem == "policy" else weights.stem
-    return f"distill:{name}"
+    Raises:
+        FileNotFoundError, ValueError: as :func:`load_distill_policy`.
+    """
+    plain = load_distill_policy(params.run)
+    if params.guard == "safe":
+        return SafeDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+    if params.guard == "shield":
+        return ShieldedDistillPolicy(plain.weights, plain.arrays, plain.sidecar)
+    return plain

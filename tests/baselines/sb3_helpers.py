@@ -51,8 +51,6 @@ def baselines_plugins(monkeypatch):
         plugins.POLICY_GROUP: {
             "sb3": plugins.Plugin("sb3", plugin.SB3_POLICY_KIND),
             "distill": plugins.Plugin("distill", plugin.DISTILL_POLICY_KIND),
-            "distill-safe": plugins.Plugin("distill-safe", plugin.SAFE_DISTILL_POLICY_KIND),
-            "distill-shield": plugins.Plugin("distill-shield", plugin.SHIELDED_DISTILL_POLICY_KIND),
         },
         plugins.COMMAND_GROUP: {
             "train": plugins.Plugin("train", plugin.TRAIN_COMMAND),

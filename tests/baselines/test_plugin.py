@@ -8,10 +8,13 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from sb3_helpers import baselines_plugins  # noqa: F401 (a fixture)
 
 from baselines import plugin
+from baselines.policy_params import DistillParams, SB3Params
 from uav_penetration_env.benchmark.commands.common import Command, CommandExtension
 from uav_penetration_env.benchmark.plugins import COMMAND_GROUP, POLICY_GROUP, PolicyKind
+from uav_penetration_env.benchmark.policy_names import parse_policy
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,8 +25,6 @@ def test_pyproject_declares_the_plugins_of_baselines():
     assert entry_points[POLICY_GROUP] == {
         "sb3": "baselines.plugin:SB3_POLICY_KIND",
         "distill": "baselines.plugin:DISTILL_POLICY_KIND",
-        "distill-safe": "baselines.plugin:SAFE_DISTILL_POLICY_KIND",
-        "distill-shield": "baselines.plugin:SHIELDED_DISTILL_POLICY_KIND",
     }
     assert entry_points[COMMAND_GROUP] == {
         "train": "baselines.plugin:TRAIN_COMMAND",
@@ -31,18 +32,62 @@ def test_pyproject_declares_the_plugins_of_baselines():
         "tune": "baselines.plugin:TUNE_COMMAND",
         "plot.models": "baselines.plugin:LEARNING_CURVES",
     }
-    assert isinstance(plugin.SB3_POLICY_KIND, PolicyKind) and plugin.SB3_POLICY_KIND.prefix == "sb3"
+    assert isinstance(plugin.SB3_POLICY_KIND, PolicyKind) and plugin.SB3_POLICY_KIND.name == "sb3"
     assert isinstance(plugin.TRAIN_COMMAND, Command) and plugin.TRAIN_COMMAND.name == "train"
     assert isinstance(plugin.TUNE_COMMAND, Command) and plugin.TUNE_COMMAND.name == "tune"
     assert "optuna" in plugin.TUNE_COMMAND.needs.modules
     assert isinstance(plugin.LEARNING_CURVES, CommandExtension) and plugin.LEARNING_CURVES.command == "plot"
-    assert plugin.SB3_POLICY_KIND.label("models/ppo-paper-s0.zip") == "sb3:ppo-paper-s0"
-    assert isinstance(plugin.DISTILL_POLICY_KIND, PolicyKind) and plugin.DISTILL_POLICY_KIND.prefix == "distill"
-    assert plugin.DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill:lattice-s0"
+    assert plugin.SB3_POLICY_KIND.label(SB3Params("models/ppo-paper-s0.zip")) == "sb3:ppo-paper-s0"
+    assert isinstance(plugin.DISTILL_POLICY_KIND, PolicyKind) and plugin.DISTILL_POLICY_KIND.name == "distill"
+    assert plugin.DISTILL_POLICY_KIND.label(DistillParams("results/distill/lattice-s0")) == "distill:lattice-s0"
     assert isinstance(plugin.DISTILL_COMMAND, Command) and plugin.DISTILL_COMMAND.name == "distill"
     assert plugin.DISTILL_POLICY_KIND.needs.modules == ()  # flown with NumPy: no extra needed
-    assert plugin.SAFE_DISTILL_POLICY_KIND.label("results/distill/lattice-s0") == "distill-safe:lattice-s0"
-    assert plugin.SHIELDED_DISTILL_POLICY_KIND.label("results/distill/turn-s0") == "distill-shield:turn-s0"
+    assert plugin.DISTILL_POLICY_KIND.label(DistillParams("results/distill/lattice-s0", "safe")) == (
+        "distill-safe:lattice-s0"
+    )
+    assert plugin.DISTILL_POLICY_KIND.label(DistillParams("results/distill/turn-s0", "shield")) == (
+        "distill-shield:turn-s0"
+    )
+
+
+# The published names of baselines' kinds (leaderboards v2, v3, protocol v4), their bracket forms and labels.
+PUBLISHED = [
+    ("distill-shield:oos-c40-value-s0", "distill[run=oos-c40-value-s0,guard=shield]",
+     "distill-shield:oos-c40-value-s0", DistillParams("oos-c40-value-s0", "shield")),
+    ("distill-safe:runs/c40-s0", "distill[run=runs/c40-s0,guard=safe]", "distill-safe:c40-s0",
+     DistillParams("runs/c40-s0", "safe")),
+    ("distill:runs/c40-value-s1", "distill[run=runs/c40-value-s1]", "distill:c40-value-s1",
+     DistillParams("runs/c40-value-s1")),
+    ("sb3:models/ppo-paper-s0.zip", "sb3[model=models/ppo-paper-s0.zip]", "sb3:ppo-paper-s0",
+     SB3Params("models/ppo-paper-s0.zip")),
+    ("sb3:logs/ENV_1/ENV.zip?vecnormalize=logs/ENV_1/ENV/vecnormalize.pkl",
+     "sb3[model=logs/ENV_1/ENV.zip,vecnormalize=logs/ENV_1/ENV/vecnormalize.pkl]", "sb3:ENV",
+     SB3Params("logs/ENV_1/ENV.zip", "logs/ENV_1/ENV/vecnormalize.pkl")),
+    ("sb3:m/a,b.zip?vecnormalize=none", 'sb3[model="m/a,b.zip",vecnormalize=none]', "sb3:a,b",
+     SB3Params("m/a,b.zip", "none")),
+]  # fmt: skip
+
+
+@pytest.mark.usefixtures("baselines_plugins")
+@pytest.mark.parametrize("published, bracket, label, params", PUBLISHED)
+def test_published_names_of_the_plugin_kinds_read_as_their_bracket_forms(published, bracket, label, params):
+    spec = parse_policy(published)
+    assert (spec.params, spec.label, spec.canonical()) == (params, label, bracket)
+    assert parse_policy(bracket) == spec
+    if spec.kind == "sb3":  # an agent warm-starts a planner; a distilled network does not
+        hybrid = parse_policy(f"ihpso+{published}")
+        assert hybrid.label == f"ihpso+{label}" and hybrid.canonical() == f"ihpso+{bracket}"
+        assert parse_policy(f"ihpso[terminal=none]+{bracket}").label == f"ihpso-eq37+{label}"
+
+
+@pytest.mark.usefixtures("baselines_plugins")
+def test_a_bad_plugin_parameter_is_one_line():
+    with pytest.raises(ValueError, match=r"guard: got 'maybe', expected one of none, safe, shield$"):
+        parse_policy("distill[run=d,guard=maybe]")
+    with pytest.raises(ValueError, match=r"the kind 'sb3' needs the parameter 'model' \(the path of an SB3 \.zip\)"):
+        parse_policy("sb3[vecnormalize=none]")
+    with pytest.raises(KeyError, match=r"the plug-in kind 'distill' cannot warm-start a planner"):
+        parse_policy("ihpso+distill-shield:d")
 
 
 # A fresh interpreter in which torch and stable_baselines3 cannot be imported (as without the rl

@@ -23,10 +23,12 @@ from stable_baselines3.common.noise import ActionNoise
 from baselines import load_policy
 from baselines.hyperparameters import algorithm_kwargs, normalize_kwargs, resolve_hyperparams
 from baselines.plan import TrainConfig
-from baselines.policy import NoSidecarWarning, sb3_label
+from baselines.policy import NoSidecarWarning
+from baselines.policy_params import SB3Params
 from baselines.zoo import ZOO_HYPERPARAMS_DIR, NormalisedActions
 from uav_penetration_env import ENV_IDS
 from uav_penetration_env.benchmark.evaluate import evaluate, policy_hash
+from uav_penetration_env.benchmark.policy_names import parse_policy
 from uav_penetration_env.env import UAVPenetrationEnv
 
 pytestmark = pytest.mark.usefixtures("baselines_plugins")
@@ -210,21 +212,24 @@ def test_the_statistics_option_names_the_file_or_none(foreign_ppo, tmp_path):
     with pytest.raises(FileNotFoundError, match=r"agent\.zip: no sidecar agent\.json and no observation statistics at .*agent\.vecnormalize\.pkl; give them as sb3:.*\?vecnormalize=PATH\.pkl"):  # fmt: skip
         load_policy(elsewhere)
     with pytest.warns(NoSidecarWarning, match="an unknown env with observation statistics"):
-        named = load_policy(f"{elsewhere}?vecnormalize={statistics}")
+        named = load_policy(elsewhere, vecnormalize=str(statistics))
     with pytest.warns(NoSidecarWarning, match="an unknown env with raw observations"):
-        raw = load_policy(f"{elsewhere}?vecnormalize=none")
+        raw = load_policy(elsewhere, vecnormalize="none")
     assert named.config()["vecnormalize_sha256"] == sha256(statistics)
     assert raw.config()["vecnormalize_sha256"] is None and policy_hash(raw) != policy_hash(named)
-    assert sb3_label(f"{elsewhere}?vecnormalize=none") == "sb3:agent"
+    # The published form sb3:PATH?vecnormalize=VALUE is the name sb3[model=PATH,vecnormalize=VALUE].
+    published = parse_policy(f"sb3:{elsewhere}?vecnormalize=none")
+    assert published == parse_policy(f"sb3[model={elsewhere},vecnormalize=none]")
+    assert published.params == SB3Params(str(elsewhere), "none") and published.label == "sb3:agent"
     with pytest.raises(ValueError, match=r"agent\.zip: the option after '\?' must be vecnormalize=PATH\.pkl or vecnormalize=none, got 'stats=x'"):  # fmt: skip
-        load_policy(f"{elsewhere}?stats=x")
+        parse_policy(f"sb3:{elsewhere}?stats=x")
     with pytest.raises(FileNotFoundError, match=r"nope\.pkl: no such observation statistics file"):
-        load_policy(f"{elsewhere}?vecnormalize={tmp_path / 'nope.pkl'}")
+        load_policy(elsewhere, vecnormalize=str(tmp_path / "nope.pkl"))
     (tmp_path / "agent.json").write_text("{}")  # a sidecar names its own statistics
     with pytest.raises(
-        ValueError, match=r"agent\.zip: \?vecnormalize= is for models without a sidecar; .*agent\.json names"
+        ValueError, match=r"agent\.zip: vecnormalize= is for models without a sidecar; .*agent\.json names"
     ):
-        load_policy(f"{elsewhere}?vecnormalize=none")
+        load_policy(elsewhere, vecnormalize="none")
 
 
 def test_a_model_of_other_spaces_is_refused_in_one_line(tmp_path):
@@ -234,17 +239,17 @@ def test_a_model_of_other_spaces_is_refused_in_one_line(tmp_path):
     with pytest.raises(
         ValueError, match=r"does not fit this env: it was trained with action space Box\(\[-"
     ) as error:
-        load_policy(f"{physical}?vecnormalize=none")
+        load_policy(physical, vecnormalize="none")
     assert "\n" not in str(error.value) and "observation space" not in str(error.value)
     other = tmp_path / "pendulum.zip"
     PPO("MlpPolicy", gym.make("Pendulum-v1"), n_steps=32, batch_size=32, device="cpu").save(other)
     with pytest.raises(ValueError, match=r"observation space Box\(.*\(3,\), float32\) \(the env's is Box\(-10\.0, 10\.0, \(67,\), float32\)\); action space") as error:  # fmt: skip
-        load_policy(f"{other}?vecnormalize=none")
+        load_policy(other, vecnormalize="none")
     assert "\n" not in str(error.value)
     not_a_model = tmp_path / "junk.zip"
     not_a_model.write_bytes(b"not a zip")
     with pytest.raises(ValueError, match=r"junk\.zip: not a Stable-Baselines3 model"):
-        load_policy(f"{not_a_model}?vecnormalize=none")
+        load_policy(not_a_model, vecnormalize="none")
 
 
 @pytest.mark.slow

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 import yaml
 from conftest import tiny_scenario
+from fake_policy_kind import fake_kind
 
 from uav_penetration_env import load_scenario
 from uav_penetration_env.benchmark import cli, plugins
@@ -24,8 +25,7 @@ from uav_penetration_env.benchmark.commands import common
 from uav_penetration_env.benchmark.commands import run as run_command
 from uav_penetration_env.benchmark.commands.common import CLIError, Command, CommandExtension
 from uav_penetration_env.benchmark.commands.run import run_reference
-from uav_penetration_env.benchmark.plugins import Needs, PolicyKind
-from uav_penetration_env.benchmark.policies import GreedyPolicy
+from uav_penetration_env.benchmark.plugins import Needs
 from uav_penetration_env.benchmark.store import ResultsStore
 from uav_penetration_env.mpc import MPC_DEFAULTS
 
@@ -421,41 +421,34 @@ def fake_plugins(monkeypatch, policies=None, commands=None):
 
 
 def spy_kind(needs=MISSING_EXTRA, loaded=None):
-    def load(argument):
-        loaded.append(argument)
-        return GreedyPolicy()
-
-    return PolicyKind(
-        prefix="fake", load=load, usage="fake:PATH", label=lambda a: f"fake:{Path(a).stem}", needs=needs
-    )
+    return fake_kind(loaded, needs)
 
 
-def test_plugin_policy_kind_is_used_and_labelled(tmp_path, tiny_yaml, monkeypatch):
+@pytest.mark.parametrize("name", ["fake:dir/agent.zip", "fake[path=dir/agent.zip]"])
+def test_plugin_policy_kind_is_used_and_labelled(name, tmp_path, tiny_yaml, monkeypatch):
     loaded = []
     fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", spy_kind(Needs(), loaded))})
     store = tmp_path / "plug.sqlite"
-    assert run_cli("run", "--policies", "fake:dir/agent.zip", "--scenarios", tiny_yaml, "--seeds", 1,
+    assert run_cli("run", "--policies", name, "--scenarios", tiny_yaml, "--seeds", 1,
                    "--store", store, "--no-report", "--no-progress", "--jobs", 1) == 0  # fmt: skip
     assert loaded == ["dir/agent.zip"]
     assert stored_rows(store)["policy"].tolist() == ["fake:agent"]
 
 
 def test_a_hybrid_name_builds_the_planner_and_hands_it_to_the_kind(tmp_path, tiny_yaml, monkeypatch):
-    from uav_penetration_env.benchmark.policies import MPCPolicy, make_policy, policy_label, split_hybrid
+    from uav_penetration_env.benchmark.policies import MPCPolicy, make_policy, parse_policy, policy_label
 
     handed = []
 
-    def hybrid(argument, planner):
-        handed.append((argument, planner))
+    def hybrid(params, planner):
+        handed.append((params.path, planner))
         return planner  # the planner itself stands in for a warm-started one
 
-    kind = PolicyKind(
-        prefix="fake", load=lambda a: GreedyPolicy(), usage="fake:PATH", label=lambda a: f"fake:{Path(a).stem}",
-        hybrid=hybrid,
-    )  # fmt: skip
-    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", kind)})
-    assert split_hybrid("pso+fake:dir/a+b.zip") == ("pso", "fake:dir/a+b.zip")
-    assert split_hybrid("fake:dir/a+b.zip") is None and split_hybrid("pso") is None
+    fake_plugins(monkeypatch, policies={"fake": plugins.Plugin("fake", fake_kind(hybrid=hybrid))})
+    # Only the text before the first colon of a published form is searched for '+': a path may hold one.
+    hybrid_spec = parse_policy("pso+fake:dir/a+b.zip")
+    assert (hybrid_spec.kind, hybrid_spec.warm_start.params.path) == ("pso", "dir/a+b.zip")
+    assert parse_policy("fake:dir/a+b.zip").warm_start is None and parse_policy("pso").warm_start is None
     assert policy_label("ihpso-eq37+fake:dir/agent.zip") == "ihpso-eq37+fake:agent"
     policy = make_policy("ihpso-eq37+fake:dir/agent.zip", horizon=3, max_evals=50)
     ((argument, planner),) = handed
@@ -727,6 +720,7 @@ print(status, len(compiled), compiled[:3])
     [
         (["--policies", "ihpsoo"], "--policies: unknown policy 'ihpsoo' — did you mean 'ihpso'"),
         (["--policies", "greedy", "nosuch:thing"], "no installed plug-in provides the kind 'nosuch'"),
+        (["--policies", "lattice[clearance=5]"], "clearance: got '5', expected an integer number of metres in [10, 1000]"),
         (["--scenarios", "missing.yaml"], "--scenarios: no such scenario file 'missing.yaml'"),
         (["--config", "missing.yaml"], "--config"),
     ],

@@ -238,7 +238,7 @@ def test_make_policy_names():
     assert isinstance(low, LatticePolicy) and low.guidance.clearance_m == 40.0
     assert low.config()["guidance"]["clearance_m"] == 40.0 and low.config() != make_policy("lattice").config()
     for bad in ("lattice-c5", "lattice-c", "lattice-c4.5", "lattice-c2000"):
-        with pytest.raises(ValueError, match=r"expected lattice-cN with N an integer number of metres in \[10, 1000\]"):
+        with pytest.raises(ValueError, match=r"clearance: got '.*', expected an integer number of metres in \[10, 1000\]"):
             make_policy(bad)
     assert make_policy("value-greedy-c40").guidance.clearance_m == 40.0
     assert make_policy("value-greedy").config()["kind"] == "value-greedy"

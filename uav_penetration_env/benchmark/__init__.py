@@ -16,6 +16,9 @@ _EXPORTS = {
     "Policy": "uav_penetration_env.benchmark.policies",
     "RandomPolicy": "uav_penetration_env.benchmark.policies",
     "make_policy": "uav_penetration_env.benchmark.policies",
+    "policy_label": "uav_penetration_env.benchmark.policies",
+    "PolicySpec": "uav_penetration_env.benchmark.policy_spec",
+    "parse_policy": "uav_penetration_env.benchmark.policy_names",
     "ResultsStore": "uav_penetration_env.benchmark.store",
     "StoreError": "uav_penetration_env.benchmark.store",
 }

@@ -15,7 +15,7 @@ FAMILIES = (
     "RL agents",
     "imitation (distilled)",
 )
-CLASSICAL_PLANNERS = ("lattice", "value-greedy")  # and their -cN variants (policies.with_clearance)
+CLASSICAL_PLANNERS = ("lattice", "value-greedy")  # and their -cN variants (policy_names.CLEARANCE_SUFFIX)
 IMITATION_KINDS = ("distill", "distill-safe", "distill-shield")  # the distilled networks' policy kinds
 MPC_FAMILIES = FAMILIES[:3]  # the families whose policies are MPC planners
 PAPER_PLANNERS = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism")

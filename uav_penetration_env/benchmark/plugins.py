@@ -4,7 +4,7 @@ The harness knows no optional package by name. A package extends it by declaring
 in its ``pyproject.toml`` (``baselines`` does so for the ``rl`` extra)::
 
     [project.entry-points."uav_penetration.policies"]
-    sb3 = "baselines.policy:SB3_POLICY_KIND"        # a PolicyKind: policies named "sb3:..."
+    sb3 = "baselines.plugin:SB3_POLICY_KIND"        # a PolicyKind: policies named "sb3[...]"
 
     [project.entry-points."uav_penetration.commands"]
     train = "baselines.cli:TRAIN_COMMAND"           # a Command: `uav-bench train`
@@ -23,7 +23,7 @@ import importlib.metadata
 import importlib.util
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -73,27 +73,50 @@ class Needs:
 
 @dataclass(frozen=True)
 class PolicyKind:
-    """Policies named ``PREFIX:ARGUMENT`` (e.g. ``sb3:models/ppo.zip``), provided by a plug-in.
+    """A policy kind provided by a plug-in: ``NAME[param=value,...]`` (e.g. ``sb3[model=models/ppo.zip]``).
+
+    The harness reads the name (:mod:`~.policy_spec`) into the kind's typed parameters, then
+    calls the kind with them; it never parses a plug-in's text itself.
 
     Attributes:
-        prefix: the name before the colon.
-        load: builds the policy from the text after the colon (may raise ``FileNotFoundError``,
+        name: the kind, as written before ``[``.
+        params: a frozen dataclass of the kind's parameters, each ``str``, ``int`` or ``float``
+            (``| None`` for an optional one), with ``metadata`` ``choices``, ``range``, ``unit`` or
+            ``expected`` where the domain is narrower (api.md §4.1).
+        load: builds the policy from a ``params`` instance (may raise ``FileNotFoundError``,
             ``ValueError``).
-        usage: the form shown in help and error messages, e.g. ``sb3:PATH.zip``.
-        label: the policy's name in result tables, from the text after the colon (default: the
-            whole ``PREFIX:ARGUMENT``).
+        usage: the form shown in help and error messages, e.g. ``sb3[model=PATH.zip]``.
+        label: the policy's name in result tables, from its ``params`` (default: the bracket form).
         needs: what :attr:`load` and the policy need at run time.
-        hybrid: builds ``PLANNER+PREFIX:ARGUMENT`` from the text after the colon and the planner's
+        hybrid: builds ``PLANNER+NAME[...]`` from ``params`` and the planner's
             :class:`~.policies.MPCPolicy` (built by the harness): the planner warm-started by this
             kind's policy (docs/rl-statistics.md §3); ``None`` when the kind offers no hybrid.
+        prefixes: the published ``PREFIX:ARGUMENT`` forms of this kind: prefix -> a function from
+            ARGUMENT to parameter texts (:func:`argument_as`); a ``ValueError`` it raises is the
+            name's error. ``distill-shield:DIR`` is ``distill[run=DIR,guard=shield]``.
     """
 
-    prefix: str
-    load: Callable[[str], Any]
+    name: str
+    params: type
+    load: Callable[[Any], Any]
     usage: str
-    label: Callable[[str], str] | None = None
+    label: Callable[[Any], str] | None = None
     needs: Needs = field(default_factory=Needs)
-    hybrid: Callable[[str, Any], Any] | None = None
+    hybrid: Callable[[Any, Any], Any] | None = None
+    prefixes: Mapping[str, Callable[[str], Mapping[str, str]]] = field(default_factory=dict, hash=False)
+
+
+def argument_as(param: str, **fixed: str) -> Callable[[str], dict[str, str]]:
+    """The reader of a ``PREFIX:ARGUMENT`` form that gives ARGUMENT to ``param`` and fixes the others.
+
+    ``argument_as("run", guard="shield")("DIR")`` -> ``{"run": "DIR", "guard": "shield"}``.
+    """
+
+    def read(argument: str) -> dict[str, str]:
+        return {param: argument, **fixed}
+
+    read.__qualname__ = read.__name__ = f"argument_as_{param}"
+    return read
 
 
 @dataclass(frozen=True)
@@ -123,34 +146,31 @@ def discover(group: str) -> dict[str, Plugin]:
 
 
 def policy_kinds() -> dict[str, PolicyKind | Plugin]:
-    """The policy kinds of the installed plug-ins by prefix; a :class:`Plugin` with its error when broken."""
+    """The policy kinds of the installed plug-ins by name; a :class:`Plugin` with its error when broken."""
     kinds: dict[str, PolicyKind | Plugin] = {}
     for name, plugin in discover(POLICY_GROUP).items():
         if plugin.error is not None:
             kinds[name] = plugin
         elif isinstance(plugin.value, PolicyKind):
-            kinds[plugin.value.prefix] = plugin.value
+            kinds[plugin.value.name] = plugin.value
         else:
             kinds[name] = Plugin(name, error=f"entry point {name!r} of {POLICY_GROUP} is not a PolicyKind")
     return kinds
 
 
-HYBRID_SEPARATOR = "+"  # PLANNER+PREFIX:ARGUMENT, an MPC planner warm-started by a plug-in policy
-
-
 def plugin_policy_forms() -> list[str]:
-    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3:PATH.zip``).
+    """The forms of the installed plug-in policy kinds, for help and errors (e.g. ``sb3[model=PATH.zip]``).
 
-    A kind that warm-starts planners adds its hybrid form, ``PLANNER+sb3:PATH.zip``.
+    A kind that warm-starts planners adds its hybrid form, ``PLANNER+sb3[...]``.
     """
     forms = []
-    for prefix, kind in policy_kinds().items():
+    for name, kind in policy_kinds().items():
         if isinstance(kind, Plugin):
-            forms.append(f"{prefix}:...")
+            forms.append(f"{name}[...]")
             continue
         forms.append(kind.usage)
         if kind.hybrid is not None:
-            forms.append(f"PLANNER{HYBRID_SEPARATOR}{kind.usage}")
+            forms.append(f"PLANNER+{kind.name}[...]")
     return forms
 
 

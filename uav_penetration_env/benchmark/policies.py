@@ -19,21 +19,18 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import Bounds
 
-from uav_penetration_env.benchmark.plugins import (  # the plug-in forms, re-exported for the policy names
-    HYBRID_SEPARATOR,
-    Plugin,
+from uav_penetration_env.benchmark.plugins import (
     PluginUnavailable,
+    PolicyKind,
     policy_kinds,
     stable_parameters,
 )
-from uav_penetration_env.benchmark.policy_names import (  # the name grammar, re-exported
-    CLEARANCE_SUFFIX,
-    CLEARANCES_M,
+from uav_penetration_env.benchmark.policy_names import (  # the kinds and their names, re-exported
+    parse_policy,
     policy_names,  # noqa: F401  # re-exported: every plain name make_policy accepts
-    split_hybrid,
-    split_terminal,
-    unknown_policy,
+    unknown_policy,  # noqa: F401  # re-exported: the fast refusal of a name
 )
+from uav_penetration_env.benchmark.policy_spec import PolicySpec
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
@@ -541,115 +538,78 @@ FLOOR_POLICIES = {"greedy": GreedyPolicy, "random": RandomPolicy}
 BASELINE_POLICIES: dict[str, Any] = {"lattice": LatticePolicy, "value-greedy": ValueGreedyPolicy}
 
 
-def with_clearance(spec: str) -> LatticePolicy | ValueGreedyPolicy | None:
-    """``lattice-cN`` / ``value-greedy-cN`` -> that planner at a terrain-following clearance of N metres; other names -> None.
+def policy_label(spec: str | PolicySpec) -> str:
+    """The name of a policy in result tables and the store: the published name where one exists (api.md §4.1).
 
-    The value function V is the lattice's own (built at ``LATTICE_DEFAULTS.clearance_m``); only
-    the clearance the candidate moves aim at changes (model.md §7e.3).
+    ``lattice[clearance=60]`` -> ``lattice-c60``; a plug-in kind may shorten it
+    (``sb3:DIR/m.zip`` -> ``sb3:m``); a hybrid keeps its planner (``ihpso+sb3:DIR/m.zip`` ->
+    ``ihpso+sb3:m``).
 
     Raises:
-        ValueError: N not an integer in ``CLEARANCES_M``.
+        KeyError, ValueError: a name :func:`~.policy_names.parse_policy` cannot read.
     """
-    base, suffix, digits = spec.rpartition(CLEARANCE_SUFFIX)
-    if not suffix or base not in BASELINE_POLICIES:
-        return None
-    low, high = CLEARANCES_M
-    if not (digits.isdigit() and low <= int(digits) <= high):
-        raise ValueError(f"policy {spec!r}: expected {base}-cN with N an integer number of metres in [{low}, {high}]")
-    return BASELINE_POLICIES[base](dataclasses.replace(LATTICE_GUIDANCE, clearance_m=float(int(digits))))
+    return (spec if isinstance(spec, PolicySpec) else parse_policy(spec)).label
 
 
-def policy_label(spec: str) -> str:
-    """The name of a policy in result tables: a plug-in kind may shorten it (``sb3:DIR/m.zip`` -> ``sb3:m``).
-
-    A hybrid keeps its planner: ``ihpso+sb3:DIR/m.zip`` -> ``ihpso+sb3:m``.
-    """
-    hybrid = split_hybrid(spec)
-    if hybrid is not None:
-        return f"{hybrid[0]}{HYBRID_SEPARATOR}{policy_label(hybrid[1])}"
-    prefix, colon, argument = spec.partition(":")
-    kind = policy_kinds().get(prefix) if colon else None
-    if kind is None or isinstance(kind, Plugin) or kind.label is None:
-        return spec
-    return kind.label(argument)
-
-
-def make_policy(spec: str, settings: MPCSettings = MPC_DEFAULTS, **changes: Any) -> Any:
-    """A policy from its CLI name (api.md), MPC planners with ``settings``.
+def make_policy(spec: str | PolicySpec, settings: MPCSettings = MPC_DEFAULTS, **changes: Any) -> Any:
+    """A policy from its name (api.md §4.1) or its read :class:`PolicySpec`, MPC planners with ``settings``.
 
     ``changes`` are settings keys that replace those of ``settings``
     (``make_policy("ihpso", max_evals=300)``, ``terminal="distance"``, ``terminal_cost=0.2``:
-    :meth:`MPCSettings.with_keys`). Names: an optimiser name (an MPC planner with
-    ``settings.terminal``'s form), the same with a suffix
-    that fixes the form (``NAME-eq37``: none, the paper's literal eq. 37; ``NAME-ctg-distance``,
-    ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e), ``greedy``, ``random``, ``lattice``
-    (the lattice planner), ``value-greedy`` (the turn toward the lowest V one step ahead),
-    ``lattice-cN`` and ``value-greedy-cN`` (the same following the terrain at N metres),
-    ``PREFIX:ARGUMENT`` of a plug-in
-    policy kind (entry-point group ``uav_penetration.policies``; the ``rl`` extra's ``baselines``
-    adds ``sb3:PATH.zip``), or ``PLANNER+PREFIX:ARGUMENT``: the MPC planner warm-started by the
-    plug-in policy, when its kind offers that (``ihpso+sb3:PATH.zip``, docs/rl-statistics.md §3).
-    A plug-in kind is checked for its run-time needs here, so a missing extra is refused before
-    any episode runs.
+    :meth:`MPCSettings.with_keys`). Names (the grammar ``kind[param=value,...]``,
+    :mod:`~.policy_spec`): an optimiser name, an MPC planner with ``settings.terminal``'s form,
+    or ``NAME[terminal=FORM]`` (published: ``NAME-eq37``, the paper's literal eq. 37;
+    ``NAME-ctg-distance``, ``NAME-ctg-dubins``, ``NAME-ctg-value``; model.md §7e); ``greedy``,
+    ``random``; ``lattice`` (the lattice planner) and ``value-greedy`` (the turn toward the
+    lowest V one step ahead), with ``[clearance=N]`` (published ``lattice-cN``,
+    ``value-greedy-cN``) to follow the terrain at N metres; a plug-in policy kind (entry-point
+    group ``uav_penetration.policies``; the ``rl`` extra's ``baselines`` adds
+    ``sb3[model=PATH.zip]`` and ``distill[run=DIR,guard=...]``, and their published forms
+    ``sb3:PATH.zip``, ``distill-shield:DIR``); or ``PLANNER+AGENT``: the MPC planner warm-started
+    by the plug-in policy, when its kind offers that (``ihpso+sb3:PATH.zip``,
+    docs/rl-statistics.md §3). A plug-in kind is checked for its run-time needs here, so a
+    missing extra is refused before any episode runs.
 
-    A suffix fixes the form (:meth:`MPCSettings.with_form`): c_T then reaches only the suffixes
-    that have one; with a plain name c_T goes through, so a c_T given with the ``value`` form is
-    refused, not ignored.
+    A planner's ``terminal`` fixes the form (:meth:`MPCSettings.with_form`): c_T then reaches
+    only the forms that have one; without it c_T goes through, so a c_T given with the ``value``
+    form is refused, not ignored.
 
     Raises:
-        KeyError: an unknown name or prefix, with suggestions and the list of known forms.
+        KeyError: an unknown name or kind, with suggestions and the list of known forms.
         PluginUnavailable: (an ImportError) a plug-in kind whose needs are not installed, or that
             failed to import; one line saying what to install.
-        ValueError: a setting outside its domain (:class:`~uav_penetration_env.mpc.SettingError`).
+        ValueError: a parameter outside its domain (naming it and the expected value), a hybrid
+            whose parts cannot form one, or a setting outside its domain
+            (:class:`~uav_penetration_env.mpc.SettingError`).
         TypeError: a change that names no setting.
     """
-    from optimizers import available_optimizers, get_optimizer
-
+    parsed = spec if isinstance(spec, PolicySpec) else parse_policy(spec)
+    what = f"policy {parsed.text or parsed.canonical()!r}"  # for errors: the name as it was written
     settings = settings.with_keys(changes) if changes else settings
-    if spec in FLOOR_POLICIES:
-        return FLOOR_POLICIES[spec]()
-    if spec in BASELINE_POLICIES:
-        return BASELINE_POLICIES[spec]()
-    planner = with_clearance(spec)
-    if planner is not None:
+    if parsed.family == "floor":
+        return FLOOR_POLICIES[parsed.kind]()
+    if parsed.family == "value-rule":
+        clearance = parsed.params.clearance
+        if clearance is None:
+            return BASELINE_POLICIES[parsed.kind]()
+        return BASELINE_POLICIES[parsed.kind](dataclasses.replace(LATTICE_GUIDANCE, clearance_m=float(clearance)))
+    if parsed.family == "plugin":
+        return _plugin_kind(parsed, what).load(parsed.params)
+    from optimizers import get_optimizer
+
+    planner = MPCPolicy(get_optimizer(parsed.kind), settings.with_form(parsed.params.terminal), name=parsed.base_label)
+    if parsed.warm_start is None:
         return planner
-    hybrid = split_hybrid(spec)
-    if hybrid is not None:
-        return _make_hybrid(spec, *hybrid, settings)
-    prefix, colon, argument = spec.partition(":")
-    kinds = policy_kinds() if colon else {}
-    if prefix in kinds:
-        kind = kinds[prefix]
-        if isinstance(kind, Plugin):
-            raise PluginUnavailable(f"policy {spec!r}: the plug-in {kind.error}")
-        kind.needs.check(f"policy {spec!r}")
-        return kind.load(argument)
-    names = available_optimizers()
-    base, form = split_terminal(spec, names)
-    if base not in names:
-        raise KeyError(unknown_policy(spec))
-    return MPCPolicy(get_optimizer(base), settings.with_form(form), name=spec)
+    kind = _plugin_kind(parsed.warm_start, what)
+    if kind.hybrid is None:  # parse_policy refuses it; a hand-built spec may not
+        raise ValueError(f"{what}: the plug-in kind {kind.name!r} cannot warm-start a planner")
+    return kind.hybrid(parsed.warm_start.params, planner)
 
 
-def _make_hybrid(spec: str, planner: str, plugin: str, settings: MPCSettings) -> Any:
-    """``PLANNER+PREFIX:ARGUMENT``: the planner built here, warm-started by the plug-in kind's ``hybrid``."""
-    if planner in FLOOR_POLICIES or planner in BASELINE_POLICIES or split_hybrid(plugin) is not None:
-        raise KeyError(
-            f"unknown policy {spec!r} — a hybrid is PLANNER+PREFIX:ARGUMENT with an MPC planner "
-            f"(an optimiser name or NAME-eq37) before the '+', got {planner!r}"
-        )
-    prefix, _, argument = plugin.partition(":")
-    kinds = policy_kinds()
-    kind = kinds.get(prefix)
-    if kind is None:
-        make_policy(plugin)  # raises the unknown-kind error with its suggestions
-        raise KeyError(f"unknown policy {spec!r}")  # make_policy knows every name policy_kinds() lacks
-    if isinstance(kind, Plugin):
-        raise PluginUnavailable(f"policy {spec!r}: the plug-in {kind.error}")
-    if kind.hybrid is None:
-        raise KeyError(f"unknown policy {spec!r} — the plug-in kind {prefix!r} cannot warm-start a planner")
-    kind.needs.check(f"policy {spec!r}")
-    mpc = make_policy(planner, settings)
-    if not isinstance(mpc, MPCPolicy):
-        raise KeyError(f"unknown policy {spec!r} — {planner!r} is not an MPC planner")
-    return kind.hybrid(argument, mpc)
+def _plugin_kind(spec: PolicySpec, what: str) -> PolicyKind:
+    """The plug-in kind of a parsed spec, its run-time needs checked (:class:`PluginUnavailable` if missing)."""
+    kind = policy_kinds().get(spec.kind)
+    if not isinstance(kind, PolicyKind):  # parse_policy refuses it; a hand-built spec may not
+        raise PluginUnavailable(f"{what}: no installed plug-in provides the kind {spec.kind!r}")
+    kind.needs.check(what)
+    return kind

@@ -81,7 +81,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--policies",
         nargs="+",
-        help=f"optimiser names (MPC), NAME-eq37, greedy, random{plugin_forms} "
+        help=f"policy names KIND[PARAM=VALUE,...] (api.md §4.1): optimiser names (MPC), NAME[terminal=FORM] "
+        f"(NAME-eq37, NAME-ctg-FORM), greedy, random, lattice[clearance=N] (lattice-cN){plugin_forms} "
         f"(default: {' '.join(MAIN_JOB_POLICIES)})",
     )
     parser.add_argument("--scenarios", nargs="+", help=f"{SCENARIO_HELP} (default: paper)")
@@ -239,12 +240,13 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     Raises:
         CLIError: an unknown name, a plug-in whose extra is missing, a bad agent file.
     """
-    from uav_penetration_env.benchmark.policies import make_policy, policy_label
+    from uav_penetration_env.benchmark.policies import make_policy, parse_policy
 
     policies = {}
     for spec in settings["policies"]:
         try:
-            policies[policy_label(spec)] = make_policy(spec, settings["mpc"])
+            parsed = parse_policy(spec)  # read once: its label is the table name, its spec builds the policy
+            policies[parsed.label] = make_policy(parsed, settings["mpc"])
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None
         except PluginUnavailable as error:  # it names the policy and what to install
