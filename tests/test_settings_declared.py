@@ -147,20 +147,27 @@ def test_run_config_keys_reach_every_field(tmp_path):
         assert (list(got) if isinstance(got, tuple) else got) == value or str(got) == str(value), key
 
 
-def test_run_config_values_are_checked_as_the_flags_are(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("difficulty: hard", "--difficulty: got 'hard', expected a number in [0, 1]"),
+        ("threads: 0", "--threads: got 0, expected an integer >= 1"),
+        ("jobs: 1.5", "--jobs: got 1.5, expected an integer (0: all cores, -N: all but N-1)"),
+        ("seeds: [1, 2]", "--seeds: got [1, 2], expected a single value"),
+        ("policies: 3", "--policies: got 3, expected one or more names"),
+    ],
+)
+def test_run_config_values_are_checked_as_the_flags_are(text, message, tmp_path):
     config = tmp_path / "bad.yaml"
-    for text, message in (
-        ("difficulty: hard\n", "--difficulty: got 'hard', expected a number in [0, 1]"),
-        ("threads: 0\n", "--threads: got 0, expected an integer >= 1"),
-        ("jobs: 1.5\n", "--jobs: got 1.5, expected an integer (0: all cores, -N: all but N-1)"),
-        ("seeds: [1, 2]\n", "--seeds: got [1, 2], expected a single value"),
-        ("policies: 3\n", "--policies: got 3, expected one or more names"),
-    ):
-        config.write_text(text)
-        args = cli.build_parser().parse_args(["run", "--config", str(config)])
-        with pytest.raises(CLIError) as caught:
-            run_command.run_settings(args)
-        assert str(caught.value) == message
+    config.write_text(text)
+    args = cli.build_parser().parse_args(["run", "--config", str(config)])
+    with pytest.raises(CLIError) as caught:
+        run_command.run_settings(args)
+    assert str(caught.value) == message
+
+
+def test_run_list_settings_split_commas(tmp_path):
+    config = tmp_path / "lists.yaml"
     # A comma list from a flag or a file is split, as before (--policies a,b is a b).
     config.write_text("policies: pso,cem\nimport: []\n")
     args = cli.build_parser().parse_args(["run", "--config", str(config), "--members", "a,b", "c"])

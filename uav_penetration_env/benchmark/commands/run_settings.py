@@ -60,7 +60,7 @@ class RunSettings:
         explicit: the keys set by a flag or the config file (a suite run needs to know whether
             ``--seeds`` was given).
 
-    DECISION (api.md §4.1): each setting is declared once, as a field with its flag, key, help
+    DECISION (api.md §4.6): each setting is declared once, as a field with its flag, key, help
     and domain; ``uav-bench run``'s flags, ``--config`` keys, defaults and checks are generated
     from the fields, so a flag cannot be parsed and then dropped.
     """
