@@ -79,7 +79,7 @@ class Setting:
         switch: a flag without a value that sets this constant (``--no-progress``: False).
         choices: the flag's choices (argparse refuses others with its usage error).
         parse: the flag's argparse ``type`` (a path check), instead of ``kind``.
-        metavar: the flag's metavar.
+        metavar: the flag's metavar (None: the flag's name, ``--batch-size BATCH_SIZE``).
         required: the flag must be given (the command has no use for the default).
     """
 
@@ -176,7 +176,9 @@ def add_flags(parser: argparse.ArgumentParser, cls: Any, fill: Mapping[str, str]
             options.update(action="store_const", const=spec.switch)
         else:
             kind = spec.parse or (spec.kind if spec.kind in (int, float) else None)
-            options.update(type=kind, choices=spec.choices, metavar=spec.metavar, required=spec.required)
+            # The metavar names the flag, as argparse's own would (``--timesteps TIMESTEPS``).
+            metavar = spec.metavar or (None if spec.choices else flag.lstrip("-").replace("-", "_").upper())
+            options.update(type=kind, choices=spec.choices, metavar=metavar, required=spec.required)
             if spec.many == "append":
                 options["action"] = "append"
             elif spec.many:
