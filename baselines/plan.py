@@ -8,6 +8,7 @@ and ``uav-bench train`` fail fast with a message naming the argument.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from baselines.artifacts import ModelFiles
-from baselines.formulation import Formulation, formulation_for
+from baselines.formulation import ACTIONS, FEATURES, SHAPINGS, Formulation, formulation_for
 from baselines.hyperparameters import resolve_hyperparams
 from baselines.resume import ResumeState, check_resumable, read_resume_state, resume_key
 from baselines.warm_start import (
@@ -27,6 +28,8 @@ from baselines.warm_start import (
     warm_start_for,
     warm_start_hyperparams,
 )
+from uav_penetration_env.benchmark.commands.common import path_argument
+from uav_penetration_env.settings_fields import at_least, check_fields, one_of, setting
 from uav_penetration_env.suggest import did_you_mean
 
 DEFAULT_MODELS = Path("results/models")  # leaderboards/ holds only generated, published files
@@ -91,33 +94,75 @@ class TrainConfig:
             critic learns (``None``: :data:`baselines.warm_start.CRITIC_WARMUP_STEPS`).
     """
 
-    algo: str = "ppo"
-    env_id: str = "UAVPenetration-v0"
-    scenario: Any = None
-    total_timesteps: int = 200_000
-    seed: int = 0
-    n_envs: int = 8
-    out: str | Path | None = None
-    hyperparams: Mapping[str, Any] | str | Path | None = None
-    profile: str | None = None
-    difficulty: float | None = None
+    algo: str = setting("ppo", str, "ppo, sac, td3 (tuned), a2c, ddpg (SB3 defaults)")
+    env_id: str = setting(
+        "UAVPenetration-v0", str,
+        "UAVPenetration-v0, UAVPenetrationPaper-v0, UAVPenetrationRandom-v0, UAVPenetrationDEM-v0",
+    )  # fmt: skip
+    scenario: Any = setting(
+        None, object, "for the fixed ids: {scenario_help}, one scenario", default_text="the id's own"
+    )
+    total_timesteps: int = setting(200_000, int, "environment steps", flag="--timesteps", **at_least(1))
+    seed: int = setting(0, int, "training seed", **at_least(0))
+    n_envs: int = setting(8, int, "batched sub-envs", **at_least(1))
+    out: str | Path | None = setting(
+        None, object, "model .zip; sidecars go beside it", parse=path_argument,
+        default_text=f"{DEFAULT_MODELS}/ALGO-SCENARIO-sSEED.zip",
+    )  # fmt: skip
+    hyperparams: Mapping[str, Any] | str | Path | None = setting(
+        None, object, "YAML file overriding keys of baselines/hyperparams/ALGO.yaml", default_text=""
+    )
+    profile: str | None = setting(
+        None, str, "physics profile", "one of benchmark, paper", allowed=("benchmark", "paper").__contains__,
+        choices=("benchmark", "paper"), default_text="the id's",
+    )  # fmt: skip
+    difficulty: float | None = setting(
+        None, float, "difficulty of the Random id or of a random:SEED scenario", "a number", default_text="0.5"
+    )
     env_kwargs: Mapping[str, Any] | None = None
-    eval_freq: int = 10_000
-    eval_episodes: int = 10
+    eval_freq: int = setting(10_000, int, "evaluate every N environment steps (0: never)", **at_least(0))
+    eval_episodes: int = setting(10, int, "episodes per evaluation", **at_least(1))
     eval_seeds: Sequence[int] | None = None
     on_evaluation: Callable[[dict[str, float]], None] | None = None
-    checkpoint_freq: int | None = 50_000
-    resume: bool = False
-    progress_bar: bool = False
-    verbose: int = 0
-    torch_threads: int | None = 1
+    checkpoint_freq: int | None = setting(
+        50_000, int, "save a checkpoint every N environment steps (0: never)", optional=True, **at_least(0)
+    )
+    resume: bool = setting(
+        False, bool, "continue from the last checkpoint of --out when there is one (same configuration; "
+        "--timesteps may be larger); else train from scratch", "true or false", switch=True, default_text="",
+    )  # fmt: skip
+    progress_bar: bool = setting(
+        False, bool, "no progress bar", "true or false", flag="--no-progress", switch=False, default_text=""
+    )
+    verbose: int = setting(0, int, "SB3 verbosity", "an integer")
+    torch_threads: int | None = setting(1, int, "torch threads", optional=True, **at_least(1))
     device: str = "cpu"
-    shaping: str = "none"
-    action: str = "physical"
-    clearance_m: float = 40.0
-    features: str = "none"
-    init_from: str | Path | None = None
-    critic_warmup_steps: int | None = None
+    shaping: str = setting(
+        "none", str, "value: add F = gamma*Phi(s') - Phi(s), Phi = -min(V, 50) of the value function, to the "
+        "training reward only (the scored J is unchanged)", choices=SHAPINGS, **one_of(SHAPINGS),
+    )  # fmt: skip
+    action: str = setting(
+        "physical", str, "turn: choose one of the lattice's five turns (PPO, A2C; a turn in [-1, 1] for SAC, "
+        "TD3), flown by the lattice's candidate control; physical: (dv, dphi, dtheta)", choices=ACTIONS, **one_of(ACTIONS),
+    )  # fmt: skip
+    clearance_m: float = setting(
+        40.0, float, "terrain-following height of the turn controller [m]", "a finite number of metres > 0",
+        flag="--clearance", allowed=lambda metres: math.isfinite(metres) and metres > 0.0,
+        default_text="40, lattice-c40's",
+    )  # fmt: skip
+    features: str = setting(
+        "none", str, "value: append the six value inputs of the distilled planners to the observation",
+        choices=FEATURES, **one_of(FEATURES),
+    )  # fmt: skip
+    init_from: str | Path | None = setting(
+        None, object, "start PPO's actor from this distilled turn network (uav-bench distill --head turn; needs "
+        "--action turn and the network's --features and --clearance) and fine-tune it (docs/rl.md §6.5)",
+        metavar="RUN_FOLDER", default_text="",
+    )  # fmt: skip
+    critic_warmup_steps: int | None = setting(
+        None, int, "with --init-from: environment steps at the start in which only the critic learns",
+        flag="--critic-warmup", metavar="STEPS", default_text=str(CRITIC_WARMUP_STEPS), **at_least(0),
+    )  # fmt: skip
 
     @classmethod
     def of(cls, **fields: Any) -> TrainConfig:
@@ -180,27 +225,20 @@ def default_model_path(algo: str, env_id: str, scenario: Any, seed: int, tag: st
         text = str(scenario)
         name = Path(text).stem if text.endswith((".yaml", ".yml")) else text
     else:
-        name = getattr(scenario, "name", None) or (
+        found = getattr(scenario, "name", None) or (
             scenario.get("name") if isinstance(scenario, Mapping) else None
         )
-        name = name or "custom"
+        name = str(found or "custom")
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-")
     if tag:
         name = f"{name}-{tag}"
     return DEFAULT_MODELS / f"{algo.lower()}-{name}-s{seed}.zip"
 
 
-def _check_positive(name: str, value: Any, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name}: got {value!r}, expected an integer >= {minimum}")
-    return int(value)
-
-
 def _eval_seeds(config: TrainConfig) -> tuple[int, ...]:
     """The evaluation seeds: ``config.eval_seeds``, else ``EVAL_SEED_START ...`` (``eval_episodes`` of them)."""
     if config.eval_seeds is None:
-        count = _check_positive("eval_episodes", config.eval_episodes)
-        return tuple(range(EVAL_SEED_START, EVAL_SEED_START + count))
+        return tuple(range(EVAL_SEED_START, EVAL_SEED_START + int(config.eval_episodes)))
     seeds = list(config.eval_seeds)
     if not seeds or any(isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0 for s in seeds):
         raise ValueError(f"eval_seeds: got {config.eval_seeds!r}, expected a non-empty list of integers >= 0")
@@ -276,13 +314,6 @@ def _env_kwargs(config: TrainConfig, native_class: type) -> dict[str, Any]:
     return kwargs
 
 
-def _check_seed(seed: Any) -> int:
-    """``seed`` as an int; a ValueError unless it is an integer >= 0."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: got {seed!r}, expected an integer >= 0")
-    return int(seed)
-
-
 def _tag(config: TrainConfig) -> str:
     """The default file name's tag of ``config``'s formulation (checked later by :func:`_formulation`)."""
     try:
@@ -337,6 +368,7 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
             configuration or with more steps than ``total_timesteps``.
         FileNotFoundError: a hyper-parameter file that does not exist.
     """
+    check_fields(config)  # each declared field against its domain, named by the field
     params, source = resolve_hyperparams(config.algo, config.hyperparams)
     native_class = _native_class(config.env_id)
     formulation = _formulation(config, native_class, params)
@@ -347,7 +379,7 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         )
         check_hyperparams(params, warm)
     kwargs = _env_kwargs(config, native_class)
-    seed = _check_seed(config.seed)
+    seed = int(config.seed)
     files = _model_files(config)
     torch_threads = config.torch_threads
     eval_seeds = _eval_seeds(config)
@@ -355,20 +387,20 @@ def prepare_training(config: TrainConfig) -> TrainingPlan:
         algo=str(config.algo).lower(),
         env_id=config.env_id,
         env_kwargs=kwargs,
-        total_timesteps=_check_positive("total_timesteps", config.total_timesteps),
+        total_timesteps=int(config.total_timesteps),
         seed=seed,
-        n_envs=_check_positive("n_envs", config.n_envs),
+        n_envs=int(config.n_envs),
         files=files,
         hyperparams=params,
         hyperparams_source=source,
-        eval_freq=_check_positive("eval_freq", config.eval_freq, 0),
+        eval_freq=int(config.eval_freq),
         eval_episodes=len(eval_seeds),
         eval_seeds=eval_seeds,
         on_evaluation=config.on_evaluation,
-        checkpoint_freq=_check_positive("checkpoint_freq", config.checkpoint_freq or 0, 0),
+        checkpoint_freq=int(config.checkpoint_freq or 0),
         progress_bar=bool(config.progress_bar),
         verbose=int(config.verbose),
-        torch_threads=None if torch_threads is None else _check_positive("torch_threads", torch_threads),
+        torch_threads=None if torch_threads is None else int(torch_threads),
         device=config.device,
         formulation=formulation,
         warm_start=warm,

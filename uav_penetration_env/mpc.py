@@ -25,32 +25,13 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from uav_penetration_env.settings_fields import SettingError, converted, in_domain
 from uav_penetration_env.types import TERMINAL_FORMS
 
 FORMS_TEXT = ", ".join(TERMINAL_FORMS)
 # The forms that read a c_T; the others ('none', 'value') have no scale to set.
 SCALED_FORMS = ("distance", "dubins")
 SCALE_EXPECTED = "a finite number >= 0"
-
-
-class SettingError(ValueError):
-    """A setting outside its domain: ``FIELD: got VALUE, expected DOMAIN`` (one line).
-
-    Attributes:
-        field: the :class:`MPCSettings` field (``max_evals``; the command line's ``--max-evals``).
-        value: the value as given.
-        expected: the domain, in words.
-        context: words between the value and ``expected`` (the form a c_T was given with).
-    """
-
-    def __init__(self, field: str, value: Any, expected: str, context: str = "") -> None:
-        self.field, self.value, self.expected, self.context = field, value, expected, context
-        super().__init__(f"{field}: {self.body}")
-
-    @property
-    def body(self) -> str:
-        """The message without the field name: ``got VALUE, expected DOMAIN``."""
-        return f"got {self.value!r}{self.context}, expected {self.expected}"
 
 
 @dataclass(frozen=True)
@@ -241,11 +222,7 @@ class MPCSettings:
 
 def _in_domain(field: dataclasses.Field[Any], value: Any) -> bool:
     """Whether ``value`` has the field's kind (a bool is no number) and lies in its domain."""
-    kind = field.metadata["kind"]
-    required = {str: str, int: numbers.Integral, float: numbers.Real, Terminal: Terminal}[kind]
-    if isinstance(value, bool) or not isinstance(value, required):
-        return False
-    return bool(field.metadata["allowed"](value))
+    return in_domain(field.metadata["kind"], field.metadata["allowed"], value)
 
 
 MPC_DEFAULTS = MPCSettings()
@@ -265,15 +242,6 @@ def setting_keys(field: dataclasses.Field[Any]) -> tuple[tuple[str, type, str, s
 
 # Every settings key, in field order: what the command line and ``run --config`` accept.
 SETTING_FIELDS = tuple(key[0] for field in dataclasses.fields(MPCSettings) for key in setting_keys(field))
-
-
-def _converted(kind: type, value: Any) -> Any:
-    """``value`` (text from a flag, a YAML scalar) converted to ``kind``, or raise ValueError."""
-    if kind is str:
-        return value
-    if isinstance(value, bool) or (kind is int and isinstance(value, float) and not value.is_integer()):
-        raise ValueError(value)
-    return kind(value)
 
 
 def parse_settings(values: Mapping[str, Any], base: MPCSettings = MPC_DEFAULTS) -> MPCSettings:
@@ -298,7 +266,7 @@ def parse_settings(values: Mapping[str, Any], base: MPCSettings = MPC_DEFAULTS) 
             if value is None:
                 continue
             try:
-                given[key] = _converted(kind, value)
+                given[key] = converted(kind, value)
             except (TypeError, ValueError, OverflowError):
                 raise SettingError(key, value, _expected(field, key)) from None
         if not given:
@@ -310,10 +278,10 @@ def parse_settings(values: Mapping[str, Any], base: MPCSettings = MPC_DEFAULTS) 
                 given.get("terminal", base.terminal.form), given.get("terminal_cost", base.terminal.scale)
             )
             continue
-        converted = given[field.name]
-        if not _in_domain(field, converted):
+        value = given[field.name]
+        if not _in_domain(field, value):
             raise SettingError(field.name, values[field.name], field.metadata["expected"])
-        changes[field.name] = converted
+        changes[field.name] = value
     return dataclasses.replace(base, **changes) if changes else base
 
 

@@ -1,7 +1,9 @@
 """What a distillation run is: :class:`DistillConfig`, checked into the scenarios it trains on.
 
-Every field is a flag of ``uav-bench distill`` (``--FIELD`` with ``_`` as ``-``), so a bad value is
-refused in one line naming that flag. The training scenarios are checked against the scenarios the
+Every field is declared once, with its flag, help, kind and domain
+(:func:`uav_penetration_env.settings_fields.setting`): ``uav-bench distill``'s flags (``--FIELD``
+with ``_`` as ``-``), the defaults and the checks are generated from it, so a bad value is refused
+in one line naming that flag, from the command line or from Python. The training scenarios are checked against the scenarios the
 published results are measured on: a procedural seed of the held-out set, a frozen suite or the
 tuning validation is refused (docs/rl.md §4.4).
 """
@@ -16,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from uav_penetration_env.benchmark.commands.common import path_argument
 from uav_penetration_env.catalogue import RANDOM_PREFIX, random_seeds, resolve_scenarios
 from uav_penetration_env.observation import OBSERVATION_SIZE, SLOTS
 from uav_penetration_env.scenario import Scenario
+from uav_penetration_env.settings_fields import UNIT_INTERVAL, at_least, check_fields, one_of, setting
 
 # Seeds of procedural scenarios that some published number is measured on (docs/rl.md §1.1): the
 # held-out set, the frozen suite's procedural members, the learning-curve and tuning-validation seeds.
@@ -92,27 +96,69 @@ class DistillConfig:
     layouts of terrain and radars keep it from being a lookup table of one route.
     """
 
-    out: Path = Path("results/distill/run")
-    expert: Any = "lattice"
-    scenarios: tuple[str, ...] = DEFAULT_SCENARIOS
-    difficulty: float = 0.5
-    rounds: int = 6
-    episodes: int = 1
-    beta0: float = 1.0
-    decay: float = 0.5
-    hidden: tuple[int, ...] = (256, 256)
-    epochs: int = 100
-    batch_size: int = 256
-    learning_rate: float = 1e-3
-    seed: int = 0
-    torch_threads: int = 1
-    loss: str = "mse"
-    select: str = "best"
-    head: str = "action"
-    ignore: tuple[str, ...] = ()
-    features: tuple[str, ...] = ()
-    validation: tuple[str, ...] = DEFAULT_VALIDATION
-    allow_published_maps: bool = False
+    out: Path = setting(
+        Path("results/distill/run"), object, "the run folder (round data, networks, policy.npz + policy.json)",
+        parse=path_argument, required=True, default_text="",
+    )  # fmt: skip
+    # Checked by make_policy in checked() (from Python, a policy object is accepted too).
+    expert: Any = setting(
+        "lattice", object, "the planner imitated: any --policies name of `uav-bench run` (lattice is cheap, "
+        "an MPC planner such as ps2o expensive)",
+    )  # fmt: skip
+    scenarios: tuple[str, ...] = setting(
+        DEFAULT_SCENARIOS, object, "training scenarios: names, random:SEED, random:A-B, YAML paths; never a "
+        "published table's map", many="+",
+    )  # fmt: skip
+    difficulty: float = setting(0.5, float, "difficulty of the random: forms", **UNIT_INTERVAL)
+    rounds: int = setting(6, int, "DAgger rounds after behaviour cloning", **at_least(0))
+    episodes: int = setting(1, int, "episodes per scenario and round", **at_least(1))
+    beta0: float = setting(
+        1.0, float, "expert's share of the steps, beta_k = beta0 * decay^k", **UNIT_INTERVAL
+    )
+    decay: float = setting(0.5, float, "see --beta0", **UNIT_INTERVAL)
+    hidden: tuple[int, ...] = setting(
+        (256, 256), int, "hidden widths", "one or more integers >= 1", many="+",
+        allowed=lambda widths: bool(widths) and min(widths) >= 1,
+    )  # fmt: skip
+    epochs: int = setting(100, int, "passes over the data per refit", **at_least(1))
+    batch_size: int = setting(256, int, "minibatch", **at_least(1))
+    learning_rate: float = setting(
+        1e-3, float, "Adam step", "a positive number", allowed=lambda rate: math.isfinite(rate) and rate > 0
+    )
+    seed: int = setting(0, int, "the run's seed", **at_least(0))
+    torch_threads: int = setting(1, int, "torch threads", **at_least(1))
+    loss: str = setting(
+        "mse", str, "mse: the normalised action's channels alike; mse-std: each divided by its spread in the "
+        "round-0 labels", **one_of(LOSSES),
+    )  # fmt: skip
+    select: str = setting(
+        "best", str, "the policy is the round with the best mean validation cost on the --validation scenarios "
+        "(best) or the last round (last)", **one_of(SELECTIONS),
+    )  # fmt: skip
+    head: str = setting(
+        "action", str, "action: the network regresses the whole action; turn: it chooses one of the lattice's "
+        "five turns, flown with the lattice's speed and terrain-following pitch (docs/rl.md §4.8); turn-value: "
+        "the turn head as a residual on the value-greedy rule (needs --features value; docs/rl.md §4.9)",
+        **one_of(HEADS),
+    )  # fmt: skip
+    ignore: tuple[str, ...] = setting(
+        (), str, "observation slots the network is blind to, e.g. position step_fraction (docs/rl.md §4.8)",
+        f"observation slots among {', '.join(SLOTS)}", allowed=lambda name: name in SLOTS, many="*", each=True,
+    )  # fmt: skip
+    # Checked by baselines.distill.features.check_features in checked() (it reads the value function).
+    features: tuple[str, ...] = setting(
+        (), str, "inputs appended to the observation: value (the cost-to-go field at five points one step ahead "
+        "along the lattice's turns; docs/rl.md §4.9)", many="*",
+    )  # fmt: skip
+    validation: tuple[str, ...] = setting(
+        DEFAULT_VALIDATION, object, "scenarios the rounds are selected on, apart from the training ones and "
+        "every published table", many="*",
+        default_text=f"{' '.join(DEFAULT_VALIDATION)}; none: the training scenarios",
+    )  # fmt: skip
+    allow_published_maps: bool = setting(
+        False, bool, "train or validate on a published table's map (only to reproduce the v3 networks; their "
+        "results there are in sample)", "true or false", switch=True, default_text="",
+    )  # fmt: skip
     _scenario_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
     _validation_objects: tuple[Scenario, ...] | None = field(default=None, repr=False, compare=False)
 
@@ -151,38 +197,15 @@ def _object_config(expert: Any) -> dict[str, Any]:
     return {"object": type(expert).__name__, **described}
 
 
-def _flag(name: str) -> str:
-    return "--" + name.replace("_", "-")
-
-
 def _check_numbers(config: DistillConfig) -> None:
-    """Raise ``ValueError`` naming the flag of the first number out of its domain."""
-    integers = {"rounds": 0, "episodes": 1, "epochs": 1, "batch_size": 1, "torch_threads": 1, "seed": 0}
-    for name, low in integers.items():
-        value = getattr(config, name)
-        if not isinstance(value, int) or isinstance(value, bool) or value < low:
-            raise ValueError(f"{_flag(name)}: got {value!r}, expected an integer >= {low}")
-    for name, domain in (("beta0", "[0, 1]"), ("decay", "[0, 1]"), ("difficulty", "[0, 1]")):
-        value = getattr(config, name)
-        if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
-            raise ValueError(f"{_flag(name)}: got {value!r}, expected a number in {domain}")
-    rate = config.learning_rate
-    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
-        raise ValueError(f"--learning-rate: got {rate!r}, expected a positive number")
-    for name, choices in (("loss", LOSSES), ("select", SELECTIONS), ("head", HEADS)):
-        if getattr(config, name) not in choices:
-            raise ValueError(f"{_flag(name)}: got {getattr(config, name)!r}, expected one of {', '.join(choices)}")
-    unknown = [name for name in config.ignore if name not in SLOTS]
-    if unknown:
-        raise ValueError(f"--ignore: got {unknown[0]!r}, expected observation slots among {', '.join(SLOTS)}")
+    """Raise ``ValueError`` naming the flag of the first field out of its declared domain."""
+    check_fields(config, label="flag")
     # Imported here: the feature sets read the compiled value function, which the CLI parser must not load.
     from baselines.distill.features import check_features
 
     check_features(config.features)
     if config.head == "turn-value" and "value" not in config.features:
         raise ValueError("--head: got 'turn-value', which reads the value inputs; add --features value")
-    if not config.hidden or any(not isinstance(h, int) or h < 1 for h in config.hidden):
-        raise ValueError(f"--hidden: got {list(config.hidden)!r}, expected one or more integers >= 1")
 
 
 def ignored_slots(names: tuple[str, ...], width: int = OBSERVATION_SIZE) -> np.ndarray | None:

@@ -48,7 +48,7 @@ def test_no_flags_is_the_main_job():
     args = cli.build_parser().parse_args(["run"])
     args.argv = ["run"]
     settings = run_command.run_settings(args)
-    assert settings["policies"] == [
+    assert settings.policies == (
         "ihpso",
         "hpso",
         "lpso",
@@ -58,12 +58,13 @@ def test_no_flags_is_the_main_job():
         "pso",
         "cem",
         "greedy",
-    ]
-    assert settings["scenarios"] == ["paper"]
-    assert common.parse_seeds(settings["seeds"]) == [0, 1, 2, 3, 4]
-    assert settings["store"] == "results/uav-bench.sqlite" and settings["out"] == "results"
-    assert settings["jobs"] is None and settings["mpc"] == MPC_DEFAULTS
-    assert (settings["mpc"].max_evals, settings["mpc"].horizon) == (10_000, 5)
+    )
+    assert settings.scenarios == ("paper",)
+    assert common.parse_seeds(settings.seeds) == [0, 1, 2, 3, 4]
+    assert settings.store == "results/uav-bench.sqlite" and settings.out == "results"
+    assert settings.jobs is None and settings.mpc == MPC_DEFAULTS
+    assert (settings.mpc.max_evals, settings.mpc.horizon) == (10_000, 5)
+    assert settings.explicit == frozenset() and settings.report and settings.progress
 
 
 def test_seeds_above_sqlites_64_bit_integers_are_refused_when_parsed():
@@ -167,7 +168,7 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     # Flags override the file, field by field.
     config.write_text("horizon: 3\nterminal: distance\n")
     args = cli.build_parser().parse_args(["run", "--config", str(config), "--terminal-cost", "0.2"])
-    settings = run_command.run_settings(args)["mpc"]
+    settings = run_command.run_settings(args).mpc
     assert settings == MPCSettings(horizon=3, terminal=Terminal("distance", 0.2))
     # windows refuses, before opening a store, what a planner would refuse mid-way.
     for argv, message in (

@@ -287,9 +287,10 @@ def test_random_policy_is_uniform_in_the_box_and_seeded():
 
 
 def test_mpc_defaults_live_in_one_place():
-    from uav_penetration_env.benchmark.commands.run import RUN_DEFAULTS
+    from uav_penetration_env.benchmark.commands.run_settings import RunSettings
     from uav_penetration_env.benchmark.policies import MPC_DEFAULTS
     from uav_penetration_env.mpc import SETTING_FIELDS
+    from uav_penetration_env.settings_fields import config_keys
 
     # Paper §5: H = 5, 10 000 evaluations per step, gamma = 1; the terminal form (model.md §7e).
     assert (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals, MPC_DEFAULTS.discount) == (5, 10_000, 1.0)
@@ -299,7 +300,7 @@ def test_mpc_defaults_live_in_one_place():
     for policy in (built, plain):
         assert policy.settings is MPC_DEFAULTS
         assert (policy.horizon, policy.max_evals) == (MPC_DEFAULTS.horizon, MPC_DEFAULTS.max_evals)
-    assert SETTING_FIELDS == keys and not set(keys) & set(RUN_DEFAULTS)  # the CLI reads the dataclass
+    assert SETTING_FIELDS == keys and not set(keys) & set(config_keys(RunSettings))  # the CLI reads the dataclass
     with pytest.raises(ValueError, match="terminal: got 'euclid'"):
         MPCPolicy(get_optimizer("pso"), MPCSettings(terminal=Terminal("euclid")))
 

@@ -59,7 +59,7 @@ def run_hashes(argv: list[str]) -> dict[str, str]:
     """``uav-bench run ARGV``'s policies by table name -> their store hashes (nothing is run)."""
     args = cli.build_parser().parse_args(["run", *argv])
     args.argv = ["run", *argv]
-    settings = run_command.check_settings(run_command.run_settings(args))
+    settings = run_command.run_settings(args)
     return {name: policy_hash(policy) for name, policy in run_command.make_policies(settings).items()}
 
 

@@ -13,6 +13,7 @@ leaves every finished episode stored (exit status 130); rerunning the same comma
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import signal
 import sys
 import threading
@@ -22,12 +23,8 @@ from typing import Any
 import yaml
 
 from uav_penetration_env.benchmark.commands.common import (
-    DEFAULT_OUT,
-    DEFAULT_STORE,
     CLIError,
     Command,
-    add_replace_out_argument,
-    add_store_argument,
     check_out_folder,
     check_writable_folder,
     command_line,
@@ -36,113 +33,40 @@ from uav_penetration_env.benchmark.commands.common import (
     path_argument,
     record_out_folder,
     resolve_scenarios,
-    split_list,
     store_error,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import SETTING_FIELDS, add_mpc_arguments, mpc_settings
+from uav_penetration_env.benchmark.commands.run_settings import (
+    SUITE_CONFLICTS,
+    RunSettings,
+)
 from uav_penetration_env.benchmark.plugins import PluginUnavailable, plugin_policy_forms
+from uav_penetration_env.settings_fields import (
+    SettingError,
+    add_flags,
+    config_keys,
+    given_values,
+    parse_values,
+)
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.wording import counted
 
-MAIN_JOB_POLICIES = ("ihpso", "hpso", "lpso", "ps2o", "mcpso", "ccpso-ism", "pso", "cem", "greedy")
-RUN_DEFAULTS: dict[str, Any] = {
-    "policies": list(MAIN_JOB_POLICIES),
-    "scenarios": ["paper"],
-    "profile": None,
-    "weights": None,
-    "seeds": "5",
-    "jobs": None,
-    "threads": None,
-    "reference": None,
-    "replace_out": None,
-    "backend": "loky",
-    "scheduler": None,
-    "store": str(DEFAULT_STORE),
-    "out": str(DEFAULT_OUT),
-    "difficulty": 0.5,
-    "import": [],
-    "suite": None,
-    "members": [],
-    "report": True,
-    "progress": True,
-}
-LIST_SETTINGS = ("policies", "scenarios", "import", "members")
-# Settings that would change a frozen suite's members (their hashes): refused with --suite.
-SUITE_CONFLICTS = ("scenarios", "profile", "weights", "difficulty")
 # The MPC settings are config keys too, their defaults the dataclass's (mpc_flags).
-CONFIG_KEYS = [*(key for key in RUN_DEFAULTS if key not in ("report", "progress")), *SETTING_FIELDS]
+CONFIG_KEYS = [*config_keys(RunSettings), *SETTING_FIELDS]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The flags of ``uav-bench run`` (each default lives in :data:`RUN_DEFAULTS`, the MPC ones in ``MPC_DEFAULTS``)."""
+    """The flags of ``uav-bench run``: one per :class:`RunSettings` and ``MPCSettings`` field, and ``--config``."""
     from uav_penetration_env.catalogue import SCENARIO_HELP
 
     plugin_forms = "".join(f", {form}" for form in plugin_policy_forms())
-    parser.add_argument(
-        "--policies",
-        nargs="+",
-        help=f"policy names KIND[PARAM=VALUE,...] (api.md §4.1): optimiser names (MPC), NAME[terminal=FORM] "
-        f"(NAME-eq37, NAME-ctg-FORM), greedy, random, lattice[clearance=N] (lattice-cN){plugin_forms} "
-        f"(default: {' '.join(MAIN_JOB_POLICIES)})",
-    )
-    parser.add_argument("--scenarios", nargs="+", help=f"{SCENARIO_HELP} (default: paper)")
-    parser.add_argument(
-        "--profile", choices=["benchmark", "paper"], help="physics profile (default: each scenario's own)"
-    )
-    parser.add_argument("--weights", help="objective weights terrain,radar,third, e.g. 0.3,0.5,0.2")
-    parser.add_argument("--seeds", help="N (seeds 0..N-1) or START:STOP (default: 5)")
-    parser.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
-    parser.add_argument(
-        "--threads",
-        type=int,
-        help="compiled threads per worker (default: 1 per worker; results do not change)",
-    )
-    parser.add_argument(
-        "--reference",
-        help="policy of --policies the report's paired tests and Δ compare against "
-        "(default: ihpso where stored, else greedy, else the policy on the most seeds)",
-    )
-    parser.add_argument("--backend", help="loky (default), dask or sequential")
-    parser.add_argument(
-        "--scheduler", help="dask scheduler address (backend dask; none starts a local cluster)"
-    )
-    add_store_argument(parser, default=None)
-    parser.add_argument(
-        "--out",
-        type=path_argument,
-        help=f"folder for the leaderboard and figures (default: the store's folder, {DEFAULT_OUT} for the default store)",
-    )
+    add_flags(parser, RunSettings, fill={"plugin_forms": plugin_forms, "scenario_help": SCENARIO_HELP})
     add_mpc_arguments(parser)
-    parser.add_argument("--difficulty", type=float, help="difficulty of random:... scenarios (default: 0.5)")
-    parser.add_argument(
-        "--suite",
-        help="run every member of a frozen suite (uavpen-v1, uavpen-heldout-v1; `uav-bench suite list`), each checked against "
-        "its fingerprint; seeds per member by the suite rule unless --seeds (docs/suite.md)",
-    )
-    parser.add_argument(
-        "--members",
-        nargs="+",
-        help="with --suite: only the members matching these shell patterns (uavpen-v1/d0.25/*)",
-    )
-    parser.add_argument(
-        "--import", dest="import", action="append", help="a plug-in module to import (repeatable)"
-    )
     parser.add_argument(
         "--config",
         type=path_argument,
         help="YAML file of settings (keys = flag names with _); flags override it",
     )
-    parser.add_argument(
-        "--no-report",
-        dest="report",
-        action="store_const",
-        const=False,
-        help="skip the leaderboards, figures and HTML report (the store is still written)",
-    )
-    parser.add_argument(
-        "--no-progress", dest="progress", action="store_const", const=False, help="no progress bar"
-    )
-    add_replace_out_argument(parser)
 
 
 def load_config(path: str | None) -> dict[str, Any]:
@@ -170,71 +94,34 @@ def load_config(path: str | None) -> dict[str, Any]:
     return data
 
 
-def run_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """Flags override the config file, which overrides :data:`RUN_DEFAULTS` (``MPC_DEFAULTS`` for MPC).
+def run_settings(args: argparse.Namespace) -> RunSettings:
+    """Flags override the config file, which overrides :class:`RunSettings`' defaults (``MPC_DEFAULTS`` for MPC).
 
-    ``settings["mpc"]`` is the one :class:`~uav_penetration_env.mpc.MPCSettings` of every planner;
-    ``settings["explicit"]`` holds the keys set by a flag or the config file (a suite run needs
-    to know whether ``--seeds`` was given).
+    Every value is converted to its kind and checked against its domain here, the config file's
+    as the flags' (``difficulty: hard`` is refused, not a traceback). ``settings.mpc`` is the one
+    :class:`~uav_penetration_env.mpc.MPCSettings` of every planner; ``settings.explicit`` holds the
+    keys set by a flag or the config file.
 
     Raises:
-        CLIError: a bad ``--config`` file, or an MPC setting outside its domain (``--horizon: ...``).
+        CLIError: a bad ``--config`` file, or a setting outside its domain (``--horizon: ...``,
+            ``--difficulty: got 'hard', expected a number in [0, 1]``).
     """
     config = load_config(args.config)
-    settings = {**RUN_DEFAULTS, **config}
-    explicit = set(config)
-    for key in [*RUN_DEFAULTS, *SETTING_FIELDS]:
-        value = getattr(args, key, None)
-        if value is not None and value != []:
-            settings[key] = value
-            explicit.add(key)
-    for key in LIST_SETTINGS:
-        settings[key] = split_list(settings[key])
-    settings["mpc"] = mpc_settings({key: settings.pop(key) for key in SETTING_FIELDS if key in settings})
-    settings["explicit"] = explicit
-    return settings
+    mpc_given = {key: config[key] for key in SETTING_FIELDS if key in config}
+    mpc_given.update({key: getattr(args, key) for key in SETTING_FIELDS if getattr(args, key, None) is not None})
+    mpc = mpc_settings(mpc_given)
+    values = given_values(config, RunSettings, by="key")
+    flags = given_values(args, RunSettings)
+    values.update(flags)
+    explicit = set(values) | set(mpc_given)
+    try:
+        settings = parse_values(RunSettings, values, label="flag")
+    except SettingError as error:
+        raise CLIError(str(error)) from None
+    return dataclasses.replace(settings, mpc=mpc, explicit=frozenset(explicit))
 
 
-def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
-    """The other numeric settings (from flags or ``--config``) checked against their domains and converted.
-
-    The MPC settings are checked by their dataclass (:func:`run_settings`).
-
-    Raises:
-        CLIError: ``--FLAG: got VALUE, expected DOMAIN`` for the first bad one (a config file's
-            values reach here unconverted: ``difficulty: hard`` is refused, not a traceback).
-    """
-    rules: dict[str, tuple[Any, Any, str]] = {
-        "difficulty": (float, lambda v: 0.0 <= v <= 1.0, "a number in [0, 1]"),
-        "jobs": (int, lambda v: True, "an integer (0: all cores, -N: all but N-1)"),
-        "threads": (int, lambda v: v >= 1, "an integer >= 1"),
-    }
-    checked = dict(settings)
-    for key, (kind, allowed, expected) in rules.items():
-        value = settings[key]
-        if value is None:
-            continue
-        flag = "--" + key.replace("_", "-")
-        try:
-            if isinstance(value, bool) or (
-                kind is int and isinstance(value, float) and not value.is_integer()
-            ):
-                raise ValueError
-            converted = kind(value)
-            ok = bool(allowed(converted))
-        except (TypeError, ValueError, OverflowError):
-            ok = False
-        if not ok:
-            raise CLIError(f"{flag}: got {value!r}, expected {expected}")
-        checked[key] = converted
-    for key in ("backend", "store", "out", "seeds", "profile", "scheduler", "suite"):
-        value = settings[key]
-        if value is not None and not isinstance(value, (str, int, float)):
-            raise CLIError(f"--{key}: got {value!r}, expected a single value")
-    return checked
-
-
-def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
+def make_policies(settings: RunSettings) -> dict[str, Any]:
     """The policies of ``--policies`` by table name; plug-in kinds are checked for their extras here.
 
     Raises:
@@ -243,10 +130,10 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     from uav_penetration_env.benchmark.policies import make_policy, parse_policy
 
     policies = {}
-    for spec in settings["policies"]:
+    for spec in settings.policies:
         try:
             parsed = parse_policy(spec)  # read once: its label is the table name, its spec builds the policy
-            policies[parsed.label] = make_policy(parsed, settings["mpc"])
+            policies[parsed.label] = make_policy(parsed, settings.mpc)
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None
         except PluginUnavailable as error:  # it names the policy and what to install
@@ -258,7 +145,7 @@ def make_policies(settings: dict[str, Any]) -> dict[str, Any]:
     return policies
 
 
-def suite_plan(settings: dict[str, Any], policies: dict[str, Any]) -> tuple[list[Any], list[int], Any]:
+def suite_plan(settings: RunSettings, policies: dict[str, Any]) -> tuple[list[Any], list[int], Any]:
     """The members of ``--suite`` (each verified against its fingerprint), the seeds and the seed rule.
 
     Without ``--seeds`` each (policy, member) flies :func:`~uav_penetration_env.suites.default_seeds`
@@ -277,24 +164,24 @@ def suite_plan(settings: dict[str, Any], policies: dict[str, Any]) -> tuple[list
     from uav_penetration_env.suites import SuiteError, build_member, default_seeds, load_suite
 
     for key in SUITE_CONFLICTS:
-        if key in settings["explicit"]:
+        if key in settings.explicit:
             raise CLIError(
                 f"--{key}: not with --suite (a frozen suite's members are fixed; use --members to select some)"
             )
     try:
-        suite = load_suite(settings["suite"])
-        members = suite.select(settings["members"])
+        suite = load_suite(str(settings.suite))
+        members = suite.select(settings.members)
         scenarios = []
         with ProgressBar(
-            len(members), f"verify {suite.name}", unit="member", enabled=bool(settings["progress"])
+            len(members), f"verify {suite.name}", unit="member", enabled=bool(settings.progress)
         ) as bar:
             for member in members:
                 scenarios.append(build_member(suite, member))
                 bar.update(1)
     except SuiteError as error:
         raise CLIError(f"--suite: {error}") from None
-    if "seeds" in settings["explicit"]:
-        return scenarios, parse_seeds(settings["seeds"]), lambda name, policy, scenario, seed: True
+    if "seeds" in settings.explicit:
+        return scenarios, parse_seeds(settings.seeds), lambda name, policy, scenario, seed: True
     member_of = {member.fingerprint.scenario_hash: member for member in members}
     deterministic = {name: is_deterministic(policy) for name, policy in policies.items()}
 
@@ -315,36 +202,36 @@ def run(args: argparse.Namespace) -> int:
     # DECISION (api.md §4.7, fast refusals): what can be checked without the physics is checked
     # first (flags, --config, --import, policy names, scenario files), so a typo answers in about
     # the time of --help, not after the compiled model's imports.
-    settings = check_settings(run_settings(args))
+    settings = run_settings(args)
     try:
-        import_plugins(settings["import"])
+        import_plugins(settings.imports)
     except ImportError as error:
         raise CLIError(f"--import: {error}") from None
-    if settings["backend"] not in BACKENDS:
-        raise CLIError(f"--backend: got {settings['backend']!r}, expected one of {', '.join(BACKENDS)}")
-    seeds = parse_seeds(settings["seeds"])
-    for spec in settings["policies"]:
+    if settings.backend not in BACKENDS:
+        raise CLIError(f"--backend: got {settings.backend!r}, expected one of {', '.join(BACKENDS)}")
+    seeds = parse_seeds(settings.seeds)
+    for spec in settings.policies:
         problem = unknown_policy(spec)
         if problem is not None:
             raise CLIError(f"--policies: {problem}")
     # The scenarios of --scenarios need no policy; a suite's seed rule does (after make_policies).
-    plan = episode_plan(settings, {}, seeds) if settings["suite"] is None else None
+    plan = episode_plan(settings, {}, seeds) if settings.suite is None else None
 
     from uav_penetration_env.benchmark.evaluate import evaluate  # the physics and the compiled code
 
     policies = make_policies(settings)
-    reference = run_reference(settings["reference"], list(policies))
+    reference = run_reference(settings.reference, list(policies))
     scenarios, seeds, include, suite_settings = plan or episode_plan(settings, policies, seeds)
-    store_path = Path(settings["store"])
+    store_path = Path(settings.store)
     # The report goes next to the store it reads unless --out says where: a run on another store
     # never replaces the main job's report in ./results.
-    out = Path(settings["out"]) if "out" in settings["explicit"] else store_path.parent
-    if settings["report"]:  # refused before the store is opened: the report would land among another's files
-        check_out_folder(out, store_path, replace=bool(settings["replace_out"]))
-    store = open_store(store_path, out if settings["report"] else None)
+    out = Path(settings.out) if "out" in settings.explicit else store_path.parent
+    if settings.report:  # refused before the store is opened: the report would land among another's files
+        check_out_folder(out, store_path, replace=bool(settings.replace_out))
+    store = open_store(store_path, out if settings.report else None)
     announce(settings, policies, scenarios, seeds, include, store_path)
     command = command_line(args)
-    jobs = settings["jobs"]
+    jobs = settings.jobs
     previous = _catch_sigterm()
     try:
         frame = evaluate(
@@ -352,15 +239,15 @@ def run(args: argparse.Namespace) -> int:
             scenarios,
             seeds,
             n_jobs=None if jobs is None else int(jobs),
-            backend=settings["backend"],
+            backend=settings.backend,
             store=store,
-            scheduler=settings["scheduler"],
-            imports=tuple(settings["import"]),
-            progress=bool(settings["progress"]),
+            scheduler=settings.scheduler,
+            imports=tuple(settings.imports),
+            progress=bool(settings.progress),
             command=command,
             include=include,
             run_settings=suite_settings,
-            threads=settings["threads"],
+            threads=settings.threads,
         )
     except ClusterError as error:  # refused before any episode: the scheduler or a plug-in (one line)
         store.close()
@@ -380,9 +267,9 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGTERM, previous)
     store.close()
     errors = print_outcome(frame, store_path)
-    if settings["report"] and settings["suite"] is not None:
-        suite_report(store_path, out, command, settings["suite"], reference)
-    elif settings["report"]:
+    if settings.report and settings.suite is not None:
+        suite_report(store_path, out, command, settings.suite, reference)
+    elif settings.report:
         report(store_path, out, command, reference)
     return 1 if errors else 0  # some work failed: say so in the exit status too (cli.EXIT_STATUS)
 
@@ -407,7 +294,7 @@ def _catch_sigterm() -> Any:
 
 
 def episode_plan(
-    settings: dict[str, Any], policies: dict[str, Any], seeds: list[int]
+    settings: RunSettings, policies: dict[str, Any], seeds: list[int]
 ) -> tuple[list[Any], list[int], Any, dict[str, Any]]:
     """The scenarios, seeds, episode filter and extra run settings of ``--suite`` or ``--scenarios``.
 
@@ -416,20 +303,20 @@ def episode_plan(
     """
     include = None
     suite_settings: dict[str, Any] = {}
-    if settings["suite"] is not None:
+    if settings.suite is not None:
         scenarios, seeds, include = suite_plan(settings, policies)
-        suite_settings = {"suite": settings["suite"], "members": settings["members"]}
+        suite_settings = {"suite": settings.suite, "members": list(settings.members)}
     else:
-        if settings["members"]:
+        if settings.members:
             raise CLIError("--members: only with --suite (it selects suite members)")
         scenarios = resolve_scenarios(
-            settings["scenarios"],
-            settings["profile"],
-            parse_weights(settings["weights"]),
-            float(settings["difficulty"]),
+            settings.scenarios,
+            settings.profile,
+            parse_weights(settings.weights),
+            float(settings.difficulty),
         )
     if not scenarios:
-        raise CLIError(f"--scenarios: got {settings['scenarios']!r}, expected at least one scenario")
+        raise CLIError(f"--scenarios: got {list(settings.scenarios)!r}, expected at least one scenario")
     return scenarios, seeds, include, suite_settings
 
 
@@ -463,7 +350,7 @@ def open_store(store_path: Path, out: Path | None) -> Any:
 
 
 def announce(
-    settings: dict[str, Any],
+    settings: RunSettings,
     policies: dict[str, Any],
     scenarios: list[Any],
     seeds: list[int],
@@ -484,9 +371,9 @@ def announce(
         for scenario in scenarios
         for seed in seeds
     )
-    rule = "--seeds " + str(settings["seeds"]) if "seeds" in settings["explicit"] else "the suite's seed rule"
+    rule = "--seeds " + str(settings.seeds) if "seeds" in settings.explicit else "the suite's seed rule"
     print(
-        f"uav-bench run: suite {settings['suite']}: {counted(len(policies), 'policy', 'policies')} x "
+        f"uav-bench run: suite {settings.suite}: {counted(len(policies), 'policy', 'policies')} x "
         f"{counted(len(scenarios), 'member')} ({rule}) = {counted(episodes, 'episode')} -> {store_path}"
     )
 
