@@ -712,7 +712,7 @@ cp leaderboards/v3/compute.jsonl /tmp/rebuilt/     # this page's numbers from th
 python benchmarks/results_page.py --folder /tmp/rebuilt --rows leaderboards/v3-checkpoint --out /tmp/results.md --readme /tmp/README.md
 ```
 
-docs/publishing.md §5 describes the v3 publication; `benchmarks/reproduce_published.py STORE`
+docs/publishing.md §5 describes the v3 publication; `benchmarks/reproduce_published.py STORE` (as of f860dda, since removed)
 compares a re-run with the published episodes.
 """
 
