@@ -317,6 +317,10 @@ def unfinished_steps(root: Path, campaign: Campaign | None = None) -> list[str]:
 def run_logged(root: Path, name: str, argv: Sequence[str]) -> int:
     """Run ``uav-bench ARGV`` for step ``name`` in a fresh process, its attempt logged in ``ROOT/compute.jsonl``.
 
+    DECISION (docs/rl.md §3, one runner's machinery): the programme's steps run and are logged by
+    the publication campaigns' code, not a copy of it; what is done is still read from each step's
+    results, because a step's command depends on the studies' results.
+
     The campaign runner's own machinery (:func:`uav_penetration_env.benchmark.campaign.process.run_attempt`):
     the same log line (step, command, wall and CPU seconds, exit status, commit) as a publication's,
     and on Ctrl-C the child, in the same process group, saves its state (exit status 130) while
