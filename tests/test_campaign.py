@@ -547,3 +547,33 @@ def test_names_fill_whole_items_and_paths_inside_strings_and_an_empty_list_drops
     assert part.commands == [
         ["run", "--store", "results/t/leaderboard.sqlite", "--figures", "results/t/out/x.png"]
     ]
+
+
+def test_an_attempt_is_logged_with_its_status_and_times(tmp_path):
+    """A script of the tree runs under this Python in ``repo``; its attempt is one log line, whatever its status."""
+    (tmp_path / "step.py").write_text(
+        "import pathlib, sys\npathlib.Path('ran').write_text('yes')\nsys.exit(4)\n"
+    )
+    log = tmp_path / "results" / "compute.jsonl"
+    assert process.run_attempt(tmp_path, "paper", ["step.py", "--flag"], log) == 4
+    assert (tmp_path / "ran").read_text() == "yes"  # it ran in the repository
+    (line,) = read_log(log)
+    assert {k: line[k] for k in ("part", "command", "status", "commit")} == {
+        "part": "paper", "command": "python step.py --flag", "status": 4, "commit": "unknown"
+    }  # fmt: skip
+    assert line["wall_s"] >= 0.0 and line["cpu_s"] >= 0.0
+    assert done_commands(read_log(log)) == set()  # a failed attempt is not done
+
+
+def test_a_bad_campaign_file_is_one_error_line_from_the_command(tmp_path, capsys):
+    from uav_penetration_env.benchmark import cli
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nroot: r\nparts: [{name: a, commands: [[run, $nope]]}]\ninstall: {target: t}\n")
+    assert cli.main(["campaign", str(bad), "--dry-run"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "uav-bench: error: bad.yaml.parts.a: got '$nope', expected a known name (known: check, out, root, rows, store)"
+    ]
+    assert cli.main(["campaign", str(REPO / "leaderboards/campaigns/v3.yaml"), "--only", "nope"]) == 2
+    assert "--only nope: unknown part; expected some of paper, windows" in capsys.readouterr().err

@@ -1,8 +1,9 @@
-"""The publishing helpers: the results page, the headline numbers, the terminal-cost table, the env pages.
+"""The publishing helpers: the results page, the headline numbers, the terminal-cost table.
 
 Each module has a ``main(argv)``; the thin scripts ``benchmarks/results_page.py``,
-``benchmarks/headline.py``, ``benchmarks/terminal_cost_table.py`` and ``benchmarks/env_pages.py``
-call it (the commands docs/publishing.md and the campaign files name).
+``benchmarks/headline.py`` and ``benchmarks/terminal_cost_table.py`` call it (the commands
+docs/publishing.md and the campaign files name). The env pages' generator reads the RL extra's
+action wrapper, so it is a docs build script (``docs/hooks/env_pages.py``), not part of the harness.
 """
 
 from __future__ import annotations
