@@ -533,6 +533,9 @@ MINIMAL = {"name": "t", "root": "results/t", "parts": [{"name": "a", "commands":
         ({"install": {"target": "out", "mode": "copy"}}, r"t\.install\.mode: got 'copy', expected one of replace, folder"),
         ({"lists": {"l": ["a"]}, "parts": [{"name": "a", "commands": [["x", "--y=${l}"]]}]}, r"\$\{NAME\} of a path"),
         ({"parts": [{"name": "a", "waits_for_agents": True, "commands": [["x"]]}]}, r"t\.agents: got None, expected an agents section"),
+        ({"lists": ["a"]}, r"t\.lists: got \['a'\], expected a mapping of names to lists of strings"),
+        ({"layout": {"out": 3}}, r"t\.layout\.out: got 3, expected a non-empty string"),
+        ({"parts": [{"name": "a", "commands": [["x", {"k": 1}]]}]}, r"t\.parts\[0\]\.commands\[0\]: got .*, expected a list of strings"),
     ],
 )  # fmt: skip
 def test_a_bad_campaign_file_is_one_line_naming_the_field(change, message):

@@ -201,14 +201,20 @@ def campaign_from_mapping(data: Any, source: str = "campaign") -> CampaignSpec:
     name = _text(f"{source}.name", data.get("name"))
     root = Path(_text(f"{source}.root", data.get("root")))
     given = _mapping(f"{source}.layout", data.get("layout") or {}, LAYOUT_KEYS)
-    out = Path(given.get("out", root / "out"))
+
+    def where(key: str, default: Path) -> Path:
+        return Path(_text(f"{source}.layout.{key}", given[key])) if key in given else default
+
+    out = where("out", root / "out")
     layout = Layout(
-        store=Path(given.get("store", root / "leaderboard.sqlite")),
+        store=where("store", root / "leaderboard.sqlite"),
         out=out,
-        rows=Path(given.get("rows", out / "rows" / "leaderboard")),
-        check=Path(given.get("check", root / "from-rows")),
+        rows=where("rows", out / "rows" / "leaderboard"),
+        check=where("check", root / "from-rows"),
     )
-    lists_data = _mapping(f"{source}.lists", data.get("lists") or {}, tuple(data.get("lists") or {}))
+    lists_data = data.get("lists") or {}
+    if not isinstance(lists_data, Mapping):
+        raise _fail(f"{source}.lists", lists_data, "a mapping of names to lists of strings")
     lists = {key: _strings(f"{source}.lists.{key}", value) for key, value in lists_data.items()}
     clash = [key for key in lists if key in (*PATH_NAMES, *AGENT_LISTS, AGENT_PATH)]
     if clash:
