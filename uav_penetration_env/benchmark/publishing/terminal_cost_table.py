@@ -193,7 +193,7 @@ def markdown(parts: dict[str, tuple[pd.DataFrame, list[dict], list]]) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The script's flags (tests/test_campaign.py checks v3's tables command against them)."""
+    """The script's flags (tests/test_campaign_runner.py checks v3's tables command against them)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", action="append", required=True, metavar="NAME=PATH",
                         help="episodes (CSV or Parquet) of one part; repeat a NAME to join files")  # fmt: skip
