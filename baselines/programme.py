@@ -34,7 +34,6 @@ import fnmatch
 import json
 import shlex
 import shutil
-import subprocess
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -44,6 +43,9 @@ from typing import Any
 import yaml
 
 from baselines.campaign import DEFAULT_CAMPAIGN, Campaign, CampaignError, default_campaign, load_campaign
+from uav_penetration_env.benchmark.campaign.process import run_attempt, uav_bench_command
+
+__all__ = ["restore", "run_programme", "snapshot", "uav_bench_command", "unfinished_steps"]
 
 DEFAULT_ROOT = Path("results/rl")
 ZOO = "zoo"  # the label part of runs trained with the untuned set, baselines/hyperparams/ALGO.yaml
@@ -302,26 +304,29 @@ def training_steps(
     return steps
 
 
-def uav_bench_command() -> list[str]:
-    """How to call ``uav-bench``: the console script beside this Python, else the module."""
-    script = Path(sys.executable).with_name("uav-bench")
-    if script.is_file():
-        return [str(script)]
-    found = shutil.which("uav-bench")
-    return [found] if found else [sys.executable, "-m", "uav_penetration_env.benchmark.cli"]
+def unfinished_steps(root: Path, campaign: Campaign | None = None) -> list[str]:
+    """Steps of the programme not done yet (``[]``: finished), read from ``root`` without writing anything.
 
-
-def run_in_subprocess(argv: Sequence[str]) -> int:
-    """Run ``uav-bench ARGV`` in a fresh process (its memory is freed when it ends); its exit status.
-
-    On Ctrl-C the child, in the same process group, gets the same SIGINT and saves its state
-    (exit status 130); this waits for it instead of killing it mid-write.
+    What ``--unfinished`` prints, one per line: a publication campaign's agents part waits while
+    there are any (``agents.pending`` in leaderboards/campaigns/v2.yaml; docs/publishing.md §1).
     """
-    process = subprocess.Popen([*uav_bench_command(), *argv])
-    try:
-        return process.wait()
-    except KeyboardInterrupt:
-        return process.wait()
+    steps = tuning_steps(root, campaign) + training_steps(root, write=False, campaign=campaign)
+    return [step.name for step in steps if not (step.done or step.skipped)]
+
+
+def run_logged(root: Path, name: str, argv: Sequence[str]) -> int:
+    """Run ``uav-bench ARGV`` for step ``name`` in a fresh process, its attempt logged in ``ROOT/compute.jsonl``.
+
+    DECISION (docs/rl.md §3, one runner's machinery): the programme's steps run and are logged by
+    the publication campaigns' code, not a copy of it; what is done is still read from each step's
+    results, because a step's command depends on the studies' results.
+
+    The campaign runner's own machinery (:func:`uav_penetration_env.benchmark.campaign.process.run_attempt`):
+    the same log line (step, command, wall and CPU seconds, exit status, commit) as a publication's,
+    and on Ctrl-C the child, in the same process group, saves its state (exit status 130) while
+    this waits for it.
+    """
+    return run_attempt(Path.cwd(), name, argv, Path(root) / "compute.jsonl")
 
 
 @contextlib.contextmanager
@@ -358,7 +363,7 @@ def run_programme(
     only: Sequence[str] = (),
     dry_run: bool = False,
     off_policy_steps: int | None = None,
-    runner: Callable[[Sequence[str]], int] = run_in_subprocess,
+    runner: Callable[[Sequence[str]], int] | None = None,
     campaign: Campaign | None = None,
 ) -> int:
     """Run every step not done yet, in order, printing each command; stop at the first failure.
@@ -368,7 +373,7 @@ def run_programme(
         only: ``fnmatch`` patterns of step names to run (empty: all).
         dry_run: print the steps and their state, run nothing.
         off_policy_steps: steps of the SAC/TD3 runs instead of the CPU-time budget.
-        runner: runs ``uav-bench ARGV`` and returns its exit status.
+        runner: runs ``uav-bench ARGV`` and returns its exit status (default: :func:`run_logged`).
         campaign: what to run (default: the packaged campaign, ``baselines/campaigns/rl.yaml``).
 
     Returns:
@@ -417,7 +422,7 @@ def run_programme(
                         print(f"[busy] {step.name}: another programme process runs it", flush=True)
                         continue
                     print(f"[run] {step.name} ({step.why}): {command}", flush=True)
-                    status = runner(step.argv)
+                    status = runner(step.argv) if runner is not None else run_logged(root, step.name, step.argv)
                 if status != 0:
                     print(
                         f"programme stopped at {step.name} (exit status {status}); run it again to continue"
@@ -545,6 +550,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--only", nargs="+", default=(), metavar="PATTERN", help="run only steps matching (e.g. 'tune/*')"
     )
     parser.add_argument("--dry-run", action="store_true", help="print the steps and their state; run nothing")
+    parser.add_argument("--unfinished", action="store_true",
+                        help="print the steps not done yet, one per line (none: finished); run nothing")  # fmt: skip
     parser.add_argument(
         "--off-policy-steps",
         type=int,
@@ -573,6 +580,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     unmatched = [p for p in args.only if not any(fnmatch.fnmatchcase(name, p) for name in names)]
     if unmatched:
         parser.error(f"--only {' '.join(unmatched)}: matches no step; expected patterns such as 'tune/ppo-*'")
+    if args.unfinished:
+        print("\n".join(unfinished_steps(Path(args.root), campaign)))
+        return 0
     if args.snapshot or args.restore:
         copied = (
             snapshot(Path(args.root), Path(args.snapshot))

@@ -10,9 +10,20 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_benchmark_scripts import load
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def load(name: str):
+    """The site's build module ``docs/hooks/NAME.py`` (mkdocs loads it by path, not as a package)."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / "hooks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(spec.name, None)
+    return module
 DOCS_EXTRA = "the docs site test needs the docs extra: pip install -e '.[docs]'"
 
 
@@ -30,7 +41,7 @@ def test_the_site_builds_strictly(tmp_path):
     assert (site / "index.html").is_file() and (site / "plugins" / "index.html").is_file()
     reference = (site / "reference" / "optimizers" / "index.html").read_text(encoding="utf-8")
     assert "normalize_bounds" in reference and "register_optimizer" in reference  # docstrings rendered
-    # Sphinx roles in docstrings are links where the site documents the object (benchmarks/docs_roles.py),
+    # Sphinx roles in docstrings are links where the site documents the object (docs/hooks/docs_roles.py),
     # never literal ":func:<code>x</code>" text
     for page in (site / "reference").glob("*/index.html"):
         text = page.read_text(encoding="utf-8")

@@ -1,22 +1,23 @@
-"""benchmarks/env_pages.py: each env page's generated specification follows the code, and has its frame."""
+"""docs/hooks/env_pages.py: each env page's generated specification follows the code, and has its frame."""
 
 from __future__ import annotations
 
 import shutil
 
 import pytest
-from test_benchmark_scripts import load
+from test_docs_site import load
 
 from uav_penetration_env import ENV_IDS
+
+env_pages = load("env_pages")  # a docs build script, loaded by path as mkdocs' hooks are
 
 
 def test_every_env_page_is_what_the_code_gives():
     """docs/envs/*.md carry the block the registrations, spaces and docstrings give, and each frame exists."""
-    assert load("env_pages").main(["--check"]) == 0
+    assert env_pages.main(["--check"]) == 0
 
 
 def test_a_stale_block_or_a_missing_frame_fails_the_check(tmp_path, capsys):
-    env_pages = load("env_pages")
     docs = tmp_path / "docs"
     shutil.copytree(env_pages.ROOT / "docs" / "envs", docs / "envs")
     shutil.copytree(env_pages.ROOT / "docs" / "images" / "envs", docs / "images" / "envs")
@@ -30,7 +31,6 @@ def test_a_stale_block_or_a_missing_frame_fails_the_check(tmp_path, capsys):
 
 
 def test_a_page_without_the_markers_is_refused(tmp_path):
-    env_pages = load("env_pages")
     (tmp_path / "envs").mkdir()
     (tmp_path / "envs" / "UAVPenetration-v0.md").write_text("# UAVPenetration-v0\n\nno block\n")
     with pytest.raises(SystemExit, match=r"UAVPenetration-v0.md: no .* block to write the specification into"):
@@ -38,5 +38,4 @@ def test_a_page_without_the_markers_is_refused(tmp_path):
 
 
 def test_every_registered_id_has_a_page():
-    env_pages = load("env_pages")
     assert sorted(p.stem for p in (env_pages.ROOT / "docs" / "envs").glob("*.md")) == sorted(ENV_IDS)

@@ -22,7 +22,7 @@ from uav_penetration_env.benchmark import cli
 
 # compile --clear would remove the compile cache; the plug-in commands (RL) train.
 FUZZED = ("run", "leaderboard", "plot", "report", "export", "import", "replay", "calibrate", "scenario",
-          "windows", "best-known", "suite", "store", "protocol", "timing")  # fmt: skip
+          "windows", "best-known", "suite", "store", "protocol", "timing", "campaign")  # fmt: skip
 # Where each command's work starts once its inputs are checked.
 WORK = (
     ("uav_penetration_env.benchmark.evaluate", "evaluate"),
@@ -40,6 +40,13 @@ WORK = (
     ("uav_penetration_env.benchmark.timing", "time_planners"),
     ("uav_penetration_env.benchmark.protocol", "primary_answers"),
     ("uav_penetration_env.benchmark.blackbox.ioh_export", "export_window_runs"),
+    ("uav_penetration_env.benchmark.campaign.runner", "run_campaign"),
+    ("uav_penetration_env.benchmark.campaign.actions", "compute"),
+    ("uav_penetration_env.benchmark.campaign.actions", "install"),
+    ("uav_penetration_env.benchmark.campaign.actions", "seed"),
+    ("uav_penetration_env.benchmark.campaign.actions", "resume_from_checkpoint"),
+    ("uav_penetration_env.benchmark.campaign.actions", "write_checkpoint"),
+    ("uav_penetration_env.benchmark.campaign.actions", "rebuild_from_published"),
 )
 JUNK = ["", " ", "-1", "0", "1", "3", "0.5", "nan", "inf", "-inf", "1e999", "x", "a" * 300, "\x00", "é",
         "1,2", "0-2", "-", "--", "none", "None", "/", ".", "paper", "random:3", "random:x", "greedy", "pso",

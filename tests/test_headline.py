@@ -6,9 +6,9 @@ import json
 
 import pytest
 from conftest import tiny_scenario
-from test_benchmark_scripts import load
 
 from uav_penetration_env.benchmark import cli
+from uav_penetration_env.benchmark.publishing import headline, results_page
 from uav_penetration_env.benchmark.store import ResultsStore
 
 
@@ -38,7 +38,6 @@ def folder(tmp_path_factory):
 
 def test_headline_numbers_equal_those_computed_from_the_rows(folder):
     out, episodes, windows = folder
-    headline = load("headline")
     text = headline.headline(out, ["tiny"])
     # §1: every PSO variant flown appears with its mean total J; the reference has no Δ.
     mean = episodes.groupby("policy")["total_cost"].mean()
@@ -61,7 +60,6 @@ def test_headline_numbers_equal_those_computed_from_the_rows(folder):
 
 
 def test_headline_refuses_a_folder_without_tables(tmp_path):
-    headline = load("headline")
     with pytest.raises(SystemExit, match=r"none of the tables tiny\.csv; expected a leaderboard folder"):
         headline.headline(tmp_path, ["tiny"])
 
@@ -78,7 +76,7 @@ def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
                      "scenario_hash": "h", "seed": 0, "outcome": "success", "total_J": cost, "total_penalty": 0.0,
                      "total_cost": cost, "planning_seconds": seconds, "steps": 10, "error": ""})  # fmt: skip
     rl_table(pd.DataFrame(rows), n_resamples=200).to_csv(tmp_path / "s-rl.csv", index=False)
-    text = "\n".join(load("headline").rl_section(tmp_path, ["s"]))
+    text = "\n".join(headline.rl_section(tmp_path, ["s"]))
     assert "`s` (best planner: hpso):" in text
     # The group's runs 20 and 24 against greedy's 21: +1; the planner decides 3 000 times slower.
     assert "| sb3:ppo-paper | RL group | 2 | " in text and "| 1 [" in text and "| 3000 |" in text
@@ -86,7 +84,7 @@ def test_rl_section_reads_the_rl_table_with_its_paired_difference(tmp_path):
 
 def test_the_results_page_and_the_readme_headline_are_what_the_published_tables_give():
     """docs/results.md and the README's headline paragraph are regenerated from leaderboards/v3 without a difference."""
-    assert load("results_page").main(["--check"]) == 0
+    assert results_page.main(["--check"]) == 0
 
 
 @pytest.fixture
@@ -104,7 +102,6 @@ def v3_folder(folder, tmp_path):
 
 
 def test_results_page_check_fails_on_a_stale_page(v3_folder, tmp_path):
-    results_page = load("results_page")
     out, readme = tmp_path / "results.md", tmp_path / "README.md"
     out.write_text("stale\n")
     readme.write_text(f"x\n{results_page.README_START}\nSTALE-HEADLINE\n{results_page.README_END}\n")
@@ -125,4 +122,4 @@ def test_results_page_check_fails_on_a_stale_page(v3_folder, tmp_path):
 
 def test_results_page_refuses_a_readme_without_the_headline_block():
     with pytest.raises(SystemExit, match=r"no .* block to write the headline into"):
-        load("results_page").with_headline("no block\n", "paragraph")
+        results_page.with_headline("no block\n", "paragraph")

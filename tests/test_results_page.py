@@ -7,9 +7,8 @@ import math
 
 import pandas as pd
 import pytest
-from test_benchmark_scripts import load
 
-rp = load("results_page")
+from uav_penetration_env.benchmark.publishing import results_page as rp
 
 
 def episodes(rows: list[tuple[str, str, int, float]]) -> pd.DataFrame:

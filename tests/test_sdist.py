@@ -35,7 +35,7 @@ def test_the_sdist_carries_tests_docs_and_examples_but_not_the_leaderboards(tmp_
         names = {name.split("/", 1)[1] for name in archive.getnames() if "/" in name}
     for member in ("tests/conftest.py", "tests/harness/test_blackbox.py", "docs/blackbox.md", "docs/index.md",
                    "mkdocs.yml", "examples/random_search.py", "examples/nevergrad_de.py",
-                   "benchmarks/docs_hooks.py", "uav_penetration_env/benchmark/blackbox/problems.py"):  # fmt: skip
+                   "docs/hooks/docs_hooks.py", "uav_penetration_env/benchmark/blackbox/problems.py"):  # fmt: skip
         assert member in names, member
     assert not any(name.startswith("leaderboards/") for name in names)
     assert not any("__pycache__" in name or name.endswith(".pyc") for name in names)

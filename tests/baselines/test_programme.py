@@ -331,3 +331,12 @@ def programme_transcript(root) -> dict:
 def test_the_programme_is_the_pinned_one(tmp_path):
     """The campaign's steps and commands, in order, are those pinned in tests/baselines/data."""
     assert programme_transcript(tmp_path) == json.loads(GOLDEN.read_text())
+
+
+def test_unfinished_lists_every_step_of_a_new_programme_and_writes_nothing(tmp_path, capsys):
+    """A new root: no study has its trials, so every tuning step and every run is unfinished."""
+    from baselines.programme import main, step_names
+
+    assert main(["--root", str(tmp_path), "--unfinished"]) == 0
+    assert sorted(capsys.readouterr().out.split()) == sorted(step_names())
+    assert list(tmp_path.iterdir()) == []

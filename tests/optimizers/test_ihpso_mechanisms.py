@@ -8,11 +8,9 @@ versions of the swarm tests are marked slow; the default run uses 200 draws with
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,22 +29,8 @@ from optimizers.ihpso_grouping import (
     termination_test,
 )
 from tests.golden import golden_cases
+from tests.optimizers import swarms as study  # the swarm generators the retired study script's table used
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "ihpso_mechanisms.py"
-
-
-def load_script():
-    spec = importlib.util.spec_from_file_location("ihpso_mechanisms", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
-
-
-study = load_script()  # the swarm generators live in the study script, so its table and these tests agree
 clump_centres, clumps, cloud = study.clump_centres, study.clumps, study.cloud
 N, G = study.SWARM_SIZE, study.N_GROUPS
 BOUNDS = [(-5.0, 5.0)] * 10
@@ -373,10 +357,3 @@ def test_ihpso_2022v0_reproduces_the_golden_ihpso_planner(name, key):
     }
     for total in totals:
         assert float.fromhex(case[total]) == pytest.approx(float.fromhex(expected[total]), rel=1e-15, abs=0)
-
-
-def test_study_script_runs_end_to_end(capsys):
-    assert study.main(["--states", "1", "--seeds", "1", "--max-evals", "300", "--swarm-draws", "3"]) == 0
-    out = capsys.readouterr().out
-    for header in ("eq. 33 on synthetic swarms", "IHPSO's mechanisms over 1", "Tolerance of"):
-        assert header in out

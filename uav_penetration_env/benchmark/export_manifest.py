@@ -7,7 +7,7 @@ SHA-256; its presence says the export finished, and its digests say that every t
 that export wrote (not a table of an earlier export under the same stem).
 
 DECISION (api.md §4.9): an import with a manifest needs every table it lists, byte for byte; an
-import without one (an export written before manifests existed, or rows merged by ``benchmarks/publish.py``)
+import without one (an export written before manifests existed, or rows merged by ``uav-bench campaign --resume``)
 needs the episodes, runs and steps tables, and the scenarios and policies tables both or neither
 (the legacy form without them is rebuilt from the package, each scenario checked against its
 hash); the window runs are optional, as ``leaderboard --rows`` reads them. Anything less

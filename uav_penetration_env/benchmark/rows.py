@@ -214,7 +214,7 @@ def concat_pieces(frames: Sequence[pd.DataFrame]) -> pd.DataFrame:
 def checkpoint_stems(path: str | Path) -> list[Path]:
     """The stems ``path`` stands for: a checkpoint folder's chunks in its manifest's order, else ``[path]``.
 
-    A checkpoint folder (``benchmarks/publish.py --checkpoint``, docs/publishing.md §5.2) holds
+    A checkpoint folder (``uav-bench campaign FILE --checkpoint``, docs/publishing.md §5.2) holds
     ``chunk-NNN-<table>.parquet`` files and a ``manifest.json`` naming the chunks that are whole.
 
     Raises:
@@ -235,7 +235,7 @@ def checkpoint_stems(path: str | Path) -> list[Path]:
                         "expected {\"chunks\": [{\"name\": ...}, ...]}") from None  # fmt: skip
     if content.get("seeds"):
         raise RowsError(f"--rows {folder}: the checkpoint names seed rows of another store; expected "
-                        "chunks of one store (rebuild its store with publish.py --resume and use --store)")  # fmt: skip
+                        "chunks of one store (rebuild its store with uav-bench campaign FILE --resume and use --store)")  # fmt: skip
     if not names:
         raise RowsError(f"--rows {folder}: the manifest names no chunk; expected at least one")
     return [folder / name for name in names]

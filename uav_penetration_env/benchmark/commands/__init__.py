@@ -32,6 +32,7 @@ BUILTIN_COMMANDS = (
     "store",
     "protocol",
     "timing",
+    "campaign",
 )
 
 

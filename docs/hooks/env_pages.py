@@ -13,8 +13,8 @@ the end of its episode, halved and saved as a palette PNG under ``docs/images/en
 
 Usage::
 
-    python benchmarks/env_pages.py            # rewrite the blocks and the frames
-    python benchmarks/env_pages.py --check    # exit 1 when a block is stale or a frame is missing
+    python docs/hooks/env_pages.py            # rewrite the blocks and the frames
+    python docs/hooks/env_pages.py --check    # exit 1 when a block is stale or a frame is missing
                                               # (the text only: rendering needs the compiled physics)
 """
 
@@ -28,12 +28,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
+ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: this checkout's package
     sys.path.insert(0, str(ROOT))
 
-START = "<!-- env-spec: written by benchmarks/env_pages.py; edit the env's docstring instead -->"
+START = "<!-- env-spec: written by docs/hooks/env_pages.py; edit the env's docstring instead -->"
 END = "<!-- /env-spec -->"
 LABELS = ("Observation", "Action", "Reward", "Episode end")
 FRAME_SEED = 0
@@ -145,7 +144,7 @@ def spec_block(env_id: str) -> str:
         "## Specification",
         "",
         "Written from the registration, the spaces the env builds and the docstring of "
-        f"`{name}` by `benchmarks/env_pages.py` (`--check` compares).",
+        f"`{name}` by `docs/hooks/env_pages.py` (`--check` compares).",
         "",
         "| | |",
         "|---|---|",
@@ -198,8 +197,9 @@ def frame_png(env_id: str) -> bytes:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Rewrite the env pages' blocks and frames, or ``--check`` them (exit 1 when stale)."""
     parser = argparse.ArgumentParser(
-        prog="python benchmarks/env_pages.py", description=__doc__.splitlines()[0]
+        prog="python docs/hooks/env_pages.py", description=__doc__.splitlines()[0]
     )
     parser.add_argument("--docs", type=Path, default=ROOT / "docs", help="the docs folder")
     parser.add_argument(
@@ -231,7 +231,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             stream.write(frame_png(env_id))
         print(f"wrote {page_path} and {image_path}")
     for problem in stale:
-        print(f"{problem}; run python benchmarks/env_pages.py", file=sys.stderr)
+        print(f"{problem}; run python docs/hooks/env_pages.py", file=sys.stderr)
     return 1 if stale else 0
 
 
