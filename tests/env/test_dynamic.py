@@ -91,6 +91,16 @@ def test_a_moving_or_uncertain_radar_needs_a_mast_and_a_route_inside_the_map():
         paper_with({"name": "X", "x_km": 60.0, "y_km": 60.0, "mast_m": 10.0, "on_step": [5, 20]}, max_steps=20)
 
 
+def test_the_static_copy_of_a_radar_clears_every_dynamic_field():
+    from uav_penetration_env.scenario.schema import DYNAMIC_FIELDS
+
+    radar = Radar("M", 0.0, 0.0, mast_m=10.0, route_km=((3.0, 4.0),), speed_m_s=10.0, prior="uncertain", position_error_km=1.0, on_step=(1, 2))
+    static = radar.at(1.5, 2.0)
+    assert (static.x_km, static.y_km, static.mast_m) == (1.5, 2.0, 10.0)
+    assert radar.is_dynamic and not static.is_dynamic
+    assert all(getattr(static, name) is None for name in DYNAMIC_FIELDS)
+
+
 # --- draws and motion -----------------------------------------------------------------------------------
 
 
@@ -220,3 +230,37 @@ def test_the_oracle_pays_less_where_a_threat_is_unknown_and_the_same_where_none_
         fly(UAVPenetrationDynamicEnv(known), OraclePolicy(LatticePolicy()), seed=0),
         fly(UAVPenetrationDynamicEnv(known), LatticePolicy(), seed=0),
     )
+
+
+# --- information modes in policy names ---------------------------------------------------------------------
+
+
+def test_oracle_and_offline_names_read_once_and_label_every_table():
+    from uav_penetration_env.benchmark.evaluate import policy_hash
+    from uav_penetration_env.benchmark.information import OfflinePolicy
+    from uav_penetration_env.benchmark.policies import make_policy, parse_policy
+    from uav_penetration_env.benchmark.policy_spec import PolicyValueError
+
+    spec = parse_policy("oracle:lattice-c60")
+    assert (spec.label, spec.canonical(), spec.information) == ("oracle:lattice-c60", "oracle:lattice[clearance=60]", "oracle")
+    assert parse_policy("offline:lattice[clearance=60]").label == "offline:lattice-c60"
+    with pytest.raises(PolicyValueError, match="at most one of the prefixes"):
+        parse_policy("oracle:offline:lattice")
+    oracle, offline, plain = make_policy("oracle:lattice"), make_policy("offline:lattice"), make_policy("lattice")
+    assert isinstance(oracle, OraclePolicy) and isinstance(offline, OfflinePolicy)
+    assert len({policy_hash(oracle), policy_hash(offline), policy_hash(plain)}) == 3
+
+
+def test_the_offline_floor_flies_its_plan_open_loop():
+    from uav_penetration_env.benchmark.information import OfflinePolicy
+
+    # Where nothing is revealed the prior map is the truth: the open-loop plan of a deterministic
+    # planner is its closed-loop episode, step for step.
+    _same_episode(fly(UAVPenetrationEnv("paper"), OfflinePolicy(GreedyPolicy()), seed=1), fly(UAVPenetrationEnv("paper"), GreedyPolicy(), seed=1))
+    # Where a threat is revealed, the floor keeps its prior plan: its track is the one it flies without X.
+    hidden = paper_with({"name": "X", "x_km": 62.0, "y_km": 45.0, "mast_m": 10.0, "prior": "unknown"})
+    floor = fly(UAVPenetrationDynamicEnv(hidden), OfflinePolicy(LatticePolicy()), seed=0)
+    assert any(info["revealed"] for _, _, info in floor)
+    blind = fly(UAVPenetrationDynamicEnv("paper"), LatticePolicy(), seed=0)
+    assert len(floor) == len(blind)
+    assert all(np.array_equal(a[2]["state"], b[2]["state"]) for a, b in zip(floor, blind, strict=True))

@@ -8,7 +8,7 @@ belief updates (a rebuilt value function) count in its ``planning_cpu_seconds``.
 
 A policy that declares ``oracle = True`` plans on the truth instead (``env.truth_model``, updated
 whenever the threats that are on change): the reference for the price of information, labelled
-``oracle`` in every table (:func:`oracle_label`).
+``oracle:NAME`` in every table (``make_policy("oracle:NAME")`` builds one).
 
 DECISION (docs/dynamic.md §4): a policy without ``update_model`` keeps the belief it was reset with
 (an RL agent reads the observation, which is always the current belief's); no policy is ever
@@ -17,19 +17,17 @@ handed the truth unless it declares itself an oracle.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
+from uav_penetration_env.benchmark.policy_spec import OFFLINE, ORACLE
 from uav_penetration_env.dynamic_env import UAVPenetrationDynamicEnv
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.scenario import Scenario
 from uav_penetration_env.types import FloatArray
-
-ORACLE_PREFIX = "oracle:"  # the label of a planner given the truth (oracle:ihpso)
 
 
 def episode_env(scenario: Scenario) -> UAVPenetrationEnv:
@@ -80,18 +78,11 @@ class BeliefFeed:
 
 
 @dataclass
-class OraclePolicy:
-    """A policy given the truth: ``inner`` planned on ``env.truth_model`` (docs/dynamic.md §4).
+class _Wrapped:
+    """A policy told more or less than the belief: the inner policy's determinism, record and config."""
 
-    Its config is the inner policy's with ``oracle: True``, so its results are stored under their
-    own key and labelled :data:`ORACLE_PREFIX` + the inner name.
-
-    Raises:
-        TypeError: ``inner`` without ``reset`` and ``act``.
-    """
-
+    INFORMATION: ClassVar[str] = ""
     inner: Any
-    oracle: bool = dataclasses.field(default=True, init=False)
 
     def __post_init__(self) -> None:
         if not (callable(getattr(self.inner, "reset", None)) and callable(getattr(self.inner, "act", None))):
@@ -108,9 +99,21 @@ class OraclePolicy:
         return getattr(self.inner, "last_record", None) or {}
 
     def config(self) -> dict[str, Any]:
-        """The inner policy's config (its own ``config()``, or its repr) with ``oracle: True``."""
+        """The inner policy's config (its ``config()``, else its repr) with ``information`` (a store key of its own)."""
         config = self.inner.config() if callable(getattr(self.inner, "config", None)) else {"policy": repr(self.inner)}
-        return {**config, "oracle": True}
+        return {**config, "information": self.INFORMATION}
+
+
+@dataclass
+class OraclePolicy(_Wrapped):
+    """A policy given the truth: ``inner`` planned on ``env.truth_model`` (``oracle:NAME``, docs/dynamic.md §4).
+
+    Raises:
+        TypeError: ``inner`` without ``reset`` and ``act``.
+    """
+
+    INFORMATION: ClassVar[str] = ORACLE
+    oracle: ClassVar[bool] = True  # read by is_oracle: the harness hands it the truth
 
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
         """Reset the inner policy on ``model`` (the truth: the harness hands it)."""
@@ -125,3 +128,59 @@ class OraclePolicy:
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
         """The inner policy's action."""
         return self.inner.act(observation, info)
+
+
+@dataclass
+class OfflinePolicy(_Wrapped):
+    """The never-replanning floor: ``inner``'s plan on the prior map, flown open loop (``offline:NAME``).
+
+    At its first step it flies ``inner`` on the model it was reset with (the belief at the start:
+    the prior map), from the exact start state to the episode's end, in simulation, and records the
+    actions; every step then applies the next recorded action, whatever the env reveals. The whole
+    offline plan is computed inside the first decision, so its CPU time is that step's
+    ``planning_cpu_seconds``.
+
+    DECISION (docs/dynamic.md §4): after the simulated episode ends (goal, failure or K_max) the
+    floor holds its course (zero controls); belief updates are ignored (it never replans).
+
+    Raises:
+        TypeError: ``inner`` without ``reset`` and ``act``.
+    """
+
+    INFORMATION: ClassVar[str] = OFFLINE
+    model: PenetrationModel | None = field(default=None, repr=False)
+    _plan: list[FloatArray] | None = field(default=None, repr=False)
+    _next: int = field(default=0, repr=False)
+
+    def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
+        """Reset the inner policy on the prior map's model; the plan is made at the first step."""
+        self.inner.reset(model, seed)
+        self.model, self._plan, self._next = model, None, 0
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> FloatArray:
+        """The next action of the offline plan (made now, at the first step)."""
+        if self.model is None:
+            raise RuntimeError("OfflinePolicy.act() before reset(model, seed)")
+        if self._plan is None:
+            self._plan = self._simulate(observation, np.asarray(info["state"], dtype=np.float64), int(info["step"]))
+        action = self._plan[self._next] if self._next < len(self._plan) else np.zeros(3)
+        self._next += 1
+        return action.copy()
+
+    def _simulate(self, observation: np.ndarray, state: FloatArray, step: int) -> list[FloatArray]:
+        """The actions ``inner`` takes flying ``self.model`` from ``state`` at ``step`` to the episode's end."""
+        assert self.model is not None
+        plan: list[FloatArray] = []
+        for k in range(step, self.model.max_steps):
+            action = np.asarray(self.inner.act(observation, {"state": state, "step": k}), dtype=np.float64)
+            plan.append(action)
+            result = self.model.step(state[None], action[None], k)
+            if bool(result.terminated[0] or result.truncated[0]):
+                break
+            state = result.state[0]
+            observation = self.model.observe(state[None], k + 1, result)[0]
+        return plan
+
+
+# Policy wrappers by information mode (policy_spec.INFORMATION_PREFIXES): make_policy builds them.
+INFORMATION_WRAPPERS: dict[str, type[_Wrapped]] = {ORACLE: OraclePolicy, OFFLINE: OfflinePolicy}

@@ -30,7 +30,7 @@ from uav_penetration_env.benchmark.policy_names import (  # the kinds and their 
     policy_names,  # noqa: F401  # re-exported: every plain name make_policy accepts
     unknown_policy,  # noqa: F401  # re-exported: the fast refusal of a name
 )
-from uav_penetration_env.benchmark.policy_spec import PolicySpec
+from uav_penetration_env.benchmark.policy_spec import BELIEF, PolicySpec
 from uav_penetration_env.kinematics import HEADING, SPEED, wrap_angle
 from uav_penetration_env.model import PenetrationModel
 from uav_penetration_env.mpc import MPC_DEFAULTS, MPCSettings
@@ -586,6 +586,11 @@ def make_policy(spec: str | PolicySpec, settings: MPCSettings = MPC_DEFAULTS, **
     parsed = spec if isinstance(spec, PolicySpec) else parse_policy(spec)
     what = f"policy {parsed.text or parsed.canonical()!r}"  # for errors: the name as it was written
     settings = settings.with_keys(changes) if changes else settings
+    if parsed.information != BELIEF:  # the same policy, told more or less (docs/dynamic.md §4)
+        from uav_penetration_env.benchmark.information import INFORMATION_WRAPPERS
+
+        inner = make_policy(dataclasses.replace(parsed, information=BELIEF), settings)
+        return INFORMATION_WRAPPERS[parsed.information](inner)
     if parsed.family == "floor":
         return FLOOR_POLICIES[parsed.kind]()
     if parsed.family == "value-rule":

@@ -37,6 +37,8 @@ from uav_penetration_env.benchmark.plugins import (
     policy_kinds,
 )
 from uav_penetration_env.benchmark.policy_spec import (
+    BELIEF,
+    INFORMATION_PREFIXES,
     PolicySpec,
     PolicyValueError,
     Term,
@@ -144,7 +146,9 @@ def parse_policy(text: str) -> PolicySpec:
     ``ihpso``, ``ihpso[terminal=none]`` = ``ihpso-eq37``, ``lattice[clearance=60]`` =
     ``lattice-c60``, ``distill[run=DIR,guard=shield]`` = ``distill-shield:DIR``,
     ``sb3[model=m.zip,vecnormalize=s.pkl]`` = ``sb3:m.zip?vecnormalize=s.pkl``,
-    ``ihpso[terminal=none]+sb3[model=m.zip]`` = ``ihpso-eq37+sb3:m.zip``.
+    ``ihpso[terminal=none]+sb3[model=m.zip]`` = ``ihpso-eq37+sb3:m.zip``; ``oracle:NAME`` is NAME
+    planning on the truth of a dynamic scenario, ``offline:NAME`` NAME's plan on the prior map flown
+    open loop (docs/dynamic.md §4).
 
     Raises:
         UnknownPolicyError: (a KeyError) an unknown kind or published name, with suggestions and
@@ -153,6 +157,14 @@ def parse_policy(text: str) -> PolicySpec:
             outside its domain; one line naming the parameter and the expected value.
         PluginUnavailable: the name's kind belongs to a plug-in that failed to import.
     """
+    for prefix, information in INFORMATION_PREFIXES.items():
+        if text.startswith(prefix):
+            inner = parse_policy(text[len(prefix) :])
+            if inner.information != BELIEF:
+                raise PolicyValueError(
+                    f"policy {text!r}: expected at most one of the prefixes {', '.join(INFORMATION_PREFIXES)}"
+                )
+            return dataclasses.replace(inner, information=information, text=text)
     first, second = parse_terms(text)
     builtins = builtin_kinds()
     plugins = policy_kinds()
@@ -242,7 +254,7 @@ def _unknown(
     planners = [k for k, kind in builtins.items() if kind.family == "planner"]
     known = ", ".join(
         ["greedy", "random", "lattice[clearance=N] (lattice-cN)", "value-greedy[clearance=N] (value-greedy-cN)",
-         "NAME[terminal=FORM] (NAME-eq37, NAME-ctg-FORM)", *plugin_policy_forms()]
+         "NAME[terminal=FORM] (NAME-eq37, NAME-ctg-FORM)", "oracle:NAME", "offline:NAME", *plugin_policy_forms()]
     )  # fmt: skip
     named = repr(text) if name == text else f"{name!r} (in {text!r})"
     return f"unknown policy {named} — {hint}known: {known} and the optimisers {', '.join(planners)}"

@@ -43,6 +43,14 @@ SPECIAL = ',[]="'  # the characters a bare value cannot hold
 ESCAPED = {'"': '"', "\\": "\\"}  # \" and \\ inside double quotes
 
 
+# What a policy knows of a dynamic scenario's threats (docs/dynamic.md §4), written as a prefix:
+# ``NAME`` plans on the belief, ``oracle:NAME`` on the truth, ``offline:NAME`` flies open loop the
+# plan NAME makes on the prior map at the first step (the never-replanning floor).
+BELIEF, ORACLE, OFFLINE = "belief", "oracle", "offline"
+INFORMATION_PREFIXES = {f"{ORACLE}:": ORACLE, f"{OFFLINE}:": OFFLINE}
+ORACLE_PREFIX = f"{ORACLE}:"
+
+
 class PolicySpecError(Exception):
     """A policy name that cannot be read: bad syntax, an unknown kind or parameter, a bad value."""
 
@@ -86,6 +94,9 @@ class PolicySpec:
         warm_start: the plug-in policy that warm-starts this planner (a hybrid), or ``None``.
         text: the name as it was written, for error messages (not compared: two spellings of
             one policy are equal specs).
+        information: what the policy knows of a dynamic scenario's threats (docs/dynamic.md §4):
+            ``belief`` (the default), ``oracle`` (the truth, ``oracle:NAME``) or ``offline`` (the
+            prior map at the first step, flown open loop, ``offline:NAME``); labelled in every table.
     """
 
     kind: str
@@ -94,20 +105,20 @@ class PolicySpec:
     base_label: str
     warm_start: PolicySpec | None = None
     text: str = dataclasses.field(default="", compare=False)
+    information: str = BELIEF
 
     @property
     def label(self) -> str:
         """The name in result tables and the store's ``policy`` column (the published name where one exists)."""
-        if self.warm_start is None:
-            return self.base_label
-        return f"{self.base_label}{HYBRID_SEPARATOR}{self.warm_start.label}"
+        label = self.base_label if self.warm_start is None else f"{self.base_label}{HYBRID_SEPARATOR}{self.warm_start.label}"
+        return label if self.information == BELIEF else f"{self.information}:{label}"
 
     def canonical(self) -> str:
         """The bracket form, every non-default parameter written (``lattice-c60`` -> ``lattice[clearance=60]``)."""
         text = format_term(self.kind, param_items(self.params))
-        if self.warm_start is None:
-            return text
-        return f"{text}{HYBRID_SEPARATOR}{self.warm_start.canonical()}"
+        if self.warm_start is not None:
+            text = f"{text}{HYBRID_SEPARATOR}{self.warm_start.canonical()}"
+        return text if self.information == BELIEF else f"{self.information}:{text}"
 
 
 # --- syntax -------------------------------------------------------------------------------------
