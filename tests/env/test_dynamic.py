@@ -264,3 +264,41 @@ def test_the_offline_floor_flies_its_plan_open_loop():
     blind = fly(UAVPenetrationDynamicEnv("paper"), LatticePolicy(), seed=0)
     assert len(floor) == len(blind)
     assert all(np.array_equal(a[2]["state"], b[2]["state"]) for a, b in zip(floor, blind, strict=True))
+
+
+# --- procedural dynamic scenarios and their suites ---------------------------------------------------------
+
+
+def test_the_knobs_set_what_is_hidden_and_the_mobile_radars_cross_the_route():
+    from uav_penetration_env.dynamic_catalogue import DynamicKnobs, random_dynamic_scenario
+
+    knobs = DynamicKnobs(unknown_fraction=0.5, lateness=0.5, mobile=2, position_error_km=3.0)
+    scenario = random_dynamic_scenario(np.random.default_rng(123), 0.5, knobs)
+    assert scenario == random_dynamic_scenario(np.random.default_rng(123), 0.5, knobs)  # one generator, one scenario
+    fixed, mobile = scenario.radars[:-2], scenario.radars[-2:]
+    unknown = [r for r in fixed if r.prior == "unknown"]
+    assert len(unknown) == round(0.5 * len(fixed))
+    assert all(r.prior == "uncertain" and r.position_error_km == 3.0 for r in fixed if r.prior != "unknown")
+    start, goal = np.array([scenario.start.x_km, scenario.start.y_km]), np.array([scenario.goal.x_km, scenario.goal.y_km])
+    steps = np.hypot(*(goal - start)) / (scenario.uav.speed_m_s[1] * scenario.time.dt_s / 1000.0)
+    assert all(r.on_step == (round(0.25 * steps), round(0.5 * steps)) for r in unknown)
+    route = goal - start
+    side = lambda p: np.sign(route[0] * (p[1] - start[1]) - route[1] * (p[0] - start[0]))  # noqa: E731
+    for radar in mobile:
+        assert radar.prior == "unknown" and 5.0 <= radar.speed_m_s <= 10.0
+        assert side((radar.x_km, radar.y_km)) == -side(radar.route_km[0])
+    with pytest.raises(ScenarioError, match="lateness"):
+        DynamicKnobs(lateness=1.5)
+
+
+def test_a_dynamic_recipe_round_trips_and_names_a_bad_knob():
+    from uav_penetration_env.suites.schema import Recipe, SuiteError
+
+    data = {"difficulty": 0.5, "seed": 7, "dynamic": {"unknown_fraction": 0.25, "lateness": 0.0, "mobile": 0, "position_error_km": 2.0}}
+    recipe = Recipe.from_dict(data, "members[0]")
+    assert Recipe.from_dict(recipe.to_dict(), "again") == recipe and recipe.group == "d0.50-u0.25-l0.00-m0-e2"
+    assert Recipe.from_dict({"difficulty": 0.5, "seed": 7}, "m").dynamic is None
+    with pytest.raises(SuiteError, match=r"members\[0\]\.dynamic: .*unknown_fraction"):
+        Recipe.from_dict({**data, "dynamic": {"unknowns": 1}}, "members[0]")
+    with pytest.raises(SuiteError, match=r"members\[0\]\.dynamic\.mobile: got 9"):
+        Recipe.from_dict({**data, "dynamic": {"mobile": 9}}, "members[0]")

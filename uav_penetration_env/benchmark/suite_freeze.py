@@ -36,10 +36,10 @@ GREEDY_REPLAY = f"the greedy floor (GreedyPolicy, default settings) from env.res
 
 def greedy_replay_actions(scenario: Scenario) -> FloatArray:
     """(n, 3) the controls the greedy floor flies on ``scenario`` from ``env.reset(seed=REPLAY_SEED)``, to the episode's end."""
+    from uav_penetration_env.benchmark.information import episode_env
     from uav_penetration_env.benchmark.policies import GreedyPolicy
-    from uav_penetration_env.env import UAVPenetrationEnv
 
-    env = UAVPenetrationEnv(scenario)
+    env = episode_env(scenario)  # the dynamic env for a dynamic member (docs/dynamic.md)
     observation, info = env.reset(seed=REPLAY_SEED)
     if env.model is None:  # reset() loads the scenario's model
         raise RuntimeError(f"scenario {scenario.name}: the env has no model after reset()")

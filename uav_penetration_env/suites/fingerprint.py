@@ -122,9 +122,11 @@ def replay_episode(scenario: Scenario, actions: Controls) -> tuple[float, int, b
         The total cost ΣJ(k) + Σ penalty (= −return) of the steps flown, the number of steps
         flown, and whether the episode ended (goal, failure or K_max) at the last of them.
     """
+    from uav_penetration_env.dynamic_env import UAVPenetrationDynamicEnv
     from uav_penetration_env.env import UAVPenetrationEnv
 
-    env = UAVPenetrationEnv(scenario)
+    # A dynamic member replays in the dynamic env (its threats drawn from the same reset seed).
+    env = UAVPenetrationDynamicEnv(scenario) if scenario.is_dynamic else UAVPenetrationEnv(scenario)
     env.reset(seed=REPLAY_SEED)
     costs, penalties = [], []
     done = False

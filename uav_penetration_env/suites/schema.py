@@ -22,14 +22,17 @@ import math
 import re
 import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uav_penetration_env.scenario import Scenario
+from uav_penetration_env.scenario import Scenario, ScenarioError
 from uav_penetration_env.suggest import did_you_mean
+
+if TYPE_CHECKING:
+    from uav_penetration_env.dynamic_catalogue import DynamicKnobs
 
 # The scheme of the fingerprint block: a file written by another scheme is refused on reading,
 # since its hashes were computed differently and cannot be compared with this package's.
@@ -136,19 +139,31 @@ class Recipe:
     catalogue: str | None = None
     difficulty: float | None = None
     seed: int | None = None
+    dynamic: DynamicKnobs | None = None
 
     @classmethod
     def from_dict(cls, data: Any, where: str) -> Recipe:
-        """Parse ``{catalogue: NAME}`` or ``{difficulty: D, seed: S}``.
+        """Parse ``{catalogue: NAME}`` or ``{difficulty: D, seed: S}``, the latter with an optional ``dynamic`` mapping.
+
+        ``dynamic`` holds the knobs of a procedural dynamic scenario
+        (:class:`~uav_penetration_env.dynamic_catalogue.DynamicKnobs`: ``unknown_fraction``,
+        ``lateness``, ``mobile``, ``position_error_km``; docs/dynamic.md §5).
 
         Raises:
             SuiteError: naming ``where``, the value and the expected forms.
         """
         from uav_penetration_env.catalogue import NAMED_SCENARIOS
 
-        expected = f"{{catalogue: NAME}} (one of {', '.join(NAMED_SCENARIOS)}) or {{difficulty: D, seed: S}}"
-        if not isinstance(data, Mapping) or set(data) not in ({"catalogue"}, {"difficulty", "seed"}):
+        expected = (
+            f"{{catalogue: NAME}} (one of {', '.join(NAMED_SCENARIOS)}) or {{difficulty: D, seed: S}} "
+            "(with an optional dynamic: {unknown_fraction, lateness, mobile, position_error_km})"
+        )
+        forms = ({"catalogue"}, {"difficulty", "seed"}, {"difficulty", "seed", "dynamic"})
+        if not isinstance(data, Mapping) or set(data) not in forms:
             raise SuiteError(f"{where}: got {data!r}, expected {expected}")
+        if "dynamic" in data:
+            static = cls.from_dict({k: v for k, v in data.items() if k != "dynamic"}, where)
+            return replace(static, dynamic=_knobs(data["dynamic"], f"{where}.dynamic"))
         if "catalogue" in data:
             name = data["catalogue"]
             if name not in NAMED_SCENARIOS:
@@ -172,12 +187,16 @@ class Recipe:
         """The ``build`` mapping of the suite file."""
         if self.catalogue is not None:
             return {"catalogue": self.catalogue}
+        if self.dynamic is not None:
+            return {"difficulty": self.difficulty, "seed": self.seed, "dynamic": asdict(self.dynamic)}
         return {"difficulty": self.difficulty, "seed": self.seed}
 
     @property
     def group(self) -> str:
-        """``fixed`` for a catalogue scenario, ``d0.25``-style for a procedural one."""
-        return FIXED_GROUP if self.catalogue is not None else f"d{self.difficulty:.2f}"
+        """``fixed`` for a catalogue scenario, ``d0.25``-style for a procedural one (``d0.50-u0.50-l0.50-m1-e3`` dynamic)."""
+        if self.catalogue is not None:
+            return FIXED_GROUP
+        return f"d{self.difficulty:.2f}" + ("" if self.dynamic is None else f"-{self.dynamic.label}")
 
     def member_name(self, suite: str) -> str:
         """The member's name in suite ``suite``: ``SUITE/paper`` or ``SUITE/d0.25/30000``."""
@@ -191,7 +210,29 @@ class Recipe:
 
         if self.catalogue is not None:
             return NAMED_SCENARIOS[self.catalogue]()
+        if self.dynamic is not None:
+            from uav_penetration_env.dynamic_catalogue import random_dynamic_scenario
+
+            name = f"random-{self.seed}-{self.dynamic.label}"
+            return random_dynamic_scenario(np.random.default_rng(self.seed), self.difficulty, self.dynamic, name=name)
         return random_scenario(np.random.default_rng(self.seed), self.difficulty, name=f"random-{self.seed}")
+
+
+def _knobs(data: Any, where: str) -> DynamicKnobs:
+    """The :class:`DynamicKnobs` of a recipe's ``dynamic`` mapping.
+
+    Raises:
+        SuiteError: not a mapping of the knobs' fields, or a knob outside its domain.
+    """
+    from uav_penetration_env.dynamic_catalogue import DynamicKnobs
+
+    names = [f.name for f in fields(DynamicKnobs)]
+    if not isinstance(data, Mapping) or not set(data) <= set(names):
+        raise SuiteError(f"{where}: got {data!r}, expected a mapping of some of {', '.join(names)}")
+    try:
+        return DynamicKnobs(**data)
+    except ScenarioError as error:
+        raise SuiteError(f"{where}.{error}") from None
 
 
 @dataclass(frozen=True)
