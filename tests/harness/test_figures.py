@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import numpy as np
@@ -99,13 +100,20 @@ def synthetic_episode(
     } | changes
 
 
+@contextlib.contextmanager
+def store_with_tiny(path):
+    """An open results store at ``path`` with the tiny scenario registered: yields (store, scenario)."""
+    tiny = tiny_scenario()
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        yield store, tiny
+
+
 @pytest.fixture(scope="module")
 def synthetic_store(tmp_path_factory):
     path = tmp_path_factory.mktemp("fig") / "synthetic.sqlite"
-    tiny = tiny_scenario()
-    with ResultsStore(path) as store:
-        # Only the first group's scenario is stored: the second draws its tracks without terrain.
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    # Only the first group's scenario is stored: the second draws its tracks without terrain.
+    with store_with_tiny(path) as (store, tiny):
         for seed in range(3):
             for policy, history, cost in (("ihpso", True, 5.0 + seed), ("greedy", False, 6.0)):
                 episode = synthetic_episode(policy, seed, "tiny", tiny.hash, cost)
@@ -230,9 +238,7 @@ RL_FIGURES = ("compute-axis", "rl-profile")  # RL agents pooled over training se
 @pytest.fixture(scope="module")
 def many_store(tmp_path_factory):
     path = tmp_path_factory.mktemp("fig") / "many.sqlite"
-    tiny = tiny_scenario()
-    with ResultsStore(path) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(path) as (store, tiny):
         for index, policy in enumerate(MANY_POLICIES):
             family = figures.policy_family(policy)
             for seed in range(3):

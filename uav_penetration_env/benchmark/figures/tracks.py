@@ -23,6 +23,7 @@ from uav_penetration_env.benchmark.figures.common import (
     note_empty,
     outside_legend,
 )
+from uav_penetration_env.render import scatter_radars_3d
 
 COVERAGE_LEVEL = (
     0.5  # the envelope is where the model's coverage level (fused P_d or ratio detection) crosses 0.5
@@ -122,16 +123,7 @@ def _scenario_markers(ax, model, start: np.ndarray | None, three_d: bool) -> Non
     goal_x, goal_y, goal_r = model.goal[0] / 1000.0
     sx, sy = (start[0] / 1000.0, start[1] / 1000.0) if start is not None else model.start[0] / 1000.0
     if three_d:
-        ax.scatter(
-            radars[:, 0] / 1000.0,
-            radars[:, 1] / 1000.0,
-            radars[:, 2],
-            c="red",
-            marker="^",
-            s=45,
-            depthshade=False,
-            label="radars",
-        )
+        scatter_radars_3d(ax, radars, size=45)
         goal_z = float(model.height(np.array([goal_x * 1000.0]), np.array([goal_y * 1000.0]))[0])
         ax.scatter(
             [goal_x],
@@ -337,13 +329,18 @@ def plot_tracks_top(inp: FigureInput):
         if not tracks:
             note_empty(ax, "no finished episode with stored steps")
         ax.set_aspect("equal")
-        ax.set_xlabel("x [km]")
-        ax.set_ylabel("y [km]")
-        if family is not None:
-            ax.set_title(family, fontsize=9)
-        outside_legend(container)
+        _finish_map_panel(ax, container, family)
     figure_title(figure, title)
     return figure
+
+
+def _finish_map_panel(ax, container, family: str | None) -> None:
+    """Label a map panel's x and y axes in km, title it with its family, and add its legend."""
+    ax.set_xlabel("x [km]")
+    ax.set_ylabel("y [km]")
+    if family is not None:
+        ax.set_title(family, fontsize=9)
+    outside_legend(container)
 
 
 def _terrain_colormap():
@@ -415,12 +412,8 @@ def plot_tracks_3d(inp: FigureInput):
             ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
         ax.set_zlim(0.0, ceiling)
         ax.view_init(elev=35, azim=-60)
-        ax.set_xlabel("x [km]")
-        ax.set_ylabel("y [km]")
         ax.set_zlabel("z [m]")
-        if family is not None:
-            ax.set_title(family, fontsize=9)
-        outside_legend(container)
+        _finish_map_panel(ax, container, family)
     figure_title(figure, title)
     return figure
 
