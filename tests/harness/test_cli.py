@@ -38,7 +38,7 @@ TIMING = [*MEASURED, "run_id", "episode_id"]  # what another run of the same see
 def greedy_store(tmp_path_factory, tiny_yaml):
     """greedy on the tiny scenario (20 steps), seeds 0-1: flown once, copied by each test that writes."""
     store = tmp_path_factory.mktemp("greedy") / "greedy.sqlite"
-    assert run_into_store(store, ["greedy"], tiny_yaml, 2) == 0
+    assert run_into_store(store, ["greedy"], tiny_yaml, 2, "--jobs", 1) == 0
     return store
 
 
