@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -94,6 +95,20 @@ class UnverifiedArtifactWarning(UserWarning):
     """A model was loaded from a sidecar written before it recorded every file's hash."""
 
 
+def _hold_to_record(
+    recorded: str | None, actual: str, name: str, unverified: list[str], mismatch: Callable[[str], str]
+) -> None:
+    """Check one hash against its sidecar record: none recorded adds ``name`` to ``unverified``.
+
+    Raises:
+        ValueError: ``mismatch(recorded)`` when a recorded hash differs from ``actual``.
+    """
+    if recorded is None:
+        unverified.append(name)
+    elif recorded != actual:
+        raise ValueError(mismatch(recorded))
+
+
 def artifact_hashes(files: ModelFiles, hyperparameters: Any, normalised: bool) -> dict[str, str | None]:
     """The sidecar's hash keys for the files as they are now on disk (:func:`verify_artifacts`)."""
     return {
@@ -127,16 +142,13 @@ def verify_artifacts(files: ModelFiles, sidecar: dict[str, Any]) -> tuple[str, s
         FileNotFoundError: the sidecar says the model uses observation statistics and there are none.
         ValueError: a file whose hash differs from the one recorded, naming the file.
     """
+    unverified: list[str] = []
     model = sha256_file(files.model)
-    recorded = sidecar.get("model_sha256")
-    unverified = []
-    if recorded is None:
-        unverified.append(files.model.name)
-    elif recorded != model:
-        raise ValueError(
-            f"{files.model} is not the model its sidecar {files.sidecar} describes (hash differs: "
-            f"SHA-256 {model[:16]}..., recorded {recorded[:16]}...); was one of them overwritten by another run?"
-        )
+    _hold_to_record(
+        sidecar.get("model_sha256"), model, files.model.name, unverified,
+        lambda recorded: f"{files.model} is not the model its sidecar {files.sidecar} describes (hash differs: "
+        f"SHA-256 {model[:16]}..., recorded {recorded[:16]}...); was one of them overwritten by another run?",
+    )  # fmt: skip
     statistics = None
     if sidecar["vecnormalize"]:
         if not files.vecnormalize.is_file():
@@ -144,23 +156,18 @@ def verify_artifacts(files: ModelFiles, sidecar: dict[str, Any]) -> tuple[str, s
                 f"{files.vecnormalize}: missing observation statistics (the sidecar {files.sidecar} says the model uses them)"
             )
         statistics = sha256_file(files.vecnormalize)
-        recorded = sidecar.get("vecnormalize_sha256")
-        if recorded is None:
-            unverified.append(files.vecnormalize.name)
-        elif recorded != statistics:
-            raise ValueError(
-                f"{files.vecnormalize}: not the observation statistics its sidecar {files.sidecar} records "
-                f"(SHA-256 {statistics[:16]}..., recorded {recorded[:16]}...); was it replaced by another "
-                "run's file? The agent would see differently scaled observations"
-            )
-    recorded = sidecar.get("hyperparameters_sha256")
-    if recorded is None:
-        unverified.append("hyperparameters")
-    elif recorded != hyperparameters_sha256(sidecar.get("hyperparameters")):
-        raise ValueError(
-            f"{files.sidecar}: its hyperparameters are not those it was sealed with "
-            "(hyperparameters_sha256 differs); the sidecar was edited after training"
-        )
+        _hold_to_record(
+            sidecar.get("vecnormalize_sha256"), statistics, files.vecnormalize.name, unverified,
+            lambda recorded: f"{files.vecnormalize}: not the observation statistics its sidecar {files.sidecar} "
+            f"records (SHA-256 {statistics[:16]}..., recorded {recorded[:16]}...); was it replaced by another "
+            "run's file? The agent would see differently scaled observations",
+        )  # fmt: skip
+    _hold_to_record(
+        sidecar.get("hyperparameters_sha256"), hyperparameters_sha256(sidecar.get("hyperparameters")),
+        "hyperparameters", unverified,
+        lambda _: f"{files.sidecar}: its hyperparameters are not those it was sealed with "
+        "(hyperparameters_sha256 differs); the sidecar was edited after training",
+    )  # fmt: skip
     if unverified:
         warnings.warn(
             f"{files.sidecar} records no SHA-256 of {', '.join(unverified)} (a sidecar written before "

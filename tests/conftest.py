@@ -71,3 +71,67 @@ def tiny_scenario(**changes: object) -> Scenario:
 @pytest.fixture(scope="session")
 def tiny() -> Scenario:
     return tiny_scenario()
+
+
+@pytest.fixture(scope="session")
+def tiny_yaml(tmp_path_factory) -> str:
+    """The tiny scenario cut to 20 steps, written once to a YAML file (its path)."""
+    return str(
+        tiny_scenario(time={"max_steps": 20}).to_yaml(tmp_path_factory.mktemp("scenario") / "tiny.yaml")
+    )
+
+
+# --- `uav-bench` as the tests call it (the harness extra; imported when first called) ---------------
+
+
+def run_cli(*argv: object) -> int:
+    """``uav-bench ARGV`` in this process, every argument passed as its ``str``; the exit status."""
+    from uav_penetration_env.benchmark import cli
+
+    return cli.main([str(a) for a in argv])
+
+
+def run_into_store(store: object, policies: list[str], scenario: object, seeds: int, *extra: object) -> int:
+    """``uav-bench run`` of ``policies`` on one scenario file, seeds ``0..seeds-1``, into ``store``.
+
+    No report and no progress bar; ``extra`` flags (``--jobs 1``, ``--max-evals 50``) are appended.
+    Returns the exit status.
+    """
+    return run_cli("run", "--policies", *policies, "--scenarios", scenario, "--seeds", seeds, "--store", store,
+                   "--no-report", "--no-progress", *extra)  # fmt: skip
+
+
+def tiny_store(folder, policies: list[str], max_steps: int, seeds: int = 2) -> object:
+    """A store of ``policies`` flown on the tiny scenario cut to ``max_steps``, one job (its path)."""
+    scenario = tiny_scenario(time={"max_steps": max_steps}).to_yaml(folder / "tiny.yaml")
+    path = folder / "run.sqlite"
+    assert run_into_store(path, policies, scenario, seeds, "--jobs", 1) == 0
+    return path
+
+
+@pytest.fixture(scope="session")
+def greedy_random_store(tmp_path_factory):
+    """greedy and random, seeds 0-1, on the tiny scenario cut to 6 steps; read it, never write it."""
+    return tiny_store(tmp_path_factory.mktemp("greedy-random"), ["greedy", "random"], max_steps=6)
+
+
+def wait_for_episodes(store, process, at_least: int, seconds: float, poll_s: float) -> int:
+    """Poll ``store``'s episode count while ``process`` runs, until it reaches ``at_least``.
+
+    ``seconds`` bounds the wait (never an assertion on speed); a store being created or locked
+    reads as 0. Returns the last count read.
+    """
+    import sqlite3
+    import time
+
+    stored, deadline = 0, time.monotonic() + seconds
+    while time.monotonic() < deadline and process.poll() is None and stored < at_least:
+        if store.exists():
+            try:
+                with sqlite3.connect(store, timeout=1) as connection:
+                    stored = connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
+            except sqlite3.OperationalError:
+                stored = 0
+        if stored < at_least:
+            time.sleep(poll_s)
+    return stored

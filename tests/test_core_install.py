@@ -17,7 +17,9 @@ import pytest
 
 from uav_penetration_env.benchmark.commands.common import HARNESS
 
-CHILD = textwrap.dedent(
+# The start of each child script: every import of a module named in argv[1] (comma-separated) fails,
+# as in a venv without them.
+HIDE_EXTRAS = textwrap.dedent(
     """
     import importlib.abc, sys
     HIDDEN = set(sys.argv[1].split(","))
@@ -31,6 +33,11 @@ CHILD = textwrap.dedent(
     sys.meta_path.insert(0, Hide())
     import gymnasium as gym
     import numpy as np
+    """
+)
+
+CHILD = HIDE_EXTRAS + textwrap.dedent(
+    """
     import uav_penetration_env  # registers the ids
     from optimizers import get_optimizer
     from uav_penetration_env.benchmark.policies import MPCPolicy
@@ -56,16 +63,21 @@ CHILD = textwrap.dedent(
 )
 
 
-def test_the_env_and_planners_run_without_the_harness_extra(tmp_path):
-    hidden = ",".join(module for module in HARNESS.modules)
-    result = subprocess.run(
-        [sys.executable, "-c", CHILD, hidden],
-        cwd=tmp_path,
+def run_hiding(script: str, hidden: str, folder) -> subprocess.CompletedProcess:
+    """Run ``script`` in a child Python in ``folder`` with the modules ``hidden`` names hidden."""
+    return subprocess.run(
+        [sys.executable, "-c", script, hidden],
+        cwd=folder,
         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
         capture_output=True,
         text=True,
         timeout=600,
     )
+
+
+def test_the_env_and_planners_run_without_the_harness_extra(tmp_path):
+    hidden = ",".join(module for module in HARNESS.modules)
+    result = run_hiding(CHILD, hidden, tmp_path)
     assert result.returncode == 2, result.stderr[-3000:]
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, result.stderr[-3000:]
@@ -90,20 +102,8 @@ def test_the_harness_extra_lists_what_the_commands_check():
     assert "uav-penetration[harness]" in project["optional-dependencies"]["dev"]
 
 
-EVERY_ID = textwrap.dedent(
+EVERY_ID = HIDE_EXTRAS + textwrap.dedent(
     """
-    import importlib.abc, sys
-    HIDDEN = set(sys.argv[1].split(","))
-
-    class Hide(importlib.abc.MetaPathFinder):
-        def find_spec(self, name, path=None, target=None):
-            if name.split(".")[0] in HIDDEN:
-                raise ModuleNotFoundError(f"No module named {name!r}")
-            return None
-
-    sys.meta_path.insert(0, Hide())
-    import gymnasium as gym
-    import numpy as np
     from uav_penetration_env import ENV_IDS
     from uav_penetration_env.scenario import ScenarioError
 
@@ -130,14 +130,7 @@ def test_every_env_id_builds_or_names_what_to_install_in_a_core_install(tmp_path
     from uav_penetration_env import ENV_IDS
 
     hidden = ",".join(HARNESS.modules)
-    result = subprocess.run(
-        [sys.executable, "-c", EVERY_ID, hidden],
-        cwd=tmp_path,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    result = run_hiding(EVERY_ID, hidden, tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
     said = dict(line.split(" ", 1) for line in result.stdout.strip().splitlines())
     assert sorted(said) == sorted(ENV_IDS)

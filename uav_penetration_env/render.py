@@ -7,6 +7,8 @@ once per model; each frame redraws only the track, the UAV and the detection env
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from uav_penetration_env.kinematics import HEADING
@@ -58,6 +60,28 @@ def coverage_grid(
     return xs / 1000.0, ys / 1000.0, threat.reshape(gx.shape)
 
 
+def scatter_radars_3d(ax: Any, radar_xyz: np.ndarray, *, size: float, **style: Any) -> None:
+    """Draw radar sites as red triangles on a 3-D axes.
+
+    Args:
+        ax: A matplotlib 3-D axes.
+        radar_xyz: (n, 3) radar positions [x, y, z] in m; drawn as x, y in km and z in m.
+        size: Marker area [points^2].
+        **style: Further ``Axes3D.scatter`` keywords (``zorder``, ``edgecolors``...).
+    """
+    ax.scatter(
+        radar_xyz[:, 0] / 1000.0,
+        radar_xyz[:, 1] / 1000.0,
+        radar_xyz[:, 2],
+        c="red",
+        marker="^",
+        s=size,
+        depthshade=False,
+        label="radars",
+        **style,
+    )
+
+
 class SceneRenderer:
     """Draws frames of one scenario's scene."""
 
@@ -91,19 +115,8 @@ class SceneRenderer:
             cstride=1,
             zorder=1,
         )
-        radars = built.radar_xyz
-        if len(radars):
-            ax.scatter(
-                radars[:, 0] / 1000.0,
-                radars[:, 1] / 1000.0,
-                radars[:, 2],
-                c="red",
-                marker="^",
-                s=50,
-                depthshade=False,
-                label="radars",
-                zorder=5,
-            )
+        if len(built.radar_xyz):
+            scatter_radars_3d(ax, built.radar_xyz, size=50, zorder=5)
         start = model.initial_state()
         goal = model.goal[0]
         ax.scatter(

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import RL_EXTRA, tiny_scenario
+from conftest import RL_EXTRA, run_into_store, tiny_scenario
 from sb3_helpers import baselines_plugins  # noqa: F401 (a fixture)
 
 from baselines.formulation import (
@@ -331,18 +331,7 @@ def test_the_cli_trains_a_turn_model_and_workers_fly_it_as_in_process(sb3, tmp_p
     ]
     assert cli.main(train) == 0
     store = tmp_path / "rl.sqlite"
-    run = [
-        "run",
-        "--policies",
-        f"sb3:{model}",
-        "--scenarios",
-        str(scenario),
-        "--seeds",
-        "2",
-        "--store",
-        str(store),
-    ]
-    assert cli.main([*run, "--no-report", "--no-progress", "--jobs", "2"]) == 0
+    assert run_into_store(store, [f"sb3:{model}"], scenario, 2, "--jobs", 2) == 0
     with ResultsStore(store) as results:
         rows = results.episodes().sort_values("seed")
     in_process = evaluate({"turn": load_policy(model)}, [tiny_scenario()], range(2), progress=False, n_jobs=1)

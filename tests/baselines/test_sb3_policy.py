@@ -8,7 +8,7 @@ import shutil
 
 import numpy as np
 import pytest
-from conftest import RL_EXTRA, tiny_scenario
+from conftest import RL_EXTRA, run_into_store, tiny_scenario
 
 pytest.importorskip("stable_baselines3", reason=RL_EXTRA)
 
@@ -188,25 +188,12 @@ def test_act_before_reset_is_an_error(tiny_ppo):
 
 
 def test_cli_run_names_an_agent_by_its_file_stem(tiny_ppo, tmp_path):
-    from uav_penetration_env.benchmark import cli
     from uav_penetration_env.benchmark.store import ResultsStore
 
     scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
     store = tmp_path / "rl.sqlite"
     spec = f"sb3:{tiny_ppo.files.model}"
-    argv = [
-        "run",
-        "--policies",
-        spec,
-        "greedy",
-        "--scenarios",
-        str(scenario),
-        "--seeds",
-        "2",
-        "--store",
-        str(store),
-    ]
-    assert cli.main([*argv, "--no-report", "--no-progress", "--jobs", "1"]) == 0
+    assert run_into_store(store, [spec, "greedy"], scenario, 2, "--jobs", 1) == 0
     with ResultsStore(store) as results:
         rows = results.episodes()
     assert set(rows["policy"]) == {f"sb3:{tiny_ppo.files.model.stem}", "greedy"}

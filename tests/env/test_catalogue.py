@@ -157,38 +157,31 @@ def test_straight_climb_on_flat_ground_is_feasible():
     assert straight_climb_feasible(s, heights, grid)
 
 
-def test_straight_climb_blocked_by_a_steep_peak():
-    # A 2000 m needle on the route 2.83 km from the start: from 100 m AGL a 15° climb reaches
-    # 100 + 2828 tan(15°) = 858 m there, far below the crest. 10 km down the route the same climb
-    # reaches 2780 m and clears it.
+@pytest.mark.parametrize(
+    ("peak_km", "height_m", "decay_per_km2", "feasible"),
+    [
+        # A 2000 m needle on the route 2.83 km from the start: from 100 m AGL a 15° climb reaches
+        # 100 + 2828 tan(15°) = 858 m there, far below the crest.
+        ((2, 2), 2000, 1.0, False),
+        # 10 km down the route the same climb reaches 2780 m and clears it.
+        ((7, 7), 2000, 1.0, True),
+        # The same peak, far from the route, does not block it.
+        ((40, -20), 2000, 1.0, True),
+        # A broad 2990 m hill that a 15° climb can clear in time but which leaves less than the 30 m
+        # clearance under the 3000 m ceiling; 90 m lower it leaves enough.
+        ((20, 20), 2990, 0.001, False),
+        ((20, 20), 2900, 0.001, True),
+    ],
+    ids=["needle-on-route", "needle-down-route", "needle-aside", "under-ceiling", "below-ceiling"],
+)
+def test_straight_climb_blocked_by_a_peak_or_the_ceiling(peak_km, height_m, decay_per_km2, feasible):
     s = _flat_scenario(
-        terrain={"mountains": [{"x_km": 2, "y_km": 2, "height_m": 2000}], "mountain_decay_per_km2": 1.0}
+        terrain={
+            "mountains": [{"x_km": peak_km[0], "y_km": peak_km[1], "height_m": height_m}],
+            "mountain_decay_per_km2": decay_per_km2,
+        }
     )
-    heights, grid = _composed(s)
-    assert not straight_climb_feasible(s, heights, grid)
-    far = _flat_scenario(
-        terrain={"mountains": [{"x_km": 7, "y_km": 7, "height_m": 2000}], "mountain_decay_per_km2": 1.0}
-    )
-    assert straight_climb_feasible(far, *_composed(far))
-    # The same peak, far from the route, does not block it.
-    aside = _flat_scenario(
-        terrain={"mountains": [{"x_km": 40, "y_km": -20, "height_m": 2000}], "mountain_decay_per_km2": 1.0}
-    )
-    assert straight_climb_feasible(aside, *_composed(aside))
-
-
-def test_straight_climb_blocked_by_the_ceiling():
-    # A broad 2990 m hill that a 15° climb can clear in time but which leaves less than the 30 m
-    # clearance under the 3000 m ceiling.
-    s = _flat_scenario(
-        terrain={"mountains": [{"x_km": 20, "y_km": 20, "height_m": 2990}], "mountain_decay_per_km2": 0.001}
-    )
-    heights, grid = _composed(s)
-    assert not straight_climb_feasible(s, heights, grid)
-    lower = _flat_scenario(
-        terrain={"mountains": [{"x_km": 20, "y_km": 20, "height_m": 2900}], "mountain_decay_per_km2": 0.001}
-    )
-    assert straight_climb_feasible(lower, *_composed(lower))
+    assert bool(straight_climb_feasible(s, *_composed(s))) is feasible
 
 
 # --- the DEM scenario (§7d) ------------------------------------------------------------------------------

@@ -367,22 +367,39 @@ def test_a_damaged_geotiff_is_refused(tmp_path):
 # --- identities keyed by content ---------------------------------------------------------------------
 
 
-def test_rewriting_a_raster_in_place_changes_the_hash_and_rebuilds_the_terrain(tmp_path, monkeypatch):
+FLAT_LON = np.arange(-123.6, -121.8, 0.02)  # covers the catalogue's DEM scenario window
+FLAT_LAT = np.arange(48.9, 50.2, 0.02)
+
+
+@pytest.fixture
+def flat_raster(tmp_path, monkeypatch):
+    """Write a flat raster of the given height to one path (a fresh cache), and read the DEM scenario."""
     monkeypatch.setenv(cache.ENV_VAR, str(tmp_path / "cache"))
     cache.clear_memory()
-    lon = np.arange(-123.6, -121.8, 0.02)
-    lat = np.arange(48.9, 50.2, 0.02)
     path = tmp_path / "terrain.npz"
-    write_npz(path, lon, lat, np.full((lat.size, lon.size), 200.0))
-    scenario = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+
+    def write(height_m: float):
+        write_npz(path, FLAT_LON, FLAT_LAT, np.full((FLAT_LAT.size, FLAT_LON.size), height_m))
+        return path
+
+    def scenario():
+        return dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+
+    return write, scenario
+
+
+def test_rewriting_a_raster_in_place_changes_the_hash_and_rebuilds_the_terrain(flat_raster):
+    write, scenario_of_file = flat_raster
+    path = write(200.0)
+    scenario = scenario_of_file()
     first_hash = scenario.hash
     before = terrain_heights(scenario)
     np.testing.assert_allclose(before, 200.0, rtol=1e-12)
-    write_npz(path, lon, lat, np.full((lat.size, lon.size), 1000.0))  # same name, 800 m higher
+    write(1000.0)  # same name, 800 m higher
     stat = os.stat(path)
     os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
     cache.clear_memory()
-    rebuilt = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+    rebuilt = scenario_of_file()
     assert rebuilt.hash != first_hash
     np.testing.assert_allclose(terrain_heights(rebuilt), 1000.0, rtol=1e-12)
 
@@ -394,20 +411,16 @@ def test_scenarios_that_read_no_file_keep_their_field_hash():
     assert dem_scenario().input_files() == {"terrain.natural.file": "topobathy.npz"}
 
 
-def test_a_raster_rewritten_after_the_hash_is_refused_not_built_under_the_old_hash(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.ENV_VAR, str(tmp_path / "cache"))
-    cache.clear_memory()
-    lon = np.arange(-123.6, -121.8, 0.02)
-    lat = np.arange(48.9, 50.2, 0.02)
-    path = tmp_path / "terrain.npz"
-    write_npz(path, lon, lat, np.full((lat.size, lon.size), 200.0))
-    scenario = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+def test_a_raster_rewritten_after_the_hash_is_refused_not_built_under_the_old_hash(flat_raster):
+    write, scenario_of_file = flat_raster
+    path = write(200.0)
+    scenario = scenario_of_file()
     old_hash = scenario.hash
-    write_npz(path, lon, lat, np.full((lat.size, lon.size), 900.0))  # rewritten before the build
+    write(900.0)  # rewritten before the build
     with pytest.raises(ScenarioError, match="changed since") as info:
         terrain_heights(scenario)
     assert info.value.field == "terrain.natural.file"
-    reloaded = dem_scenario().updated({"terrain": {"natural": {"file": str(path)}}})
+    reloaded = scenario_of_file()
     assert reloaded.hash != old_hash
     np.testing.assert_allclose(terrain_heights(reloaded), 900.0, rtol=1e-12)
     # The hash is made of the digests the build checks against.

@@ -752,41 +752,28 @@ def test_radar_second_in_list_below_terrain_names_its_index(tiny):
 # --- files --------------------------------------------------------------------------------------------
 
 
-def test_load_missing_file_names_the_path(tmp_path):
-    path = tmp_path / "absent.yaml"
+@pytest.mark.parametrize(
+    ("text", "field", "words"),
+    [
+        (None, "path", ""),  # no file at all
+        ("map: {x_km: [0, 1]\nstart: [", "path", "valid YAML"),
+        ("- 1\n- 2\n", None, "mapping"),
+        ("42\n", None, "mapping"),
+        ("just a string\n", None, "mapping"),
+        (yaml.safe_dump(_with(PAPER, (("goal", "radius_km"), -1.0))), "goal.radius_km", ""),
+    ],
+    ids=["missing", "invalid-yaml", "list", "number", "string", "bad-field"],
+)
+def test_a_bad_file_is_refused_naming_the_path_and_field(tmp_path, text, field, words):
+    path = tmp_path / "scenario.yaml"
+    if text is not None:
+        path.write_text(text)
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
-    assert info.value.field == "path"
+    if field is not None:
+        assert info.value.field == field
     assert str(path) in str(info.value)
-
-
-def test_load_invalid_yaml_names_the_path(tmp_path):
-    path = tmp_path / "broken.yaml"
-    path.write_text("map: {x_km: [0, 1]\nstart: [")
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert info.value.field == "path"
-    assert str(path) in str(info.value)
-    assert "valid YAML" in str(info.value)
-
-
-@pytest.mark.parametrize("text", ["- 1\n- 2\n", "42\n", "just a string\n"])
-def test_load_non_mapping_names_the_path(tmp_path, text):
-    path = tmp_path / "list.yaml"
-    path.write_text(text)
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert str(path) in str(info.value)
-    assert "mapping" in str(info.value)
-
-
-def test_load_invalid_field_names_field_and_path(tmp_path):
-    path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump(_with(PAPER, (("goal", "radius_km"), -1.0))))
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    assert info.value.field == "goal.radius_km"
-    assert str(path) in str(info.value)
+    assert words in str(info.value)
 
 
 def test_empty_file_is_the_default_scenario(tmp_path):

@@ -49,14 +49,22 @@ def truncated(folder: Path, good: Path) -> Path:
     return path
 
 
-def garbled(folder: Path, good: Path) -> Path:
-    """Same size, valid header, pages after the schema overwritten: found only when read."""
-    path = folder / "garbled.sqlite"
+def damaged_copy(folder: Path, good: Path, name: str, damage) -> Path:
+    """A copy of ``good`` named ``name`` whose bytes ``damage(data, page_size)`` changed in place."""
     data = bytearray(good.read_bytes())
-    page = int.from_bytes(data[16:18], "big")
-    data[2 * page :] = bytes([0xA5]) * (len(data) - 2 * page)
+    damage(data, int.from_bytes(data[16:18], "big"))  # the page size, from the SQLite header
+    path = folder / name
     path.write_bytes(bytes(data))
     return path
+
+
+def garbled(folder: Path, good: Path) -> Path:
+    """Same size, valid header, pages after the schema overwritten: found only when read."""
+
+    def damage(data: bytearray, page: int) -> None:
+        data[2 * page :] = bytes([0xA5]) * (len(data) - 2 * page)
+
+    return damaged_copy(folder, good, "garbled.sqlite", damage)
 
 
 def text_file(folder: Path, good: Path) -> Path:
@@ -94,36 +102,33 @@ def folder_store(folder: Path, good: Path) -> Path:
 
 def zeroed(folder: Path, good: Path) -> Path:
     """Same size, valid header, the pages after the schema zeroed (a sparse copy, a failed sync)."""
-    path = folder / "zeroed.sqlite"
-    data = bytearray(good.read_bytes())
-    page = int.from_bytes(data[16:18], "big")
-    data[2 * page :] = bytes(len(data) - 2 * page)
-    path.write_bytes(bytes(data))
-    return path
+
+    def damage(data: bytearray, page: int) -> None:
+        data[2 * page :] = bytes(len(data) - 2 * page)
+
+    return damaged_copy(folder, good, "zeroed.sqlite", damage)
 
 
 def zeroed_middle(folder: Path, good: Path) -> Path:
     """Pages in the middle zeroed, header and size intact: what a run would otherwise write into."""
-    path = folder / "zeroed-middle.sqlite"
-    data = bytearray(good.read_bytes())
-    page = int.from_bytes(data[16:18], "big")
-    pages = len(data) // page
-    start, stop = (pages * 2 // 5) * page, (pages * 3 // 5) * page
-    data[start:stop] = bytes(stop - start)
-    path.write_bytes(bytes(data))
-    return path
+
+    def damage(data: bytearray, page: int) -> None:
+        pages = len(data) // page
+        start, stop = (pages * 2 // 5) * page, (pages * 3 // 5) * page
+        data[start:stop] = bytes(stop - start)
+
+    return damaged_copy(folder, good, "zeroed-middle.sqlite", damage)
 
 
 def random_pages(folder: Path, good: Path) -> Path:
     """200 random bytes into every page after the first (a disk's bad blocks): the schema reads, its rows do not."""
-    path = folder / "random.sqlite"
-    data = bytearray(good.read_bytes())
-    page = int.from_bytes(data[16:18], "big")
-    noise = np.random.default_rng(27)
-    for start in range(page, len(data) - page + 1, page):
-        data[start + 8 : start + 208] = noise.bytes(200)
-    path.write_bytes(bytes(data))
-    return path
+
+    def damage(data: bytearray, page: int) -> None:
+        noise = np.random.default_rng(27)
+        for start in range(page, len(data) - page + 1, page):
+            data[start + 8 : start + 208] = noise.bytes(200)
+
+    return damaged_copy(folder, good, "random.sqlite", damage)
 
 
 BAD = {

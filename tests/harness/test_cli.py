@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal
 import sqlite3
 import subprocess
@@ -15,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from conftest import tiny_scenario
+from conftest import run_cli, run_into_store, tiny_scenario, wait_for_episodes
 from fake_policy_kind import fake_kind
 
 from uav_penetration_env import load_scenario
@@ -34,14 +35,11 @@ TIMING = [*MEASURED, "run_id", "episode_id"]  # what another run of the same see
 
 
 @pytest.fixture(scope="module")
-def tiny_yaml(tmp_path_factory):
-    return str(
-        tiny_scenario(time={"max_steps": 20}).to_yaml(tmp_path_factory.mktemp("scenario") / "tiny.yaml")
-    )
-
-
-def run_cli(*argv):
-    return cli.main([str(a) for a in argv])
+def greedy_store(tmp_path_factory, tiny_yaml):
+    """greedy on the tiny scenario (20 steps), seeds 0-1: flown once, copied by each test that writes."""
+    store = tmp_path_factory.mktemp("greedy") / "greedy.sqlite"
+    assert run_into_store(store, ["greedy"], tiny_yaml, 2, "--jobs", 1) == 0
+    return store
 
 
 def test_no_flags_is_the_main_job():
@@ -193,25 +191,9 @@ def test_the_mpc_flags_and_config_keys_come_from_the_settings_dataclass(tmp_path
     ],
 )
 def test_bad_input_names_the_problem_and_leaves_the_store_untouched(
-    tmp_path, tiny_yaml, capsys, argv, message
+    tmp_path, tiny_yaml, greedy_store, capsys, argv, message
 ):
-    store = tmp_path / "kept.sqlite"
-    assert (
-        run_cli(
-            "run",
-            "--policies",
-            "greedy",
-            "--scenarios",
-            tiny_yaml,
-            "--seeds",
-            2,
-            "--store",
-            store,
-            "--no-report",
-            "--no-progress",
-        )
-        == 0
-    )
+    store = Path(shutil.copy(greedy_store, tmp_path / "kept.sqlite"))
     before = store.read_bytes()
     base = [
         "run",
@@ -260,24 +242,8 @@ def test_broken_scenario_file_and_unwritable_store(tmp_path, capsys):
     assert run_cli("leaderboard", "--store", tmp_path / "missing.sqlite") == 2
 
 
-def test_export_and_scenario_commands(tmp_path, tiny_yaml, capsys):
-    store = tmp_path / "e.sqlite"
-    assert (
-        run_cli(
-            "run",
-            "--policies",
-            "greedy",
-            "--scenarios",
-            tiny_yaml,
-            "--seeds",
-            2,
-            "--store",
-            store,
-            "--no-report",
-            "--no-progress",
-        )
-        == 0
-    )
+def test_export_and_scenario_commands(tmp_path, tiny_yaml, greedy_store, capsys):
+    store = greedy_store
     assert run_cli("export", "--format", "csv", "--store", store, "--out", tmp_path / "dump") == 0
     episodes = pd.read_csv(tmp_path / "dump-episodes.csv")
     steps = pd.read_csv(tmp_path / "dump-steps.csv")
@@ -350,18 +316,7 @@ def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path, tiny_
     process = subprocess.Popen(
         [*command, "--store", str(killed_store)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
     )
-    stored = 0
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and process.poll() is None:
-        if killed_store.exists():
-            try:
-                with sqlite3.connect(killed_store, timeout=1) as connection:
-                    stored = connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
-            except sqlite3.OperationalError:
-                stored = 0
-            if stored >= 3:
-                break
-        time.sleep(0.02)
+    wait_for_episodes(killed_store, process, at_least=3, seconds=120, poll_s=0.02)
     assert process.poll() is None, (
         f"the run finished before it could be killed: {process.stderr.read().decode()[-500:]}"
     )

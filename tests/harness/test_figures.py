@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import numpy as np
@@ -99,13 +100,20 @@ def synthetic_episode(
     } | changes
 
 
+@contextlib.contextmanager
+def store_with_tiny(path):
+    """An open results store at ``path`` with the tiny scenario registered: yields (store, scenario)."""
+    tiny = tiny_scenario()
+    with ResultsStore(path) as store:
+        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+        yield store, tiny
+
+
 @pytest.fixture(scope="module")
 def synthetic_store(tmp_path_factory):
     path = tmp_path_factory.mktemp("fig") / "synthetic.sqlite"
-    tiny = tiny_scenario()
-    with ResultsStore(path) as store:
-        # Only the first group's scenario is stored: the second draws its tracks without terrain.
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    # Only the first group's scenario is stored: the second draws its tracks without terrain.
+    with store_with_tiny(path) as (store, tiny):
         for seed in range(3):
             for policy, history, cost in (("ihpso", True, 5.0 + seed), ("greedy", False, 6.0)):
                 episode = synthetic_episode(policy, seed, "tiny", tiny.hash, cost)
@@ -230,9 +238,7 @@ RL_FIGURES = ("compute-axis", "rl-profile")  # RL agents pooled over training se
 @pytest.fixture(scope="module")
 def many_store(tmp_path_factory):
     path = tmp_path_factory.mktemp("fig") / "many.sqlite"
-    tiny = tiny_scenario()
-    with ResultsStore(path) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(path) as (store, tiny):
         for index, policy in enumerate(MANY_POLICIES):
             family = figures.policy_family(policy)
             for seed in range(3):
@@ -250,7 +256,11 @@ def many_store(tmp_path_factory):
     return path
 
 
-def drawn_figures(path, altitude=None):
+def drawn_figures(path, altitude=None, only=None):
+    """Draw the figures of the store's one group as write_figures does: (name, figure), in FIGURES order.
+
+    ``only``: the names to draw (default every figure); the others are not drawn at all.
+    """
     from uav_penetration_env.benchmark.leaderboard import scenario_groups
 
     with ResultsStore(path) as store:
@@ -262,6 +272,8 @@ def drawn_figures(path, altitude=None):
     inp = figures.FigureInput(group, rows[rows["step"] > 0], rows[rows["step"] == 0], model, styles, altitude)
     per_agent = figures.one_agent_per_group(inp)  # as write_figures draws them
     for name, spec in figures.FIGURES.items():
+        if only is not None and name not in only:
+            continue
         figure = spec.draw(inp if spec.pools_training_seeds else per_agent)
         figure.canvas.draw()
         yield name, figure
@@ -390,10 +402,10 @@ def test_no_legend_covers_a_title_with_few_policies_and_a_long_scenario_name(tmp
 def test_the_coverage_is_drawn_at_the_mpc_planners_median_altitude_and_says_so(many_store):
     # Every synthetic MPC track point is at 150 + 20 k m, k = 1..8: median 240 m; the RL agents
     # fly at 2000 m and must not count.
-    (_, top), *_ = drawn_figures(many_store)
+    ((_, top),) = drawn_figures(many_store, only={"tracks-top"})
     title = " ".join(top._suptitle.get_text().split())  # the title wraps onto several lines
     assert "P_d ≥ 0.5 at 240 m above datum (the median altitude of the MPC planners' tracks)" in title
-    (_, top), *_ = drawn_figures(many_store, altitude=555.0)
+    ((_, top),) = drawn_figures(many_store, altitude=555.0, only={"tracks-top"})
     assert "at 555 m above datum (chosen with --altitude)" in " ".join(top._suptitle.get_text().split())
 
 
@@ -405,24 +417,23 @@ def test_few_policies_get_distinct_colours_and_one_panel(synthetic_store):
 
 def test_the_compute_axis_turns_logarithmic_only_for_a_wide_cost_range(many_store, tmp_path):
     # many_store's costs: 5.0 + 0.1 index + seed, a span below 4x: linear.
-    axis = dict(drawn_figures(many_store))["compute-axis"].axes[0]
+    ((_, compute),) = drawn_figures(many_store, only={"compute-axis"})
+    axis = compute.axes[0]
     assert axis.get_yscale() == "linear" and axis.get_xscale() == "log"
     wide = tmp_path / "wide.sqlite"
-    tiny = tiny_scenario()
-    with ResultsStore(wide) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(wide) as (store, tiny):
         for index, (policy, cost) in enumerate((("ihpso", 13.0), ("random", 150.0))):
             for seed in range(2):
                 episode = synthetic_episode(policy, seed, "tiny", tiny.hash, cost + seed)
                 store.write_episode(episode | {"policy_hash": f"h{index:015d}", "planning_seconds": 0.1},
                                     synthetic_steps(seed, 4, history=False))  # fmt: skip
-    axis = dict(drawn_figures(wide))["compute-axis"].axes[0]
+    ((_, compute),) = drawn_figures(wide, only={"compute-axis"})
+    axis = compute.axes[0]
     assert axis.get_yscale() == "log"  # 150 / 13 > 4
 
 
 def test_figures_draw_one_agent_per_rl_group_except_those_that_pool_training_seeds(tmp_path):
     path = tmp_path / "seeds.sqlite"
-    tiny = tiny_scenario()
     policies = [
         "greedy",
         "sb3:ppo-paper-s2",
@@ -430,8 +441,7 @@ def test_figures_draw_one_agent_per_rl_group_except_those_that_pool_training_see
         "sb3:ppo-paper-s1",
         "ihpso+sb3:ppo-paper-s3",
     ]
-    with ResultsStore(path) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(path) as (store, tiny):
         for index, policy in enumerate(policies):
             for seed in range(2):
                 store.write_episode(
@@ -439,7 +449,7 @@ def test_figures_draw_one_agent_per_rl_group_except_those_that_pool_training_see
                     | {"policy_hash": f"h{index:015d}", "planning_seconds": 0.01},
                     synthetic_steps(seed, 4, history=False),
                 )
-    drawn = dict(drawn_figures(path))
+    drawn = dict(drawn_figures(path, only={"tracks-top", "j-per-point", "timeline", "compute-axis"}))
     for name in ("tracks-top", "j-per-point", "timeline"):
         labels = {line.get_label().split(" (", 1)[0] for ax in drawn[name].axes for line in ax.get_lines()}
         assert {"greedy", "sb3:ppo-paper-s0", "ihpso+sb3:ppo-paper-s3"} <= labels, name
@@ -474,13 +484,12 @@ def test_log_axis_minor_labels_skip_the_crowded_ticks():
 
 def test_a_step_below_ground_is_drawn_at_zero_with_a_cross(tmp_path):
     path = tmp_path / "crash.sqlite"
-    tiny = tiny_scenario()
     steps = synthetic_steps(0, 4, history=False)
     steps[-1]["altitude_agl"] = -480.0  # the collision step, as ihpso's seed 0 on the paper scenario
-    with ResultsStore(path) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(path) as (store, tiny):
         store.write_episode(synthetic_episode("ihpso", 0, "tiny", tiny.hash, 90.0, outcome="collided"), steps)
-    altitude = dict(drawn_figures(path))["timeline"].axes[0]
+    ((_, timeline),) = drawn_figures(path, only={"timeline"})
+    altitude = timeline.axes[0]
     track, cross = altitude.get_lines()
     assert track.get_ydata().tolist() == [110.0, 120.0, 100.0, 0.0]
     assert cross.get_marker() == "x" and cross.get_xdata().tolist() == [4] and cross.get_ydata().tolist() == [0.0]
@@ -499,13 +508,12 @@ def test_clip_to_box_moves_only_the_points_outside_and_says_which():
 def test_the_3d_view_keeps_a_crash_inside_its_box(tmp_path):
     """A collision's last point, far below ground, is drawn on the box's floor with a cross."""
     path = tmp_path / "crash3d.sqlite"
-    tiny = tiny_scenario()
     steps = synthetic_steps(0, 4, history=False)
     steps[-1]["z_m"], steps[-1]["altitude_agl"] = -900.0, -1000.0
-    with ResultsStore(path) as store:
-        store.register({}, {tiny.hash: ("tiny", yaml.safe_dump(tiny.to_dict(), sort_keys=False))})
+    with store_with_tiny(path) as (store, tiny):
         store.write_episode(synthetic_episode("ihpso", 0, "tiny", tiny.hash, 90.0, outcome="collided"), steps)
-    ax = dict(drawn_figures(path))["tracks-3d"].axes[0]
+    ((_, view),) = drawn_figures(path, only={"tracks-3d"})
+    ax = view.axes[0]
     low, high = ax.get_zlim()
     drawn = [line for line in ax.get_lines() if len(line.get_data_3d()[2])]
     assert drawn and all(low <= v <= high for line in drawn for v in line.get_data_3d()[2])

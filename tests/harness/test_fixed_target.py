@@ -8,24 +8,11 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import tiny_scenario
+from conftest import run_cli
 
-from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark import fixedtarget as ft
 from uav_penetration_env.benchmark import fixedtarget_retired as ft_retired
 from uav_penetration_env.benchmark.store import ResultsStore
-
-
-@pytest.fixture(scope="module")
-def tiny_yaml(tmp_path_factory):
-    return str(
-        tiny_scenario(time={"max_steps": 20}).to_yaml(tmp_path_factory.mktemp("scenario") / "tiny.yaml")
-    )
-
-
-def run_cli(*argv):
-    return cli.main([str(a) for a in argv])
-
 
 # --- hand-made histories ------------------------------------------------------------------------------
 

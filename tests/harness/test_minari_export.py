@@ -28,17 +28,9 @@ def episode_metadata(dataset):
 
 
 @pytest.fixture(scope="module")
-def store(tmp_path_factory):
-    """greedy and random, two seeds each, on the tiny scenario cut to 6 steps."""
-    folder = tmp_path_factory.mktemp("minari")
-    scenario = tiny_scenario(time={"max_steps": 6}).to_yaml(folder / "tiny.yaml")
-    path = folder / "run.sqlite"
-    argv = ["run", "--policies", "greedy", "random", "--scenarios", scenario, "--seeds", "2"]
-    assert (
-        cli.main([str(a) for a in [*argv, "--store", path, "--no-report", "--no-progress", "--jobs", "1"]])
-        == 0
-    )
-    return path
+def store(greedy_random_store):
+    """greedy and random, two seeds each, on the tiny scenario cut to 6 steps (shared, read only)."""
+    return greedy_random_store
 
 
 @pytest.fixture(scope="module")

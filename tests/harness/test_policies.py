@@ -26,6 +26,13 @@ from uav_penetration_env.mpc import Terminal
 from uav_penetration_env.terminal import terminal_cost
 
 
+def one_evaluation(x, value: float, message: str) -> OptimizeResult:
+    """The result of a run that evaluated one plan ``x`` once, at ``value``."""
+    return OptimizeResult(
+        x=x, fun=value, nfev=1, nit=0, history=np.array([value]), history_nfev=np.array([1]), message=message
+    )
+
+
 @dataclass
 class SpyOptimizer:
     """Records what minimize receives and returns a fixed plan (or no finite plan)."""
@@ -47,16 +54,7 @@ class SpyOptimizer:
                 "max_evals": max_evals,
             }
         )
-        fun_value = cost if self.finite else math.inf
-        return OptimizeResult(
-            x=plan,
-            fun=fun_value,
-            nfev=1,
-            nit=0,
-            history=np.array([fun_value]),
-            history_nfev=np.array([1]),
-            message="spy",
-        )
+        return one_evaluation(plan, cost if self.finite else math.inf, "spy")
 
 
 @dataclass
@@ -65,16 +63,7 @@ class NoWarmStart:
 
     def minimize(self, fun, bounds, *, rng=None, max_evals=10_000):
         x = np.zeros_like(bounds.lb)
-        value = float(fun(x[None])[0])
-        return OptimizeResult(
-            x=x,
-            fun=value,
-            nfev=1,
-            nit=0,
-            history=np.array([value]),
-            history_nfev=np.array([1]),
-            message="zero",
-        )
+        return one_evaluation(x, float(fun(x[None])[0]), "zero")
 
 
 @pytest.fixture(scope="module")

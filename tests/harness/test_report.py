@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -133,22 +134,24 @@ def test_the_report_opens_in_a_browser_and_draws(written):
     assert check.table_fits and check.page_fits
 
 
+def check_changed_page(page: Path, folder: Path, old: str, new: str):
+    """The browser check of a copy of the report ``page`` in ``folder``, its first ``old`` made ``new``."""
+    changed = folder / "index.html"
+    changed.write_text(page.read_text().replace(old, new, 1))
+    return check_report(changed)
+
+
 @needs_browser
 def test_the_browser_check_sees_a_leaderboard_wider_than_the_window(written, tmp_path):
-    page = written[0].read_text()
-    wide = tmp_path / "index.html"
-    wide.write_text(page.replace('<table class="sortable glance">', '<table class="sortable glance" style="min-width:3000px">', 1))
-    check = check_report(wide)
+    check = check_changed_page(written[0], tmp_path, '<table class="sortable glance">',
+                               '<table class="sortable glance" style="min-width:3000px">')  # fmt: skip
     assert not check.table_fits and check.page_fits  # the table scrolls inside its box, not the page
 
 
 @needs_browser
 def test_the_browser_check_fails_on_a_broken_script(written, tmp_path):
-    page = written[0].read_text()
-    broken = tmp_path / "index.html"
     # A syntax error in the plot's own script: the view must not draw and the console must say so.
-    broken.write_text(page.replace("Plotly.newPlot(", "Plotly.newPlot((", 1))
-    check = check_report(broken)
+    check = check_changed_page(written[0], tmp_path, "Plotly.newPlot(", "Plotly.newPlot((")
     assert check.errors, "a broken script must leave an error in the console"
     assert check.drawn_pixels == 0
 

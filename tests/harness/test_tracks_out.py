@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from conftest import tiny_scenario
 
 from uav_penetration_env.benchmark import cli
 from uav_penetration_env.benchmark.store import ResultsStore
@@ -23,16 +22,9 @@ COSTS = ["J", "penalty", "terrain_threat", "radar_threat", "third_term", "fuel_k
 
 
 @pytest.fixture(scope="module")
-def store(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("tracks")
-    scenario = tiny_scenario(time={"max_steps": 6}).to_yaml(folder / "tiny.yaml")
-    path = folder / "run.sqlite"
-    argv = ["run", "--policies", "greedy", "random", "--scenarios", scenario, "--seeds", "2"]
-    assert (
-        cli.main([str(a) for a in [*argv, "--store", path, "--no-report", "--no-progress", "--jobs", "1"]])
-        == 0
-    )
-    return path
+def store(greedy_random_store):
+    """greedy and random, two seeds each, on the tiny scenario cut to 6 steps (shared, read only)."""
+    return greedy_random_store
 
 
 @pytest.mark.parametrize("fmt", ["csv", "parquet"])

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import tiny_scenario
+from conftest import tiny_scenario, wait_for_episodes
 
 from uav_penetration_env.benchmark import workers
 
@@ -92,7 +92,6 @@ def test_ctrl_c_during_a_run_prints_one_line_and_keeps_the_finished_episodes(tmp
     """SIGINT to the run's whole process group, as a terminal sends it: exit 130, one line, no traceback."""
     import os
     import signal
-    import time
 
     scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
     store = tmp_path / "interrupted.sqlite"
@@ -102,15 +101,7 @@ def test_ctrl_c_during_a_run_prints_one_line_and_keeps_the_finished_episodes(tmp
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)  # fmt: skip
-    stored, deadline = 0, time.monotonic() + 300  # a bound on the wait, not an assertion on speed
-    while time.monotonic() < deadline and process.poll() is None and stored < 2:
-        if store.exists():
-            try:
-                with sqlite3.connect(store, timeout=1) as connection:
-                    stored = connection.execute("SELECT COUNT(*) FROM episodes").fetchone()[0]
-            except sqlite3.OperationalError:
-                stored = 0
-        time.sleep(0.05)
+    stored = wait_for_episodes(store, process, at_least=2, seconds=300, poll_s=0.05)
     assert process.poll() is None, f"the run ended before the interruption: {process.stderr.read()[-500:]}"
     os.killpg(process.pid, signal.SIGINT)
     _, stderr = process.communicate(timeout=300)

@@ -34,6 +34,13 @@ class StoredEpisode:
     yaml_text: str | None
 
 
+def _require_stored(value: str, column: pd.Series, problem: str) -> None:
+    """Raise ReplayError(``problem``, a suggestion and the stored names) unless ``value`` is in ``column``."""
+    stored = sorted(column.unique())
+    if value not in stored:
+        raise ReplayError(f"{problem} — {did_you_mean(value, stored)}stored: {', '.join(stored) or 'none'}")
+
+
 def find_episode(store: ResultsStore, policy: str, seed: int, scenario: str | None = None) -> StoredEpisode:
     """The finished episode of ``policy`` on ``seed`` (and ``scenario``, needed when several fit).
 
@@ -45,20 +52,10 @@ def find_episode(store: ResultsStore, policy: str, seed: int, scenario: str | No
             scenarios without ``scenario``, or an episode that ended in an error.
     """
     episodes = store.episodes()
-    policies = sorted(episodes["policy"].unique())
-    if policy not in policies:
-        raise ReplayError(
-            f"--policy: {policy!r} is not in the store — {did_you_mean(policy, policies)}"
-            f"stored: {', '.join(policies) or 'none'}"
-        )
+    _require_stored(policy, episodes["policy"], f"--policy: {policy!r} is not in the store")
     rows = episodes[episodes["policy"] == policy]
     if scenario is not None:
-        names = sorted(rows["scenario"].unique())
-        if scenario not in names:
-            raise ReplayError(
-                f"--scenario: {policy!r} has no episode on {scenario!r} — {did_you_mean(scenario, names)}"
-                f"stored: {', '.join(names)}"
-            )
+        _require_stored(scenario, rows["scenario"], f"--scenario: {policy!r} has no episode on {scenario!r}")
         rows = rows[rows["scenario"] == scenario]
     seeds = sorted(int(s) for s in rows["seed"].unique())
     rows = rows[rows["seed"] == seed]

@@ -415,6 +415,21 @@ def check_writable_folder(path: Path, flag: str, value: str | Path | None = None
         ) from None
 
 
+def write_csv_tables(out: Path, tables: Sequence[tuple[str, Any]], written_before: Sequence[str] = ()) -> None:
+    """Write each ``(file name, DataFrame)`` of ``tables`` as CSV in ``out``; print one line naming them.
+
+    The line names the first file with its folder, then the others by name: ``written_before``
+    (files the command wrote itself, e.g. a page) first, then ``tables`` in order.
+    """
+    from uav_penetration_env.benchmark.rows import write_table
+
+    for name, frame in tables:
+        write_table(frame, out / name, "csv")
+    first, *rest = [*written_before, *(name for name, _ in tables)]
+    listed = f"{', '.join(rest[:-1])} and {rest[-1]}" if len(rest) > 1 else "".join(rest)
+    print(f"wrote {out / first}" + (f", {listed}" if rest else ""))
+
+
 def command_line(args: argparse.Namespace) -> str:
     """The command as typed (``uav-bench run --seeds 3``), for provenance in tables and files."""
     return " ".join(["uav-bench", *map(shlex.quote, getattr(args, "argv", []))])

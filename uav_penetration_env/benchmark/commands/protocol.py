@@ -17,6 +17,7 @@ from uav_penetration_env.benchmark.commands.common import (
     check_writable_folder,
     path_argument,
     result_tables,
+    write_csv_tables,
 )
 
 
@@ -53,14 +54,13 @@ def run(args: argparse.Namespace) -> int:
     print(page)
     if args.out is not None:
         from uav_penetration_env.atomic import write_text_atomic
-        from uav_penetration_env.benchmark.rows import write_table
 
         out = Path(args.out)
         check_writable_folder(out, "--out")
         write_text_atomic(out / "protocol-answers.md", page + "\n")
-        for name, frame in (("protocol-answers.csv", answers), ("protocol-success.csv", success)):
-            write_table(frame, out / name, "csv")
-        print(f"wrote {out / 'protocol-answers.md'}, protocol-answers.csv and protocol-success.csv")
+        write_csv_tables(
+            out, [("protocol-answers.csv", answers), ("protocol-success.csv", success)], ["protocol-answers.md"]
+        )
     return 0
 
 

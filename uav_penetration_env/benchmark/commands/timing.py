@@ -22,6 +22,7 @@ from uav_penetration_env.benchmark.commands.common import (
     parse_seeds,
     path_argument,
     resolve_scenarios,
+    write_csv_tables,
 )
 from uav_penetration_env.benchmark.commands.mpc_flags import add_mpc_arguments, mpc_settings
 
@@ -74,13 +75,9 @@ def run(args: argparse.Namespace) -> int:
           "decisions interleaved on the first planner's states; 95 % bootstrap intervals over maps "
           "(over steps with one map)")  # fmt: skip
     if args.out is not None:
-        from uav_penetration_env.benchmark.rows import write_table
-
-        out = Path(args.out)
-        for name, frame in (("timing.csv", table.assign(command=command_line(args))),
-                            ("timing-setups.csv", setups), ("timing-steps.csv", steps)):  # fmt: skip
-            write_table(frame, out / name, "csv")
-        print(f"wrote {out / 'timing.csv'}, timing-setups.csv and timing-steps.csv")
+        tables = [("timing.csv", table.assign(command=command_line(args))),
+                  ("timing-setups.csv", setups), ("timing-steps.csv", steps)]  # fmt: skip
+        write_csv_tables(Path(args.out), tables)
     return 0
 
 

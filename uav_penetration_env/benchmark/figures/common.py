@@ -60,6 +60,25 @@ def note_empty(ax, text: str) -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, fontsize=10, wrap=True)
 
 
+NO_STEPS = "no finished episode with stored steps"  # what an empty per-step panel says
+
+
+def finish_panel(ax, container, family: str | None, *, empty: bool) -> None:
+    """Close one family's panel: say so when ``empty`` (:data:`NO_STEPS`), title it, add its legend.
+
+    Args:
+        ax: the panel's axes (a 2-D one: the note is drawn in axes coordinates).
+        container: the (sub-)figure whose legend is drawn outside its axes.
+        family: the policy family the panel draws (``None``: one panel, no title).
+        empty: nothing was drawn on it.
+    """
+    if empty:
+        note_empty(ax, NO_STEPS)
+    if family is not None:
+        ax.set_title(family, fontsize=9)
+    outside_legend(container)
+
+
 @dataclass(frozen=True)
 class FigureInput:
     """What a figure of a scenario group is drawn from.

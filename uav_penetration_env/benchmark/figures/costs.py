@@ -10,6 +10,7 @@ from uav_penetration_env.benchmark.figures.common import (
     cost_axis,
     family_figure,
     figure_title,
+    finish_panel,
     finished_steps,
     mean_band,
     new_figure,
@@ -40,14 +41,10 @@ def plot_j_per_point(inp: FigureInput):
             top.plot(k, mean, **style.line(), linewidth=1.5, label=f"{label} ({len(runs)} runs)")
             top.fill_between(k, low, high, color=style.colour, alpha=0.18, linewidth=0)
             bottom.step(k, count, where="mid", **style.line(), linewidth=1.2)
-        if not episodes:
-            note_empty(top, "no finished episode with stored steps")
         top.set_ylabel("J(k) per track point\n(mean over seeds; 95% t-band where ≥ 3 runs)")
-        if family is not None:
-            top.set_title(family, fontsize=9)
         bottom.set_ylabel("runs at k")
         bottom.set_xlabel("track point k")
-        outside_legend(container)
+        finish_panel(top, container, family, empty=not episodes)
     figure_title(figure, title)
     return figure
 

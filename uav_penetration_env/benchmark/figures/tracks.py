@@ -17,12 +17,13 @@ import pandas as pd
 
 from uav_penetration_env.benchmark.figures.common import (
     MPC_FAMILIES,
+    NO_STEPS,
     FigureInput,
     family_figure,
     figure_title,
-    note_empty,
-    outside_legend,
+    finish_panel,
 )
+from uav_penetration_env.render import scatter_radars_3d
 
 COVERAGE_LEVEL = (
     0.5  # the envelope is where the model's coverage level (fused P_d or ratio detection) crosses 0.5
@@ -122,16 +123,7 @@ def _scenario_markers(ax, model, start: np.ndarray | None, three_d: bool) -> Non
     goal_x, goal_y, goal_r = model.goal[0] / 1000.0
     sx, sy = (start[0] / 1000.0, start[1] / 1000.0) if start is not None else model.start[0] / 1000.0
     if three_d:
-        ax.scatter(
-            radars[:, 0] / 1000.0,
-            radars[:, 1] / 1000.0,
-            radars[:, 2],
-            c="red",
-            marker="^",
-            s=45,
-            depthshade=False,
-            label="radars",
-        )
+        scatter_radars_3d(ax, radars, size=45)
         goal_z = float(model.height(np.array([goal_x * 1000.0]), np.array([goal_y * 1000.0]))[0])
         ax.scatter(
             [goal_x],
@@ -334,16 +326,17 @@ def plot_tracks_top(inp: FigureInput):
             )
         if best is not None:
             ax.plot(best[1][:, 0], best[1][:, 1], label=best[0], **BEST_KNOWN_STYLE)
-        if not tracks:
-            note_empty(ax, "no finished episode with stored steps")
         ax.set_aspect("equal")
-        ax.set_xlabel("x [km]")
-        ax.set_ylabel("y [km]")
-        if family is not None:
-            ax.set_title(family, fontsize=9)
-        outside_legend(container)
+        _finish_map_panel(ax, container, family, empty=not tracks)
     figure_title(figure, title)
     return figure
+
+
+def _finish_map_panel(ax, container, family: str | None, *, empty: bool) -> None:
+    """Label a map panel's x and y axes in km, then :func:`finish_panel` it."""
+    ax.set_xlabel("x [km]")
+    ax.set_ylabel("y [km]")
+    finish_panel(ax, container, family, empty=empty)
 
 
 def _terrain_colormap():
@@ -411,16 +404,12 @@ def plot_tracks_3d(inp: FigureInput):
                         markeredgewidth=1.6, color=inp.styles[label].colour)  # fmt: skip
         if best is not None:
             ax.plot(best[1][:, 0], best[1][:, 1], best[1][:, 2], label=best[0], **BEST_KNOWN_STYLE)
-        if not tracks:
-            ax.text2D(0.5, 0.5, "no finished episode with stored steps", transform=ax.transAxes, ha="center")
+        if not tracks:  # a 3-D axes writes in axes coordinates with text2D
+            ax.text2D(0.5, 0.5, NO_STEPS, transform=ax.transAxes, ha="center")
         ax.set_zlim(0.0, ceiling)
         ax.view_init(elev=35, azim=-60)
-        ax.set_xlabel("x [km]")
-        ax.set_ylabel("y [km]")
         ax.set_zlabel("z [m]")
-        if family is not None:
-            ax.set_title(family, fontsize=9)
-        outside_legend(container)
+        _finish_map_panel(ax, container, family, empty=False)
     figure_title(figure, title)
     return figure
 
@@ -447,14 +436,10 @@ def plot_timeline(inp: FigureInput):
                 altitude_ax.plot(k[below], np.zeros(int(below.sum())), linestyle="none", marker="x",
                                  markersize=7, markeredgewidth=1.8, color=inp.styles[label].colour)  # fmt: skip
             detection_ax.plot(k, rows["detection_prob"].to_numpy(dtype=np.float64), **style)
-        if not tracks:
-            note_empty(altitude_ax, "no finished episode with stored steps")
         altitude_ax.set_ylabel("altitude AGL [m] (x: below ground)")
-        if family is not None:
-            altitude_ax.set_title(family, fontsize=9)
         detection_ax.set_ylabel("detection probability")
         detection_ax.set_ylim(-0.02, 1.02)
         detection_ax.set_xlabel("track point k")
-        outside_legend(container)
+        finish_panel(altitude_ax, container, family, empty=not tracks)
     figure_title(figure, title)
     return figure

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import pandas as pd
@@ -297,21 +297,27 @@ def leaderboard_markdown(
 ) -> str:
     """The whole Markdown file of one scenario group."""
     header, rows, align = markdown_rows(table, table.attrs["reference"])
-    definitions = legend_lines(f"{table.attrs['n_resamples']:,}", set(table.columns))
     parts = [
         f"# Leaderboard: {group.name}",
         "",
         *provenance_lines(group, runs, command, date),
         "",
         markdown_table(header, rows, align),
-        "",
-        "## Statistics",
-        "",
-        statistics_paragraph(table),
-        "",
-        "## Columns",
-        "",
-        *definitions,
-        "",
+        *statistics_and_columns(table),
     ]
     return "\n".join(parts)
+
+
+def statistics_and_columns(table: pd.DataFrame, columns_preface: Sequence[str] = ()) -> list[str]:
+    """The closing lines of a leaderboard file: its "Statistics" and "Columns" sections.
+
+    Args:
+        table: the leaderboard table (its ``n_resamples`` attribute and its columns).
+        columns_preface: lines put before the column definitions (a note on what they are over).
+
+    Returns:
+        The lines, starting with the blank line that separates them from what comes before.
+    """
+    definitions = legend_lines(f"{table.attrs['n_resamples']:,}", set(table.columns))
+    return ["", "## Statistics", "", statistics_paragraph(table), "", "## Columns", "", *columns_preface,
+            *definitions, ""]  # fmt: skip

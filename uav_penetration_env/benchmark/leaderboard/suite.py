@@ -43,6 +43,7 @@ from uav_penetration_env.benchmark.leaderboard.groups import (
 from uav_penetration_env.benchmark.leaderboard.markdown import (
     markdown_rows,
     provenance_lines,
+    statistics_and_columns,
     statistics_paragraph,
 )
 from uav_penetration_env.benchmark.leaderboard.registry import TableContext, register_tables
@@ -334,21 +335,15 @@ def equal_weight_markdown(
             "",
             markdown_table(["policy", *columns], matrix_rows, ["l", *(["r"] * len(columns))]),
         ]
-    parts += [
-        "",
-        "## Statistics",
-        "",
-        statistics_paragraph(table),
-        "",
-        "## Columns",
-        "",
-        "In this table every interval, rank and test is over members, not episodes, and success is the "
-        "member-weighted share with a bootstrap interval (see the estimator above); the definitions below "
-        "are those of a one-scenario leaderboard.",
-        "",
-        *legend_lines(f"{table.attrs['n_resamples']:,}", set(table.columns)),
-        "",
-    ]
+    parts += statistics_and_columns(
+        table,
+        [
+            "In this table every interval, rank and test is over members, not episodes, and success is the "
+            "member-weighted share with a bootstrap interval (see the estimator above); the definitions below "
+            "are those of a one-scenario leaderboard.",
+            "",
+        ],
+    )
     return "\n".join(parts)
 
 
