@@ -302,3 +302,31 @@ def test_a_dynamic_recipe_round_trips_and_names_a_bad_knob():
         Recipe.from_dict({**data, "dynamic": {"unknowns": 1}}, "members[0]")
     with pytest.raises(SuiteError, match=r"members\[0\]\.dynamic\.mobile: got 9"):
         Recipe.from_dict({**data, "dynamic": {"mobile": 9}}, "members[0]")
+
+
+def test_the_price_of_information_pairs_each_planner_with_its_oracle_and_its_floor(tmp_path):
+    import pandas as pd
+
+    from uav_penetration_env.benchmark.leaderboard.information import _information_tables, information_table
+    from uav_penetration_env.benchmark.leaderboard.registry import TableContext
+
+    rows = []
+    costs = {"lattice": [10.0, 12.0, 11.0, 9.0], "oracle:lattice": [9.0, 11.5, 11.0, 8.0], "offline:lattice": [13.0, 12.0, 15.0, 9.5]}
+    for policy, values in costs.items():
+        for seed, cost in enumerate(values):
+            rows.append({"policy": policy, "scenario_hash": "h", "seed": seed, "outcome": "success", "total_cost": cost})
+    rows.append({"policy": "oracle:ps2o", "scenario_hash": "h", "seed": 0, "outcome": "success", "total_cost": 1.0})  # no partner
+    episodes = pd.DataFrame(rows)
+    table = information_table(episodes, n_resamples=200)
+    assert list(table["policy"]) == ["lattice", "lattice"]
+    price, replanning = table.iloc[0], table.iloc[1]
+    assert price["pairs"] == 4 and price["mean_difference"] == pytest.approx((1.0 + 0.5 + 0.0 + 1.0) / 4)
+    assert price["median_difference"] == pytest.approx(0.75)
+    assert replanning["mean_difference"] == pytest.approx((3.0 + 0.0 + 4.0 + 0.5) / 4)
+    assert price["ci_low"] <= price["mean_difference"] <= price["ci_high"]
+    assert price["wilcoxon_p_holm"] == price["wilcoxon_p"]  # one planner per comparison: Holm changes nothing
+    context = TableContext(tmp_path, tmp_path, episodes, pd.DataFrame(), "lattice", 0, "uav-bench leaderboard", 200, "today")
+    written = _information_tables(context)
+    assert [p.name for p in written] == ["information.csv", "information.md"]
+    assert "| price of information (P - oracle:P) | lattice" in written[1].read_text()
+    assert _information_tables(TableContext(tmp_path, tmp_path, episodes[episodes["policy"] == "lattice"], pd.DataFrame(), "lattice", 0, "c", 200, "d")) == []

@@ -68,6 +68,8 @@ from uav_penetration_env.benchmark.safe_text import write_csv_table
 
 # Imported for its registration (@register_tables("suite")): the frozen suites' tables.
 from uav_penetration_env.benchmark.leaderboard import suite as _suite_tables  # noqa: F401  # isort: skip
+# Imported for its registration (@register_tables("information")): the price of information (docs/dynamic.md §7).
+from uav_penetration_env.benchmark.leaderboard import information as _information_tables  # noqa: F401  # isort: skip
 
 __all__ = [
     "ALPHA",
