@@ -330,3 +330,18 @@ def test_the_price_of_information_pairs_each_planner_with_its_oracle_and_its_flo
     assert [p.name for p in written] == ["information.csv", "information.md"]
     assert "| price of information (P - oracle:P) | lattice" in written[1].read_text()
     assert _information_tables(TableContext(tmp_path, tmp_path, episodes[episodes["policy"] == "lattice"], pd.DataFrame(), "lattice", 0, "c", 200, "d")) == []
+
+
+def test_gymnasiums_vector_env_runs_the_dynamic_id_each_env_its_own_threats():
+    envs = gym.make_vec("UAVPenetrationDynamic-v0", num_envs=2, vectorization_mode="sync")
+    observations, infos = envs.reset(seed=[0, 2])
+    assert observations.shape == (2, 67)
+    single = UAVPenetrationDynamicEnv()
+    for index, seed in enumerate((0, 2)):
+        observation, info = single.reset(seed=seed)
+        assert np.array_equal(observations[index], observation)
+        assert tuple(infos["known_threats"][index]) == info["known_threats"]
+    action = np.zeros((2, 3), dtype=np.float32)
+    observations, rewards, *_ = envs.step(action)
+    assert observations.shape == (2, 67) and np.all(np.isfinite(rewards))
+    envs.close()
