@@ -112,10 +112,12 @@ def spec_block(env_id: str) -> str:
         env.close()
     kwargs = ", ".join(f"{k}={v!r}" for k, v in spec.kwargs.items())
     modes = ", ".join(code(m) for m in cls.metadata["render_modes"])
+    vector_mode = "vector_entry_point" if spec.vector_entry_point else "sync"
     rows = [
         ("id", code(env_id)),
         ("make", f'`gym.make("{env_id}")` after `import uav_penetration_env`'),
-        ("vector env", f'`gym.make_vec("{env_id}", num_envs=N, vectorization_mode="vector_entry_point")`'),
+        # An id without a native vector env is vectorised by Gymnasium's own wrappers.
+        ("vector env", f'`gym.make_vec("{env_id}", num_envs=N, vectorization_mode="{vector_mode}")`'),
         ("entry point", f"{code(spec.entry_point)}: {summary}"),
         ("vector entry point", code(spec.vector_entry_point)),
         ("registered kwargs", code(kwargs) if kwargs else "none"),
