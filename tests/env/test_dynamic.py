@@ -345,3 +345,22 @@ def test_gymnasiums_vector_env_runs_the_dynamic_id_each_env_its_own_threats():
     observations, rewards, *_ = envs.step(action)
     assert observations.shape == (2, 67) and np.all(np.isfinite(rewards))
     envs.close()
+
+
+def test_a_reveal_rebuilds_v_incrementally_to_the_full_builds_values():
+    from uav_penetration_env.build import build_scenario
+    from uav_penetration_env.model import PenetrationModel
+    from uav_penetration_env.value_function import value_function
+
+    hidden = {"name": "X", "x_km": 62.0, "y_km": 45.0, "mast_m": 10.0, "prior": "unknown"}
+    env = UAVPenetrationDynamicEnv(paper_with(hidden, sensing={"warning_range_km": 5.0, "reveal_on_detection": False}))
+    policy = LatticePolicy()
+    episode = fly(env, policy, seed=0)
+    assert any(info["revealed"] == ("X",) for _, _, info in episode)
+    assert policy.model is env.model and env.model.radar_slots == 5  # the policy plans on the last belief
+    fresh = PenetrationModel(build_scenario(env.model.scenario))  # the same belief, built from nothing
+    full = value_function(fresh).table
+    assert policy._value is not None and policy._value.table.shape == full.shape
+    finite = np.isfinite(full)
+    assert np.array_equal(finite, np.isfinite(policy._value.table))
+    assert np.allclose(policy._value.table[finite], full[finite], rtol=1e-8, atol=1e-12)

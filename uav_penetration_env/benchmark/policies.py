@@ -19,6 +19,7 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import Bounds
 
+from uav_penetration_env.belief_value import advance_value_function
 from uav_penetration_env.benchmark.plugins import (
     PluginUnavailable,
     PolicyKind,
@@ -154,12 +155,16 @@ class _ValueRule:
     def reset(self, model: PenetrationModel, seed: int | np.random.SeedSequence | None = None) -> None:
         """Bind the model and load (or build) its value function; ``seed`` is unused."""
         del seed
-        self.update_model(model)
-
-    def update_model(self, model: PenetrationModel) -> None:
-        """Plan on ``model`` from the next step: a new belief of a dynamic scenario (docs/dynamic.md §4); V rebuilt."""
         self.model = model
         self._value = value_function(model)
+
+    def update_model(self, model: PenetrationModel) -> None:
+        """Plan on ``model`` from the next step: a new belief of a dynamic scenario (docs/dynamic.md §4).
+
+        V is rebuilt incrementally from the current belief's (:func:`advance_value_function`).
+        """
+        self._value = value_function(model) if self.model is None else advance_value_function(self.model, model)
+        self.model = model
 
     def _bound(self, info: dict[str, Any]) -> tuple[PenetrationModel, ValueFunction, FloatArray]:
         """The model, V and the exact state in ``info``; refused before ``reset``."""
@@ -321,9 +326,12 @@ class MPCPolicy:
     def update_model(self, model: PenetrationModel) -> None:
         """Plan on ``model`` from the next step: a new belief of a dynamic scenario (docs/dynamic.md §4).
 
-        The terminal cost is rebuilt on it (V for the ``value`` form); the generator and the
-        shifted plan carry over, so the next step still warm-starts from this plan.
+        The terminal cost is rebuilt on it (V, for a form that reads it, incrementally from the
+        current belief's: :func:`advance_value_function`); the generator and the shifted plan carry
+        over, so the next step still warm-starts from this plan.
         """
+        if self.model is not None and self._value_function_config():
+            advance_value_function(self.model, model)  # V of the new belief, where terminal_cost reads it
         self.model = model
         self._terminal = build_terminal_cost(model, self.settings.terminal)
 
