@@ -2,7 +2,8 @@
 
 A policy is anything with ``reset(model, seed)`` and ``act(observation, info) -> action``.
 Planners read the exact state from ``info["state"]`` and the step index from ``info["step"]``;
-they never parse the observation.
+they never parse the observation. On a dynamic scenario a policy may also offer
+``update_model(model)``: the harness calls it with each new belief (docs/dynamic.md §4).
 """
 
 from __future__ import annotations
