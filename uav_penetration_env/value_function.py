@@ -70,6 +70,7 @@ from uav_penetration_env.terminal_kernels import (
     value_lookup,
 )
 from uav_penetration_env.types import FloatArray
+from uav_penetration_env.value_kernels import capped, changed_by
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
@@ -229,16 +230,8 @@ def value_iteration(cost, reached, end_x, end_y, end_heading, order, inside_goal
                     best = q
             # No pose costs more than a crash now: a region that reaches neither the goal nor the
             # edge (walled in by terrain) converges to that price instead of growing every sweep.
-            if best < math.inf and best > grid[G_MISSING]:
-                best = grid[G_MISSING]
-            old = flat[n]
-            if best < math.inf:
-                if old == math.inf:
-                    change = math.inf
-                else:
-                    delta = abs(best - old)
-                    if delta > change:
-                        change = delta
+            best = capped(best, grid[G_MISSING])
+            change = changed_by(change, flat[n], best)
             flat[n] = best
         if change <= tolerance:
             return sweep + 1
@@ -516,6 +509,7 @@ PROPAGATION_FRACTION = 1e-3
 # The sweeps' order is re-sorted by the values after these sweeps: the Dijkstra guess's order is
 # wrong where the guess is far off (beside doomed nodes, whose interpolation prices a crash).
 RESORT_AFTER = (1, 2)
+SETTLED_SHARE = 0.5
 
 
 def _shared_steps(model: PenetrationModel, settings: LatticeSettings) -> np.ndarray | None:
@@ -722,25 +716,25 @@ class ValueFunctionBuilder:
         self._fixed = self._inside_goal | terrain_doomed
         self.changed_moves = rows
         clock.lap("costs")
-        corners = value_kernels.corner_lists(self._shape, self._grid, self._ex, self._ey, self._eh, self._cost, reached)
-        used = corners >= 0
-        self._rev_ptr, self._rev = value_kernels.grouped(corners[used], np.nonzero(used)[0], flat.size)
-        moves = self._move_t.shape[1]
-        self._users_ptr, self._users = value_kernels.grouped(
-            self._move_t.reshape(-1), np.arange(self._move_t.size) // moves, rows
-        )
+        self._corner = np.empty((rows, value_kernels.CORNERS), dtype=np.int64)
+        self._weight = np.empty((rows, value_kernels.CORNERS))
+        kernels.with_threads(
+            model.threads, value_kernels.stencils,
+            self._shape, self._grid, self._ex, self._ey, self._eh, cost, reached, self._corner, self._weight,
+        )  # fmt: skip
+        corners = self._corner.reshape(-1)
+        used = np.nonzero(corners >= 0)[0]
+        # rev: each node's stencil slots (t CORNERS + s); users: each move's node moves (n A + a).
+        self._rev_ptr, self._rev = value_kernels.grouped(corners[used], used, flat.size)
+        self._users_ptr, self._users = value_kernels.grouped(self._move_t.reshape(-1), np.arange(self._move_t.size), rows)
         clock.lap("sweeps")
 
     def _first_pass(self) -> np.ndarray:
-        """The sweeps' order (a nearest-node Dijkstra guess of V, lowest first); every node starts dirty."""
-        guess = value_kernels.nearest_values(
-            self._shape, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh, self._move_t,
-            self._users_ptr, self._users, self._fixed, self._inside_goal,
+        """V's first guess and the sweeps' order, by the label-setting pass (value_kernels.settled_values); every node starts dirty."""
+        self._order = value_kernels.settled_values(
+            self._table, self._grid, self._cost, self._reached, self._corner, self._weight, self._move_t, self._blocked,
+            self._fixed, self._users_ptr, self._users, self._rev_ptr, self._rev, SETTLED_SHARE,
         )  # fmt: skip
-        self._order = np.argsort(guess, kind="stable").astype(np.int64)
-        start = ~self._fixed & (guess < math.inf)
-        self._table.reshape(-1)[start] = np.minimum(guess[start], self._grid[G_MISSING])
-        self._q = np.empty(self._cost.size)
         self.sweeps = 0
         return ~self._fixed
 
@@ -754,8 +748,8 @@ class ValueFunctionBuilder:
     def _jacobi(self, new: np.ndarray) -> None:
         kernels.with_threads(
             self.model.threads, value_kernels.jacobi_pass,
-            self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh,
-            self._move_t, self._blocked, self._fixed, self._q, new,
+            self._table, self._grid, self._cost, self._reached, self._corner, self._weight,
+            self._move_t, self._blocked, self._fixed, new,
         )  # fmt: skip
 
     # --- solving -----------------------------------------------------------------------------
@@ -768,7 +762,7 @@ class ValueFunctionBuilder:
         while True:
             while dirty.any():
                 value_kernels.dirty_sweep(
-                    self._table, self._grid, self._cost, self._reached, self._ex, self._ey, self._eh, self._move_t,
+                    self._table, self._grid, self._cost, self._reached, self._corner, self._weight, self._move_t,
                     self._blocked, self._order, self._fixed, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev, threshold,
                 )  # fmt: skip
                 self.sweeps += 1
@@ -783,7 +777,7 @@ class ValueFunctionBuilder:
             if change <= self.settings.tolerance:
                 break
             self._check_sweeps()
-            value_kernels.dirty_upstream(moved, dirty, self._users_ptr, self._users, self._rev_ptr, self._rev)
+            value_kernels.dirty_upstream(moved, dirty, self._move_t.shape[1], self._users_ptr, self._users, self._rev_ptr, self._rev)
         clock.lap("sweeps")
 
     def _check_sweeps(self) -> None:
@@ -843,11 +837,11 @@ class ValueFunctionBuilder:
         for name in (
             "_starts", "_ends", "_move_t", "_shared", "_ex", "_ey", "_eh", "_shape", "_grid", "_move_near", "_blocked", "_inside_goal",
             "_forbidden", "_reached", "_terrain_n", "_third_n", "_rev_ptr", "_rev", "_users_ptr", "_users", "_fixed",
+            "_corner", "_weight",
         ):  # fmt: skip
             setattr(self, name, getattr(old, name))  # read-only after a build: shared, not copied
         self._order = old._order
         self._table = old._table.copy()
-        self._q = np.empty(old._q.size)
         self.sweeps = 0
 
     def _reprice(self, old: ValueFunctionBuilder, clock: BuildClock) -> np.ndarray:
@@ -878,7 +872,7 @@ class ValueFunctionBuilder:
         self.changed_moves = int(changed.size)
         clock.lap("costs")
         dirty = np.zeros(self._move_t.shape[0], dtype=np.bool_)
-        value_kernels.dirty_users(changed, dirty, self._users_ptr, self._users)
+        value_kernels.dirty_users(changed, dirty, self._move_t.shape[1], self._users_ptr, self._users)
         return dirty
 
 
