@@ -2,8 +2,9 @@
 
 The lattice's distinct transitions are scored once each by the model's own transition
 (:func:`kernels.transition`), keeping each radar's threat so that a changed radar can be re-priced
-alone; value iteration runs as Gauss-Seidel sweeps in the order of a nearest-node Dijkstra guess
-of V, each over the dirty nodes only (a node is re-evaluated only when one of its moves'
+alone; each move's interpolation corners and weights are computed once (its stencil); a
+label-setting pass from the goal outward gives V's first guess, and value iteration runs as
+Gauss-Seidel sweeps in the reference's order (alternating direction), each over the dirty nodes only (a node is re-evaluated only when one of its moves'
 interpolation corners changed, or its move costs did), then is checked by full Jacobi passes of
 the Bellman operator with the reference iteration's stopping rule. Every
 relation (a transition's J, the fusion of radars, V between nodes) is the one of
@@ -328,13 +329,13 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
 
 
 @njit(cache=True)
-def dirty_sweep(table, grid, cost, reached, corner, weight, move_t, blocked, order, fixed, dirty, users_ptr, users, rev_ptr, rev, threshold):
+def dirty_sweep(table, grid, cost, reached, corner, weight, move_t, blocked, order, backward, fixed, dirty, users_ptr, users, rev_ptr, rev, threshold):
     """A Gauss-Seidel sweep in ``order`` over the dirty nodes only; returns (the reference's change measure, nodes updated).
 
     Each dirty node takes its Bellman update (its ``blocked`` moves left out) and is cleaned; a node
     whose value moved by more than ``threshold`` (``inf`` counting as the crash price, as the
     interpolation reads it) dirties every node with a move whose end pose interpolates over it,
-    later in this sweep or in the next. ``rev`` holds flat stencil slots (t CORNERS + s),
+    later in this sweep or in the next; ``backward`` runs ``order`` from its end. ``rev`` holds flat stencil slots (t CORNERS + s),
     ``users`` flat node moves (n A + a).
     """
     flat = table.reshape(-1)
@@ -342,8 +343,9 @@ def dirty_sweep(table, grid, cost, reached, corner, weight, move_t, blocked, ord
     moves = move_t.shape[1]
     change = 0.0
     updated = 0
-    for position in range(order.shape[0]):
-        n = order[position]
+    nodes = order.shape[0]
+    for position in range(nodes):
+        n = order[nodes - 1 - position] if backward else order[position]
         if not dirty[n]:
             continue
         dirty[n] = False
