@@ -13,7 +13,6 @@ relation (a transition's J, the fusion of radars, V between nodes) is the one of
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import numpy as np
@@ -224,6 +223,44 @@ def largest_change(old, new):
     return change
 
 
+@njit(inline="always", cache=True)
+def _sift_up(heap, where, key, i):
+    """Move heap[i] toward the root of the binary min-heap of nodes ``heap`` (by ``key``); ``where`` is each node's slot."""
+    n = heap[i]
+    k = key[n]
+    while i > 0:
+        parent = (i - 1) >> 1
+        p = heap[parent]
+        if key[p] <= k:
+            break
+        heap[i] = p
+        where[p] = i
+        i = parent
+    heap[i] = n
+    where[n] = i
+
+
+@njit(inline="always", cache=True)
+def _sift_down(heap, where, key, size, i):
+    """Move heap[i] toward the leaves of the binary min-heap of the first ``size`` nodes of ``heap`` (by ``key``)."""
+    n = heap[i]
+    k = key[n]
+    while True:
+        child = 2 * i + 1
+        if child >= size:
+            break
+        if child + 1 < size and key[heap[child + 1]] < key[heap[child]]:
+            child += 1
+        c = heap[child]
+        if key[c] >= k:
+            break
+        heap[i] = c
+        where[c] = i
+        i = child
+    heap[i] = n
+    where[n] = i
+
+
 @njit(cache=True)
 def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, fixed, users_ptr, users, rev_ptr, rev, share):
     """A label-setting first pass (Dijkstra from the goal outward): V's first guess (in ``table``) and the order nodes settled in.
@@ -278,18 +315,30 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
             u = users[e] // moves
             if not settled[u] and not blocked.flat[users[e]] and q < key[u]:
                 key[u] = q
-    heap = [(key[n], n) for n in range(nodes) if key[n] < math.inf]
-    heapq.heapify(heap)
+    heap = np.empty(nodes, dtype=np.int64)
+    where = np.full(nodes, -1, dtype=np.int64)
+    size = 0
+    for n in range(nodes):
+        if key[n] < math.inf:
+            heap[size] = n
+            where[n] = size
+            size += 1
+    for i in range(size // 2 - 1, -1, -1):
+        _sift_down(heap, where, key, size, i)
     order = np.empty(nodes, dtype=np.int64)
     count = 0
     for n in range(nodes):
         if settled[n]:
             order[count] = n
             count += 1
-    while len(heap) > 0:
-        k, n = heapq.heappop(heap)
-        if settled[n] or k != key[n]:
-            continue
+    while size > 0:
+        n = heap[0]
+        size -= 1
+        where[n] = -1
+        if size > 0:
+            heap[0] = heap[size]
+            where[heap[0]] = 0
+            _sift_down(heap, where, key, size, 0)
         settled[n] = True
         order[count] = n
         count += 1
@@ -320,7 +369,11 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
                 u = users[e] // moves
                 if not settled[u] and not blocked.flat[users[e]] and q < key[u]:
                     key[u] = q
-                    heapq.heappush(heap, (q, u))
+                    if where[u] < 0:
+                        heap[size] = u
+                        where[u] = size
+                        size += 1
+                    _sift_up(heap, where, key, where[u])
     for n in range(nodes):
         if not settled[n]:
             order[count] = n
