@@ -74,7 +74,7 @@ from uav_penetration_env.value_kernels import capped, changed_by
 
 # Bump when the lattice, its moves or the iteration change: cached tables of older builds are
 # then never read.
-ALGORITHM_VERSION = 5  # 5: the dirty-sweep builder (V equal to the tolerance), build_cpu_seconds stored
+ALGORITHM_VERSION = 6  # 5: the dirty-sweep builder (V equal to the tolerance), build_cpu_seconds stored; 6: its stencils, label-setting guess and spatial sweep order
 # DECISION (model.md §7e.2): what V is (the lattice, its moves and costs, the fixed point to the
 # tolerance), apart from how it is built. A planner's configuration, hence its store key, names
 # this: a builder that reaches the same fixed point (to the 1e-9 tolerance, tested against the
