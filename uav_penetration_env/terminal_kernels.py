@@ -121,6 +121,38 @@ def dubins_length(x, y, heading, goal_x, goal_y, radius):
 
 
 @njit(inline="always", cache=True)
+def lattice_cell(nx, ny, nh, grid, x, y, heading):
+    """The lattice cell a pose falls in and its place in it (the interpolation of :func:`value_lookup`).
+
+    Args:
+        nx: the lattice's node count in x.
+        ny: its node count in y.
+        nh: its node count in heading.
+        grid: the lattice slots ``G_*`` (origin and spacing [m]).
+        x: the position's x [m].
+        y: its y [m].
+        heading: the heading [rad], any real (periodic).
+
+    Returns:
+        (inside, i0, j0, k0, k1, tx, ty, th): whether (x, y) lies on the lattice; the cell's lower
+        x and y node indices and its two heading indices (k1 = k0 + 1, periodic); the fractions
+        tx, ty, th in [0, 1] from the lower nodes. The eight corners (i0 + di, j0 + dj, k0 or k1)
+        weigh (tx or 1 - tx) (ty or 1 - ty) (th or 1 - th), in that order of factors.
+    """
+    fx = (x - grid[G_X0]) / grid[G_DX]
+    fy = (y - grid[G_Y0]) / grid[G_DY]
+    if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
+        return False, 0, 0, 0, 0, 0.0, 0.0, 0.0
+    i0 = min(int(fx), nx - 2)
+    j0 = min(int(fy), ny - 2)
+    fh = (heading % (2.0 * math.pi)) * nh / (2.0 * math.pi)
+    k0 = int(fh)
+    th = fh - k0
+    k0 = k0 % nh
+    return True, i0, j0, k0, (k0 + 1) % nh, fx - i0, fy - j0, th
+
+
+@njit(inline="always", cache=True)
 def value_lookup(table, grid, x, y, heading, empty):
     """V at a continuous pose: bilinear in (x, y), linear and periodic in the heading.
 
@@ -132,23 +164,10 @@ def value_lookup(table, grid, x, y, heading, empty):
     renormalised, since a flight above the lattice's height may still pass there. A pose outside
     the lattice, or with no usable corner, gets ``empty``.
     """
-    nx = table.shape[0]
-    ny = table.shape[1]
-    nh = table.shape[2]
-    fx = (x - grid[G_X0]) / grid[G_DX]
-    fy = (y - grid[G_Y0]) / grid[G_DY]
-    if not (fx >= 0.0 and fx <= nx - 1.0 and fy >= 0.0 and fy <= ny - 1.0):
+    inside, i0, j0, k0, k1, tx, ty, th = lattice_cell(table.shape[0], table.shape[1], table.shape[2], grid, x, y, heading)
+    if not inside:
         return empty
     missing = grid[G_MISSING]
-    i0 = min(int(fx), nx - 2)
-    j0 = min(int(fy), ny - 2)
-    tx = fx - i0
-    ty = fy - j0
-    fh = (heading % (2.0 * math.pi)) * nh / (2.0 * math.pi)
-    k0 = int(fh)
-    th = fh - k0
-    k0 = k0 % nh
-    k1 = (k0 + 1) % nh
     total = 0.0
     weights = 0.0
     for di in range(2):

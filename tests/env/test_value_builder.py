@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
 from conftest import tiny_scenario
 
+from uav_penetration_env import value_kernels
 from uav_penetration_env.model import PenetrationModel
+from uav_penetration_env.terminal_kernels import G_MISSING, value_lookup
 from uav_penetration_env.value_function import (
     LATTICE_DEFAULTS,
     LatticeSettings,
@@ -117,3 +120,57 @@ def test_moves_ending_on_the_edge_margin_are_judged_on_their_own_end_points():
     )
     model = PenetrationModel(shifted, threads=1)
     assert_same_values(build_arrays(model, LATTICE_DEFAULTS, 0)["table"], build_arrays(model, LATTICE_DEFAULTS, 0, method="reference")["table"])
+
+
+@pytest.mark.parametrize("settings", [COARSE, OFF_NODE], ids=["coarse", "off-node"])
+def test_stencils_price_moves_as_value_lookup_does(model, settings):
+    """One Jacobi pass over the precomputed stencils equals the Bellman operator through value_lookup, bit for bit.
+
+    The table is the built V with noise on its finite nodes (so no node is at its fixed point);
+    the loop below is the reference's update (value_function.value_iteration) written out.
+    """
+    builder = ValueFunctionBuilder(model, 0, settings)
+    rng = np.random.default_rng(7)
+    table = builder.value_function.table.copy()
+    finite = np.isfinite(table)
+    table[finite] += rng.uniform(0.0, 0.5, finite.sum())
+    new = np.empty(table.size)
+    value_kernels.jacobi_pass(
+        table, builder._grid, builder._cost, builder._reached, builder._corner, builder._weight,
+        builder._move_t, builder._blocked, builder._fixed, new,
+    )  # fmt: skip
+    want = table.reshape(-1).copy()
+    cap = builder._grid[G_MISSING]
+    for n in np.nonzero(~builder._fixed)[0]:
+        best = math.inf
+        for a, t in enumerate(builder._move_t[n]):
+            if builder._blocked[n, a] or builder._cost[t] == math.inf:
+                continue
+            q = builder._cost[t]
+            if not builder._reached[t]:
+                q = q + value_lookup(table, builder._grid, builder._ex[t], builder._ey[t], builder._eh[t], math.inf)
+            best = min(best, q)
+        want[n] = min(best, cap) if best < math.inf else best
+    assert np.array_equal(new, want)
+
+
+def test_label_setting_pass_orders_every_node_once_settled_ones_first(model):
+    builder = ValueFunctionBuilder(model, 0, COARSE)
+    table = np.full(builder._shape, np.inf)
+    flat = table.reshape(-1)
+    flat[builder._fixed] = builder.value_function.table.reshape(-1)[builder._fixed]
+    order = value_kernels.settled_values(
+        table, builder._grid, builder._cost, builder._reached, builder._corner, builder._weight, builder._move_t,
+        builder._blocked, builder._fixed, builder._users_ptr, builder._users, builder._rev_ptr, builder._rev, 0.5,
+    )  # fmt: skip
+    assert np.array_equal(np.sort(order), np.arange(flat.size))
+    dead = ~builder._fixed & np.all(builder._blocked | ~np.isfinite(builder._cost[builder._move_t]), axis=1)
+    head = builder._fixed | dead
+    assert set(order[: head.sum()].tolist()) == set(np.nonzero(head)[0].tolist())
+    # The guess of a node that settled is a move's cost plus a mean of corner values: never below
+    # the cheapest move alone, never above the crash price.
+    guessed = np.isfinite(flat) & ~builder._fixed
+    cheapest = np.min(np.where(builder._blocked, np.inf, builder._cost[builder._move_t]), axis=1)
+    assert guessed.sum() > 0.5 * (~builder._fixed).sum()
+    assert np.all(flat[guessed] >= cheapest[guessed] - 1e-12)
+    assert np.all(flat[guessed] <= builder._grid[G_MISSING])
