@@ -211,7 +211,7 @@ def test_unknown_names_get_a_did_you_mean(v1):
     with pytest.raises(
         SuiteError,
         match=r"unknown suite 'uavpen-v2' — did you mean 'uavpen-v1', 'uavpen-heldout-v2', 'uavpen-heldout-v1'\? "
-        r"known suites: uavpen-heldout-v1, uavpen-heldout-v2, uavpen-v1$",
+        r"known suites: uavpen-dynamic-heldout-v1, uavpen-dynamic-v1, uavpen-heldout-v1, uavpen-heldout-v2, uavpen-v1$",
     ):
         load_suite("uavpen-v2")
     with pytest.raises(SuiteError, match=r"unknown member 'uavpen-v1/papr' — did you mean 'uavpen-v1/paper'"):
@@ -280,10 +280,13 @@ def test_the_suite_command(tmp_path, capsys):
     from uav_penetration_env.benchmark import cli
 
     assert cli.main(["suite", "list"]) == 0
-    listed = capsys.readouterr().out.splitlines()
-    assert listed[0].startswith("uavpen-heldout-v1: 50 members (d0.50 50)")
-    assert listed[1].startswith("uavpen-heldout-v2: 50 members (d0.50 50)")
-    assert listed[2].startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
+    listed = {line.split(":")[0]: line for line in capsys.readouterr().out.splitlines()}
+    assert listed["uavpen-heldout-v1"].startswith("uavpen-heldout-v1: 50 members (d0.50 50)")
+    assert listed["uavpen-heldout-v2"].startswith("uavpen-heldout-v2: 50 members (d0.50 50)")
+    assert listed["uavpen-v1"].startswith("uavpen-v1: 63 members (fixed 3, d0.25 20, d0.50 20, d0.75 20)")
+    assert listed["uavpen-dynamic-v1"].startswith(
+        "uavpen-dynamic-v1: 24 members (d0.50-u0.25-l0.00-m0-e2 8, d0.50-u0.50-l0.50-m1-e3 8, d0.50-u0.75-l0.75-m2-e5 8)"
+    )
     assert cli.main(["suite", "show", "uavpen-v1", "--members", "uavpen-v1/paper*"]) == 0
     out = capsys.readouterr().out
     assert "| uavpen-v1/paper-w2 | fixed | paper-2022-sec5-w2 | d2cada97cea659ca |" in out
@@ -373,4 +376,32 @@ def test_every_fresh_held_out_member_reproduces():
 @pytest.mark.slow
 def test_every_held_out_member_reproduces():
     failures = [str(c.error) for c in verify_suite(load_suite("uavpen-heldout-v1")) if c.error is not None]
+    assert failures == []
+
+
+DYNAMIC_SUITES = {
+    "uavpen-dynamic-v1": range(80000, 80024),
+    "uavpen-dynamic-heldout-v1": range(81000, 81030),
+}
+
+
+@pytest.mark.parametrize("name", list(DYNAMIC_SUITES))
+def test_the_dynamic_suites_are_their_recipes_apart_from_every_other_map(name):
+    """docs/dynamic.md §5: dynamic members, their declared seeds, no map shared with another suite; one replays."""
+    from uav_penetration_env.suites.published import published_maps
+
+    suite = load_suite(name)
+    assert [m.recipe.seed for m in suite.members] == list(DYNAMIC_SUITES[name])
+    assert all(m.recipe.dynamic is not None for m in suite.members)
+    others = {h for h, member in published_maps().items() if not member.startswith(f"{name}/")}
+    first = suite.members[0]
+    scenario = build_member(suite, first.name)  # replays the greedy floor in the dynamic env (raises otherwise)
+    assert scenario.is_dynamic and scenario.hash == first.fingerprint.scenario_hash
+    assert scenario.map_hash not in others
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(DYNAMIC_SUITES))
+def test_every_dynamic_member_reproduces(name):
+    failures = [str(c.error) for c in verify_suite(load_suite(name)) if c.error is not None]
     assert failures == []
