@@ -542,11 +542,7 @@ class PenetrationModel:
             moves_are_controls,
             k_next,
             index,
-            next_states,
-            per_radar,
-            visible,
-            scalars,
-            flags,
+            (next_states, per_radar, visible, scalars, flags),
             threads=self.threads,
         )
         return self._step_result(next_states, k_next, per_radar, visible, scalars, flags)
