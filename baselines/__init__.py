@@ -14,20 +14,16 @@ policy = load_policy("results/models/ppo-paper-s0.zip")    # a Policy for evalua
 
 from __future__ import annotations
 
-from uav_penetration_env.lazy import lazy_exports
+from uav_penetration_env.lazy import exported_modules, lazy_exports
 
 # Imported on first use (PEP 562): the harness loads this package's entry points to list its
 # commands, which must not import the env or torch.
 _EXPORTS = {
-    "SB3Policy": "baselines.policy",
-    "load_policy": "baselines.policy",
-    "KNOWN_ALGORITHMS": "baselines.train",
-    "TrainConfig": "baselines.train",
-    "TrainResult": "baselines.train",
-    "train_agent": "baselines.train",
+    ".policy": ("SB3Policy", "load_policy"),
+    ".train": ("KNOWN_ALGORITHMS", "TrainConfig", "TrainResult", "train_agent"),
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted(exported_modules(_EXPORTS))
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

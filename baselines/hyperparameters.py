@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from baselines.install import RL_INSTALL
 from uav_penetration_env.suggest import did_you_mean
+from uav_penetration_env.yaml_mapping import read_yaml_mapping
 
 # Continuous-action SB3 algorithms (DQN needs a discrete action space, so it is not offered).
 KNOWN_ALGORITHMS = {"a2c": "A2C", "ddpg": "DDPG", "ppo": "PPO", "sac": "SAC", "td3": "TD3"}
@@ -49,18 +49,6 @@ def algorithm_class(name: str) -> type:
     return getattr(stable_baselines3, KNOWN_ALGORITHMS[key])
 
 
-def _read_yaml(path: Path, what: str) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except OSError as error:
-        raise FileNotFoundError(f"{what}: cannot read {path} ({error.strerror})") from None
-    except yaml.YAMLError as error:
-        raise ValueError(f"{what}: {path} is not valid YAML ({error})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{what}: {path} must hold a mapping of hyper-parameter names to values")
-    return data
-
-
 def resolve_hyperparams(
     algo: str,
     overrides: Mapping[str, Any] | str | Path | None = None,
@@ -84,7 +72,7 @@ def resolve_hyperparams(
     key = str(algo).lower()
     path = HYPERPARAMS_DIR / f"{key}.yaml"
     if path.is_file():
-        params = _read_yaml(path, "hyperparams")
+        params = read_yaml_mapping(path, "hyperparams", "hyper-parameter names")
         source = f"baselines/hyperparams/{key}.yaml"
     else:
         warnings.warn(
@@ -101,7 +89,7 @@ def resolve_hyperparams(
     if overrides is not None:
         if isinstance(overrides, (str, Path)):
             source += f" + {overrides}"
-            overrides = _read_yaml(Path(overrides), "hyperparams")
+            overrides = read_yaml_mapping(Path(overrides), "hyperparams", "hyper-parameter names")
         else:
             source += " + overrides"
         layers.append(overrides)

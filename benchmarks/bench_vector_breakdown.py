@@ -334,7 +334,7 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     obs = np.empty((n, 67), dtype=np.float32)
     transition_kernel = per_row(
         lambda: kernels.transition_rows(
-            arrays, states, controls, True, k_next, index, out_states, per_radar, visible, scalars, flags
+            arrays, states, controls, True, k_next, index, (out_states, per_radar, visible, scalars, flags)
         )
     )
     scratch = np.empty((n, kernels.observe_scratch_width(model.radar_slots)))

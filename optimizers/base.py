@@ -143,6 +143,23 @@ def require(condition: bool, owner: str, field: str, value: object, rule: str) -
         raise ValueError(f"{owner}.{field}: got {value!r}, expected {rule}")
 
 
+def require_integer(owner: object, field: str, minimum: int, why: str = "") -> None:
+    """:func:`require` of an integer hyper-parameter: ``owner.<field>`` must be an integer >= ``minimum``.
+
+    Args:
+        owner: The optimiser instance; its class name prefixes the field path.
+        field: The hyper-parameter's name.
+        minimum: Its smallest allowed value.
+        why: The reason for the minimum, added to the rule in parentheses (``""``: none).
+
+    Raises:
+        ValueError: ``"<owner>.<field>: got <value>, expected an integer >= <minimum>[ (<why>)]"``.
+    """
+    value = getattr(owner, field)
+    rule = f"an integer >= {minimum}" + (f" ({why})" if why else "")
+    require(is_int(value) and value >= minimum, type(owner).__name__, field, value, rule)
+
+
 def coerce_pair(obj: object, field: str) -> tuple:
     """Store a two-element hyper-parameter of a frozen dataclass as a tuple and return it.
 

@@ -19,7 +19,7 @@ from itertools import count
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optimizers.base import FloatArray, IntArray, is_int, is_real, require
+from optimizers.base import FloatArray, IntArray, is_real, require, require_integer
 from optimizers.registry import register_optimizer
 from optimizers.swarm import Swarm, SwarmOptimizer, attractor_velocity, cost_rank
 
@@ -120,13 +120,11 @@ class CCPSOISM(SwarmOptimizer):
     def __post_init__(self) -> None:
         super().__post_init__()
         name = type(self).__name__
-        require(is_int(self.swarm_size) and self.swarm_size >= 1, name, "swarm_size", self.swarm_size,
-                "an integer >= 1")
+        require_integer(self, "swarm_size", 1)
         require(is_real(self.inertia), name, "inertia", self.inertia, "a finite number")
         require(is_real(self.acceleration) and self.acceleration >= 0, name, "acceleration",
                 self.acceleration, "a finite number >= 0")
-        require(is_int(self.refreshing_gap) and self.refreshing_gap >= 0, name, "refreshing_gap",
-                self.refreshing_gap, "an integer >= 0")
+        require_integer(self, "refreshing_gap", 0)
         require(is_real(self.learning_probability) and 0 <= self.learning_probability <= 1, name,
                 "learning_probability", self.learning_probability, "a number in [0, 1]")
 

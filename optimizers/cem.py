@@ -20,9 +20,9 @@ from optimizers.base import (
     OptimizerBase,
     OptimizeResult,
     Problem,
-    is_int,
     is_real,
     require,
+    require_integer,
 )
 from optimizers.registry import register_optimizer
 from optimizers.swarm import normalise
@@ -93,8 +93,7 @@ class CEM(OptimizerBase):
 
     def __post_init__(self) -> None:
         name = type(self).__name__
-        require(is_int(self.population_size) and self.population_size >= 1, name, "population_size",
-                self.population_size, "an integer >= 1")
+        require_integer(self, "population_size", 1)
         require(is_real(self.elite_fraction) and 0 < self.elite_fraction <= 1, name, "elite_fraction",
                 self.elite_fraction, "a number in (0, 1]")
         require(is_real(self.smoothing) and 0 < self.smoothing <= 1, name, "smoothing", self.smoothing,

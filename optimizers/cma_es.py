@@ -33,6 +33,7 @@ from optimizers.base import (
     is_int,
     is_real,
     require,
+    require_integer,
 )
 from optimizers.registry import register_optimizer
 from optimizers.swarm import normalise
@@ -62,8 +63,7 @@ class CMAES(OptimizerBase):
         p = self.population_size
         require(p is None or (is_int(p) and p >= 2), name, "population_size", p, "None or an integer >= 2")
         require(is_real(self.sigma) and self.sigma > 0, name, "sigma", self.sigma, "a finite number > 0")
-        require(is_int(self.max_batch) and self.max_batch >= 1, name, "max_batch", self.max_batch,
-                "an integer >= 1")
+        require_integer(self, "max_batch", 1)
         require(isinstance(self.restart, bool), name, "restart", self.restart, "True or False")
 
     def solve(self, problem: Problem, rng: np.random.Generator) -> OptimizeResult:

@@ -25,9 +25,9 @@ from optimizers.base import (
     OptimizeResult,
     Problem,
     coerce_pair,
-    is_int,
     is_real,
     require,
+    require_integer,
 )
 from optimizers.registry import register_optimizer
 
@@ -84,8 +84,7 @@ class DE(OptimizerBase):
 
     def __post_init__(self) -> None:
         name = type(self).__name__
-        require(is_int(self.population_size) and self.population_size >= 5, name, "population_size",
-                self.population_size, "an integer >= 5 (scipy's minimum for an init array)")
+        require_integer(self, "population_size", 5, "scipy's minimum for an init array")
         require(isinstance(self.strategy, str), name, "strategy", self.strategy, "a scipy strategy name")
         mutation = coerce_pair(self, "mutation")
         require(all(is_real(m) and 0 <= m <= 2 for m in mutation), name, "mutation", mutation,

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optimizers.base import FloatArray, IntArray, coerce_pair, is_int, is_real, require
+from optimizers.base import FloatArray, IntArray, coerce_pair, is_real, require, require_integer
 from optimizers.ihpso_2022v0 import IHPSO_2022V0
 from optimizers.ihpso_grouping import (
     GROUPING_CUTS,
@@ -330,8 +330,7 @@ class IHPSO(SwarmOptimizer):
         scheme = coerce_pair(self, "scheme")
         require(all(s in GROUPING_METHODS for s in scheme), name, "scheme", scheme,
                 f"a (broad, accurate) pair of {GROUPING_METHODS}")
-        require(is_int(self.switch_lag) and self.switch_lag >= 1, name, "switch_lag", self.switch_lag,
-                "an integer >= 1")
+        require_integer(self, "switch_lag", 1)
         require(is_real(self.switch_weight) and self.switch_weight > 0, name, "switch_weight",
                 self.switch_weight, "a finite number > 0")
         require(is_real(self.jump_factor) and self.jump_factor > 0, name, "jump_factor", self.jump_factor,

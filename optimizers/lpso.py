@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.distance import pdist, squareform
 
-from optimizers.base import FloatArray, IntArray, is_int, is_real, require
+from optimizers.base import FloatArray, IntArray, is_real, require, require_integer
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
     Swarm,
@@ -101,8 +101,7 @@ class LPSO(SwarmOptimizer):
     def __post_init__(self) -> None:
         super().__post_init__()
         name = type(self).__name__
-        require(is_int(self.swarm_size) and self.swarm_size >= 1, name, "swarm_size", self.swarm_size,
-                "an integer >= 1")
+        require_integer(self, "swarm_size", 1)
         validate_schedule(self, "inertia")
         for field in ("cognitive", "social", "frac_intercept", "frac_slope", "gbest_threshold"):
             value = getattr(self, field)

@@ -17,7 +17,7 @@ from itertools import count
 
 import numpy as np
 
-from optimizers.base import FloatArray, is_int, is_real, require
+from optimizers.base import FloatArray, is_int, is_real, require, require_integer
 from optimizers.registry import register_optimizer
 from optimizers.swarm import (
     Swarm,
@@ -121,8 +121,7 @@ class MCPSO(SwarmOptimizer):
     def __post_init__(self) -> None:
         super().__post_init__()
         name = type(self).__name__
-        require(is_int(self.n_slaves) and self.n_slaves >= 1, name, "n_slaves", self.n_slaves,
-                "an integer >= 1")
+        require_integer(self, "n_slaves", 1)
         require(is_int(self.swarm_size) and self.swarm_size >= self.n_slaves + 1, name, "swarm_size",
                 self.swarm_size, f"an integer >= n_slaves + 1 = {self.n_slaves + 1}")
         require(self.version in VERSIONS, name, "version", self.version, f"one of {VERSIONS}")

@@ -17,7 +17,7 @@ from itertools import count
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optimizers.base import FloatArray, IntArray, is_int, is_real, require
+from optimizers.base import FloatArray, IntArray, is_int, is_real, require, require_integer
 from optimizers.registry import register_optimizer
 from optimizers.swarm import Swarm, SwarmOptimizer, attractor_velocity, cost_rank, init_positions
 
@@ -165,10 +165,8 @@ class PS2O(SwarmOptimizer):
     def __post_init__(self) -> None:
         super().__post_init__()
         name = type(self).__name__
-        require(is_int(self.n_species) and self.n_species >= 2, name, "n_species", self.n_species,
-                "an integer >= 2 (a species needs a symbiotic partner)")
-        require(is_int(self.species_size) and self.species_size >= 1, name, "species_size",
-                self.species_size, "an integer >= 1")
+        require_integer(self, "n_species", 2, "a species needs a symbiotic partner")
+        require_integer(self, "species_size", 1)
         require(is_real(self.constriction) and self.constriction > 0, name, "constriction", self.constriction,
                 "a finite number > 0")
         require(is_real(self.acceleration) and self.acceleration >= 0, name, "acceleration",

@@ -13,7 +13,7 @@ from itertools import count
 
 import numpy as np
 
-from optimizers.base import is_int, is_real, require
+from optimizers.base import is_real, require, require_integer
 from optimizers.registry import register_optimizer
 from optimizers.swarm import Swarm, SwarmOptimizer, linear_schedule, pso_velocity, validate_schedule
 
@@ -47,8 +47,7 @@ class PSO(SwarmOptimizer):
     def __post_init__(self) -> None:
         super().__post_init__()
         name = type(self).__name__
-        require(is_int(self.swarm_size) and self.swarm_size >= 1, name, "swarm_size", self.swarm_size,
-                "an integer >= 1")
+        require_integer(self, "swarm_size", 1)
         require(self.variant in VARIANTS, name, "variant", self.variant, f"one of {VARIANTS}")
         require(is_real(self.constriction) and self.constriction > 0, name, "constriction", self.constriction,
                 "a finite number > 0")

@@ -56,6 +56,7 @@ from optimizers.base import (
     is_real,
     normalize_bounds,
     require,
+    require_integer,
 )
 
 EXPLORE, REFINE = "explore", "refine"
@@ -196,8 +197,7 @@ class SepCMARestarts(OptimizerBase):
         for key in ("start_sigma", "random_sigma", "random_scale"):
             value = getattr(self, key)
             require(is_real(value) and 0 < value <= 1, name, key, value, "a number in (0, 1]")
-        s = self.stall_generations
-        require(is_int(s) and s >= 1, name, "stall_generations", s, "an integer >= 1")
+        require_integer(self, "stall_generations", 1)
         f = self.refine_fraction
         require(is_real(f) and 0 <= f < 1, name, "refine_fraction", f, "a number in [0, 1)")
         sigmas = self.refine_sigmas

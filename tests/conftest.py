@@ -81,6 +81,25 @@ def tiny_yaml(tmp_path_factory) -> str:
     )
 
 
+def successful_episode(policy: str, seed: int, scenario: str, scenario_hash: str, cost: float) -> dict:
+    """The key and cost columns of a synthetic episode row that reached the goal at total cost ``cost``.
+
+    No penalty, so ``total_J == total_cost == cost``; the policy hash is the name padded with ``x`` to
+    16 characters. Tests add the other columns they read.
+    """
+    return {
+        "policy": policy,
+        "policy_hash": f"{policy:x<16}"[:16],
+        "scenario": scenario,
+        "scenario_hash": scenario_hash,
+        "seed": seed,
+        "outcome": "success",
+        "total_J": cost,
+        "total_penalty": 0.0,
+        "total_cost": cost,
+    }
+
+
 # --- `uav-bench` as the tests call it (the harness extra; imported when first called) ---------------
 
 

@@ -2,24 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.script_modules import load_script
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 def load(name: str):
-    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
+    return load_script(BENCHMARKS / f"{name}.py")
 
 
 def test_bench_env_quick_run_reports_every_figure(capsys):
@@ -103,12 +96,8 @@ def test_bench_suite_quick_run_reports_every_figure(capsys):
 
 def test_the_quick_start_check_runs_the_readmes_own_commands(tmp_path):
     """.ci/quickstart_under_load.py reads the README's quick start, so it runs what a newcomer types."""
-    import importlib.util
-
     path = Path(__file__).resolve().parents[1] / ".ci" / "quickstart_under_load.py"
-    spec = importlib.util.spec_from_file_location("quickstart_under_load", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_script(path)
     readme = (path.parents[1] / "README.md").read_text(encoding="utf-8")
     assert module.quick_start_commands(readme) == ['pip install -e ".[dev]"', "uav-bench run && pytest"]
     with pytest.raises(ValueError, match="no ```bash block under '## Set up and run'"):

@@ -62,6 +62,21 @@ def rebuild_checked(attempts, commands=()):
     return checked(attempts, "tables", commands, DERIVED)
 
 
+def write_files(folder: Path, files: dict[str, str]) -> None:
+    """Write each file of ``files`` (path under ``folder`` -> text), its folders made as needed."""
+    for name, text in files.items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+def compute_log(folder: Path) -> Path:
+    """``folder/compute.jsonl`` holding one logged attempt of the paper part (its path)."""
+    log = folder / "compute.jsonl"
+    write_files(folder, {"compute.jsonl": '{"part": "paper", "wall_s": 1.0, "cpu_s": 2.0}\n'})
+    return log
+
+
 def test_agents_wait_for_the_rl_programme(tmp_path):
     parts = plan(campaign("v2"), tmp_path, pending=lambda: ["train/sac-paper-s2"])
     assert [p.name for p in parts] == ["paper", "windows", "suite", "windows-suite", "held-out", "agents",
@@ -209,27 +224,24 @@ def test_the_rebuild_check_ignores_only_the_date_line(tmp_path):
     assert compare_rebuild(out, check) == ["paper.csv", "rl.md", "suite.md"]
 
 
-def test_nothing_runs_on_a_dirty_tree(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(process, "dirty_files", lambda repo: ["optimizers/ihpso.py"])
+@pytest.mark.parametrize(
+    ("dirty", "package", "refused"),
+    [
+        (["optimizers/ihpso.py"], "uav_penetration_env", "tracked files differ from the commit (optimizers/ihpso.py)"),
+        ([], "/elsewhere/uav_penetration_env", "the commands would import /elsewhere/uav_penetration_env"),
+    ],
+    ids=["dirty tree", "package of another tree"],
+)
+def test_nothing_runs_on_a_dirty_tree_or_with_the_package_of_another_tree(
+    dirty, package, refused, tmp_path, monkeypatch, capsys
+):
+    monkeypatch.setattr(process, "dirty_files", lambda repo: dirty)
+    # A relative package lies inside the campaign's tree (tmp_path); the absolute one elsewhere.
+    monkeypatch.setattr(process, "imported_from", lambda repo: tmp_path / package)
     ran = []
     monkeypatch.setattr(process, "run_attempt", lambda *args: ran.append(args) or 0)
     assert runner.run_campaign(campaign("v2"), tmp_path, only=["paper"], pending=list) == 1
-    assert (
-        ran == []
-        and "refused: tracked files differ from the commit (optimizers/ihpso.py)" in capsys.readouterr().err
-    )
-
-
-def test_nothing_runs_with_the_package_of_another_tree(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(process, "dirty_files", lambda repo: [])
-    monkeypatch.setattr(process, "imported_from", lambda repo: Path("/elsewhere/uav_penetration_env"))
-    ran = []
-    monkeypatch.setattr(process, "run_attempt", lambda *args: ran.append(args) or 0)
-    assert runner.run_campaign(campaign("v2"), tmp_path, only=["paper"], pending=list) == 1
-    assert (
-        ran == []
-        and "refused: the commands would import /elsewhere/uav_penetration_env" in capsys.readouterr().err
-    )
+    assert ran == [] and f"refused: {refused}" in capsys.readouterr().err
 
 
 def test_done_commands_are_skipped_and_compute_sums_every_attempt(tmp_path, monkeypatch, capsys):
@@ -282,17 +294,13 @@ def test_the_imitation_row_sums_the_distilled_networks_sidecars(tmp_path):
 
 def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_path):
     out, target = tmp_path / "results/v2/out", tmp_path / "leaderboards"
-    (out / "rows").mkdir(parents=True)
-    (out / "index.html").write_text("<html></html>")
-    (out / "paper-2022-sec5.md").write_text("v2")
-    (out / "rows" / "leaderboard-episodes.parquet").write_bytes(b"rows")
-    (target / "models").mkdir(parents=True)
-    (target / "rl").mkdir()
-    (target / "held-out-random-d0.5.md").write_text("v1")  # a v1 table v2 no longer writes
-    (target / "models" / "ppo-paper-s0.zip").write_bytes(b"v1 agent")
-    (target / "rl" / "state.json").write_text("{}")
-    log = tmp_path / "results/v2/compute.jsonl"
-    log.write_text('{"part": "paper", "wall_s": 1.0, "cpu_s": 2.0}\n')
+    write_files(out, {"index.html": "<html></html>", "paper-2022-sec5.md": "v2", "rows/leaderboard-episodes.parquet": "rows"})
+    write_files(target, {
+        "held-out-random-d0.5.md": "v1",  # a v1 table v2 no longer writes
+        "models/ppo-paper-s0.zip": "v1 agent",
+        "rl/state.json": "{}",
+    })  # fmt: skip
+    log = compute_log(tmp_path / "results/v2")
     copied = install_replace(out, target, log)
     assert sorted(p.relative_to(target).as_posix() for p in copied) == [
         "compute.jsonl", "index.html", "paper-2022-sec5.md", "rows/leaderboard-episodes.parquet"
@@ -305,18 +313,16 @@ def test_install_replaces_the_generated_files_and_commits_the_compute_log(tmp_pa
 def test_v3_installs_into_its_own_folder_without_the_exported_rows(tmp_path):
     """v2's tables stay; v3's folder is replaced whole, its rows are the committed chunks (publishing.md §5.5)."""
     out, target = tmp_path / "results/v3/out", tmp_path / "leaderboards/v3"
-    (out / "rows").mkdir(parents=True)
-    (out / "ctg-sensitivity").mkdir()
-    (out / "index.html").write_text("<html></html>")
-    (out / "uavpen-v1.csv").write_text("v3")
-    (out / "ctg-sensitivity" / "sensitivity.md").write_text("forms")
-    (out / "rows" / "leaderboard-steps.parquet").write_bytes(b"rows")
-    (out / OUT_SOURCE_FILE).write_text("results/v3/leaderboard.sqlite")
-    target.mkdir(parents=True)
-    (target / "stale.md").write_text("an earlier v3 table no longer written")
-    (tmp_path / "leaderboards" / "paper-2022-sec5.md").write_text("v2")
-    log = tmp_path / "results/v3/compute.jsonl"
-    log.write_text('{"part": "paper", "wall_s": 1.0, "cpu_s": 2.0}\n')
+    write_files(out, {
+        "index.html": "<html></html>",
+        "uavpen-v1.csv": "v3",
+        "ctg-sensitivity/sensitivity.md": "forms",
+        "rows/leaderboard-steps.parquet": "rows",
+        OUT_SOURCE_FILE: "results/v3/leaderboard.sqlite",
+    })  # fmt: skip
+    write_files(target, {"stale.md": "an earlier v3 table no longer written"})
+    write_files(tmp_path / "leaderboards", {"paper-2022-sec5.md": "v2"})
+    log = compute_log(tmp_path / "results/v3")
     copied = install_folder(out, target, log)
     assert sorted(p.relative_to(target).as_posix() for p in copied) == [
         "compute.jsonl", "ctg-sensitivity/sensitivity.md", "index.html", "uavpen-v1.csv"

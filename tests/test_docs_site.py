@@ -11,19 +11,14 @@ from pathlib import Path
 
 import pytest
 
+from tests.script_modules import load_script
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def load(name: str):
     """The site's build module ``docs/hooks/NAME.py`` (mkdocs loads it by path, not as a package)."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / "hooks" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(spec.name, None)
-    return module
+    return load_script(ROOT / "docs" / "hooks" / f"{name}.py")
 DOCS_EXTRA = "the docs site test needs the docs extra: pip install -e '.[docs]'"
 
 

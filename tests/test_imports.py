@@ -321,6 +321,15 @@ def test_an_export_named_like_its_submodule_stays_the_export_after_the_submodule
     assert out.stdout.split() == ["True", "True", "uav_penetration_env.benchmark.evaluate"]
 
 
+def test_the_exports_are_read_module_by_module_and_a_name_has_one_module():
+    from uav_penetration_env.lazy import exported_modules
+
+    exports = exported_modules({".build": ("BuiltScenario", "build_scenario"), "json": ("dumps",)})
+    assert exports == {"BuiltScenario": ".build", "build_scenario": ".build", "dumps": "json"}
+    with pytest.raises(ValueError, match=r"^dumps: exported by json and \.codec, expected one module$"):
+        exported_modules({"json": ("dumps",), ".codec": ("dumps",)})
+
+
 def test_uav_bench_help_imports_neither_the_harness_nor_the_scenarios():
     """``uav-bench --help`` answers in a fraction of a second: none of these load for it (issue: a slow CLI)."""
     import subprocess

@@ -16,18 +16,10 @@ from uav_penetration_env.lazy import lazy_exports
 # ids without loading the compiled physics, so `uav-bench --help` and `gym.pprint_registry()` answer
 # at once. The compiled modules set numba's cache folder themselves (compile_cache, model.md §8).
 _EXPORTS = {
-    "BuiltScenario": "uav_penetration_env.build",
-    "build_scenario": "uav_penetration_env.build",
-    "HELD_OUT_SEEDS": "uav_penetration_env.catalogue",
-    "dem_scenario": "uav_penetration_env.catalogue",
-    "generate_dem_scenario": "uav_penetration_env.catalogue",
-    "random_scenario": "uav_penetration_env.catalogue",
-    "PenetrationModel": "uav_penetration_env.model",
-    "StepResult": "uav_penetration_env.model",
-    "Scenario": "uav_penetration_env.scenario",
-    "ScenarioError": "uav_penetration_env.scenario",
-    "load_scenario": "uav_penetration_env.scenario",
-    "paper_scenario": "uav_penetration_env.scenario",
+    ".build": ("BuiltScenario", "build_scenario"),
+    ".catalogue": ("HELD_OUT_SEEDS", "dem_scenario", "generate_dem_scenario", "random_scenario"),
+    ".model": ("PenetrationModel", "StepResult"),
+    ".scenario": ("Scenario", "ScenarioError", "load_scenario", "paper_scenario"),
 }
 
 

@@ -718,21 +718,12 @@ def transition(arrays, p, start, end, k_next, per_radar, visible, scalars, flags
 
 
 @njit(inline="always", cache=True)
-def transition_row(
-    arrays,
-    b,
-    states,
-    moves,
-    moves_are_controls,
-    k_next,
-    index,
-    next_states,
-    per_radar,
-    visible,
-    scalars,
-    flags,
-):
-    """Row ``b`` of :func:`transition_batch`: kinematics (or the given next state), then :func:`transition`."""
+def transition_row(arrays, b, states, moves, moves_are_controls, k_next, index, out):
+    """Row ``b`` of :func:`transition_batch`: kinematics (or the given next state), then :func:`transition`.
+
+    ``out``: the outputs ``(next_states, per_radar, visible, scalars, flags)`` of :func:`transition_batch`.
+    """
+    next_states, per_radar, visible, scalars, flags = out
     s = states[b]
     if moves_are_controls:
         x, y, z, v, h, pt = kinematics(
@@ -751,9 +742,7 @@ def transition_row(
 
 
 @njit(parallel=True, cache=True)
-def transition_batch(
-    arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
-):
+def transition_batch(arrays, states, moves, moves_are_controls, k_next, index, out):
     """Transitions of a batch (``PenetrationModel.step`` / ``costs``), rows spread over the threads.
 
     Args:
@@ -763,49 +752,19 @@ def transition_batch(
         moves_are_controls: fly the controls (``step``) or score the given next states (``costs``).
         k_next: (B,) step index after the transition (int64).
         index: (B,) pool index of each row (int64).
-        next_states: (B, 6) out: the next states.
-        per_radar: (B, M) out: per-radar threat.
-        visible: (B, M) out: visibility.
-        scalars: (B, N_SCALARS) out.
-        flags: (B, N_FLAGS) out (bool).
+        out: the outputs, written: ``(next_states, per_radar, visible, scalars, flags)``, of shapes
+            (B, 6) the next states, (B, M) per-radar threat, (B, M) visibility, (B, N_SCALARS),
+            (B, N_FLAGS) bool.
     """
     for b in prange(states.shape[0]):
-        transition_row(
-            arrays,
-            b,
-            states,
-            moves,
-            moves_are_controls,
-            k_next,
-            index,
-            next_states,
-            per_radar,
-            visible,
-            scalars,
-            flags,
-        )
+        transition_row(arrays, b, states, moves, moves_are_controls, k_next, index, out)
 
 
 @njit(cache=True)
-def transition_rows(
-    arrays, states, moves, moves_are_controls, k_next, index, next_states, per_radar, visible, scalars, flags
-):
+def transition_rows(arrays, states, moves, moves_are_controls, k_next, index, out):
     """:func:`transition_batch` on the calling thread (small batches: a single env's step)."""
     for b in range(states.shape[0]):
-        transition_row(
-            arrays,
-            b,
-            states,
-            moves,
-            moves_are_controls,
-            k_next,
-            index,
-            next_states,
-            per_radar,
-            visible,
-            scalars,
-            flags,
-        )
+        transition_row(arrays, b, states, moves, moves_are_controls, k_next, index, out)
 
 
 @njit(parallel=True, cache=True)
@@ -1037,9 +996,7 @@ def step_observe_row(
     next_states, per_radar, visible, scalars, flags, scratch, obs,
 ):  # fmt: skip
     """Row ``b`` of :func:`step_observe_batch`: :func:`transition_row` flying the controls, then :func:`observe_row`."""
-    transition_row(
-        arrays, b, states, controls, True, k_next, index, next_states, per_radar, visible, scalars, flags
-    )
+    transition_row(arrays, b, states, controls, True, k_next, index, (next_states, per_radar, visible, scalars, flags))
     observe_row(arrays, b, next_states, step_fraction, index, per_radar, visible, ahead, across, scratch, obs)
 
 
@@ -1133,9 +1090,7 @@ def env_step_one(
         controls[0, i] = clip(action[i], -high[i], high[i])
     k_next = np.empty(1, dtype=np.int64)
     k_next[0] = step_index + 1
-    transition_row(
-        arrays, 0, states, controls, True, k_next, index, next_states, per_radar, visible, scalars, flags
-    )
+    transition_row(arrays, 0, states, controls, True, k_next, index, (next_states, per_radar, visible, scalars, flags))
     fraction = np.empty(1)
     fraction[0] = k_next[0] / float(arrays.options[O_MAX_STEPS])
     scratch = np.empty((1, OBSERVATION_SIZE + 2 * arrays.radar_xyz.shape[1]))

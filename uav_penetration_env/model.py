@@ -476,10 +476,7 @@ class PenetrationModel:
                 outside [0, K_max - 1] (a transition from step K_max does not exist: the episode
                 has ended); a missing or out-of-range ``scenario_index``.
         """
-        states = self._batch(states, "states", 6)
-        controls = self._batch(controls, "controls", 3)
-        k = self._step_indices(step_index, states.shape[0], self.max_steps - 1)
-        return self._transitions(states, controls, True, k, scenario_index)
+        return self._transitions(states, controls, "controls", step_index, scenario_index)
 
     def costs(
         self,
@@ -493,19 +490,24 @@ class PenetrationModel:
         Raises:
             TypeError, ValueError: as :meth:`step` (``next_states`` in place of ``controls``).
         """
-        states = self._batch(states, "states", 6)
-        next_states = self._batch(next_states, "next_states", 6)
-        k = self._step_indices(step_index, states.shape[0], self.max_steps - 1)
-        return self._transitions(states, next_states, False, k, scenario_index)
+        return self._transitions(states, next_states, "next_states", step_index, scenario_index)
 
     def _transitions(
         self,
-        states: np.ndarray,
-        moves: np.ndarray,
-        moves_are_controls: bool,
+        states: FloatArray,
+        moves: FloatArray,
+        moves_name: str,
         step_index: IntArray | int,
         scenario_index: IntArray | None,
     ) -> StepResult:
+        """:meth:`step` or :meth:`costs`, their arguments checked first.
+
+        ``moves_name`` is ``"controls"`` ((B, 3) controls, flown) or ``"next_states"`` ((B, 6) states).
+        """
+        moves_are_controls = moves_name == "controls"
+        states = self._batch(states, "states", 6)
+        moves = self._batch(moves, moves_name, 3 if moves_are_controls else 6)
+        step_index = self._step_indices(step_index, states.shape[0], self.max_steps - 1)
         batch = states.shape[0]
         if moves.shape[0] != batch:
             raise ValueError(
@@ -540,11 +542,7 @@ class PenetrationModel:
             moves_are_controls,
             k_next,
             index,
-            next_states,
-            per_radar,
-            visible,
-            scalars,
-            flags,
+            (next_states, per_radar, visible, scalars, flags),
             threads=self.threads,
         )
         return self._step_result(next_states, k_next, per_radar, visible, scalars, flags)

@@ -13,19 +13,15 @@ Torch is imported only when fitting, so the policy kind loads and flies without 
 
 from __future__ import annotations
 
-from uav_penetration_env.lazy import lazy_exports
+from uav_penetration_env.lazy import exported_modules, lazy_exports
 
 # Imported on first use, so that `uav-bench distill --help` loads neither the env nor torch.
 _EXPORTS = {
-    "DistillConfig": "baselines.distill.config",
-    "DistillResult": "baselines.distill.loop",
-    "run_distill": "baselines.distill.loop",
-    "DistillPolicy": "baselines.distill.policy",
-    "SafeDistillPolicy": "baselines.distill.policy",
-    "load_distill_policy": "baselines.distill.policy",
-    "load_guarded_distill_policy": "baselines.distill.policy",
+    ".config": ("DistillConfig",),
+    ".loop": ("DistillResult", "run_distill"),
+    ".policy": ("DistillPolicy", "SafeDistillPolicy", "load_distill_policy", "load_guarded_distill_policy"),
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted(exported_modules(_EXPORTS))
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

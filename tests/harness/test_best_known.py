@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from conftest import tiny_scenario
 
+from optimizers.sep_cma_restarts import SepCMARestarts
 from uav_penetration_env.benchmark.bestknown import record as record_module
 from uav_penetration_env.benchmark.bestknown.checkpoint import checkpoint_path
 from uav_penetration_env.benchmark.bestknown.compute import (
@@ -47,7 +48,11 @@ from uav_penetration_env.model import PenetrationModel
 
 # A tiny scenario with a short episode keeps every search here under a second or two.
 SCENARIO = tiny_scenario(name="tiny-best-known", time={"max_steps": 20})
-TINY_SEARCH = {"seconds": None, "population": 6, "stall_generations": 3, "checkpoint_seconds": 1e9}
+TINY_SEARCH = {
+    "seconds": None,
+    "optimizer": SepCMARestarts(population=6, stall_generations=3),
+    "checkpoint_seconds": 1e9,
+}
 
 
 @pytest.fixture(scope="module")
@@ -215,8 +220,8 @@ def test_an_interrupted_search_continues_to_the_uninterrupted_result(objective, 
 def test_settings_errors_name_the_field():
     with pytest.raises(ValueError, match="budget: got neither seconds nor max_evals"):
         SearchSettings(seconds=None)
-    with pytest.raises(ValueError, match="start_sigma: got 0, expected a number in"):
-        SearchSettings(start_sigma=0)
+    with pytest.raises(ValueError, match="optimizer: got 'sep-cma', expected a SepCMARestarts"):
+        SearchSettings(optimizer="sep-cma")
 
 
 # --- compute, update, verify -----------------------------------------------------------------------------

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from conftest import tiny_scenario
+from conftest import successful_episode, tiny_scenario
 from scipy import stats as scipy_stats
 
 from uav_penetration_env.benchmark import figures
@@ -85,19 +85,7 @@ def synthetic_steps(seed: int, n: int, history: bool) -> list[dict]:
 def synthetic_episode(
     policy: str, seed: int, scenario: str, scenario_hash: str, cost: float, **changes
 ) -> dict:
-    return {
-        "policy": policy,
-        "policy_hash": f"{policy:0<16}"[:16],
-        "scenario": scenario,
-        "scenario_hash": scenario_hash,
-        "seed": seed,
-        "outcome": "success",
-        "total_J": cost,
-        "total_penalty": 0.0,
-        "total_cost": cost,
-        "steps": 8,
-        "error": "",
-    } | changes
+    return successful_episode(policy, seed, scenario, scenario_hash, cost) | {"steps": 8, "error": ""} | changes
 
 
 @contextlib.contextmanager

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import tiny_scenario
+from conftest import successful_episode, tiny_scenario
 
 from uav_penetration_env.benchmark import leaderboard as lb
 from uav_penetration_env.benchmark.columns import legend_lines
@@ -22,16 +22,7 @@ STEPS = 10
 
 def episode(policy: str, seed: int, scenario: str = "tiny", scenario_hash: str = "a" * 16, **changes) -> dict:
     cost = OFFSETS.get(policy, 5.0) + seed
-    row = {
-        "policy": policy,
-        "policy_hash": f"{policy:x<16}"[:16],
-        "scenario": scenario,
-        "scenario_hash": scenario_hash,
-        "seed": seed,
-        "outcome": "success",
-        "total_J": cost,
-        "total_penalty": 0.0,
-        "total_cost": cost,
+    row = successful_episode(policy, seed, scenario, scenario_hash, cost) | {
         "mean_J": cost / STEPS,
         "terrain_total": 1.0,
         "radar_total": 2.0 * cost,

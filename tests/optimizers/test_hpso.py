@@ -14,6 +14,7 @@ from optimizers.hpso import (
     level_weights,
     stage1_iterations,
 )
+from tests.optimizers.spies import record_calls
 
 
 def sphere(x):
@@ -64,14 +65,7 @@ def test_stage_split():
 
 def test_stage_split_in_a_run(monkeypatch):
     """Iterations 1..79 use eq. 22 (sign +1), iterations 80..99 eq. 23 (hpso-literal: sign -1)."""
-    signs = []
-    real = hpso_module.holonic_velocity
-
-    def spy(*args, **kwargs):
-        signs.append(kwargs["sign"])
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(hpso_module, "holonic_velocity", spy)
+    signs = record_calls(monkeypatch, hpso_module, "holonic_velocity", lambda *args, **kwargs: kwargs["sign"])
     res = get_optimizer("hpso-literal").minimize(sphere, BOUNDS, rng=0, max_evals=10_000)
     assert res.nit == 99
     assert signs == [1.0] * 79 + [-1.0] * 20
@@ -79,28 +73,14 @@ def test_stage_split_in_a_run(monkeypatch):
 
 def test_random_regroupings_only_in_stage_1(monkeypatch):
     """With T_r = 10 the groups are redrawn before iterations 11, 21, ..., 71 only: 1 initial + 7."""
-    calls = []
-    real = hpso_module.random_equal_groups
-
-    def spy(n, g, rng):
-        calls.append((n, g))
-        return real(n, g, rng)
-
-    monkeypatch.setattr(hpso_module, "random_equal_groups", spy)
+    calls = record_calls(monkeypatch, hpso_module, "random_equal_groups", lambda n, g, rng: (n, g))
     HPSO().minimize(sphere, BOUNDS, rng=0, max_evals=10_000)
     assert calls == [(100, 5)] * 8
 
 
 def test_groups_used_by_the_velocity_follow_the_regroupings(monkeypatch):
     """The group attractor is the group-best pbest of the current partition (frozen in stage 2)."""
-    seen = []
-    real = hpso_module.holonic_attractors
-
-    def spy(pbest, f_pbest, labels):
-        seen.append(np.array(labels))
-        return real(pbest, f_pbest, labels)
-
-    monkeypatch.setattr(hpso_module, "holonic_attractors", spy)
+    seen = record_calls(monkeypatch, hpso_module, "holonic_attractors", lambda pbest, f_pbest, labels: np.array(labels))
     HPSO().minimize(sphere, BOUNDS, rng=0, max_evals=10_000)
     changes = [t + 1 for t in range(1, len(seen)) if not np.array_equal(seen[t], seen[t - 1])]
     assert changes == [11, 21, 31, 41, 51, 61, 71]

@@ -7,6 +7,7 @@ import pytest
 
 import optimizers.lpso as lpso_module
 from optimizers.lpso import LPSO, neighbourhood_fraction, spatial_neighbourhood_best
+from tests.optimizers.spies import record_calls
 
 
 def sphere(x):
@@ -51,14 +52,7 @@ def test_spatial_neighbourhood_best_matches_a_loop():
 
 def test_spatial_neighbourhoods_only_in_the_first_tenth(monkeypatch):
     """frac(l) <= 0.9 only for l <= 9 when T = 99: ten spatial iterations, then global best."""
-    calls = []
-    real = lpso_module.spatial_neighbourhood_best
-
-    def spy(U, f_pbest, frac):
-        calls.append(frac)
-        return real(U, f_pbest, frac)
-
-    monkeypatch.setattr(lpso_module, "spatial_neighbourhood_best", spy)
+    calls = record_calls(monkeypatch, lpso_module, "spatial_neighbourhood_best", lambda U, f_pbest, frac: frac)
     res = LPSO().minimize(sphere, [(-5.0, 5.0)] * 10, rng=0, max_evals=10_000)
     assert res.nit == 99
     assert len(calls) == 10

@@ -8,6 +8,7 @@ import pytest
 import optimizers.mcpso as mcpso_module
 from optimizers import get_optimizer
 from optimizers.mcpso import MCPSO, master_velocity, migration_factor
+from tests.optimizers.spies import record_calls
 
 
 def sphere(x):
@@ -79,14 +80,7 @@ def test_uneven_population_gives_the_extra_particle_to_the_master():
 
 
 def test_com_uses_the_migration_factor(monkeypatch):
-    phis = []
-    real = mcpso_module.master_velocity
-
-    def spy(*args, **kwargs):
-        phis.append(kwargs["phi"])
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(mcpso_module, "master_velocity", spy)
+    phis = record_calls(monkeypatch, mcpso_module, "master_velocity", lambda *args, **kwargs: kwargs["phi"])
     get_optimizer("mcpso").minimize(sphere, [(-5.0, 5.0)] * 4, rng=0, max_evals=1_000)
     assert phis and all(p is None for p in phis)
     phis.clear()

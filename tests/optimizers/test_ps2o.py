@@ -125,10 +125,14 @@ def test_species_layout_and_warm_start():
     assert batches[0][0].tolist() == [0.25, -0.5]
 
 
-def test_invalid_hyper_parameters():
-    with pytest.raises(ValueError, match=r"PS2O\.n_species: got 1"):
-        PS2O(n_species=1)
-    with pytest.raises(ValueError, match=r"PS2O\.extinction_patience: got 0"):
-        PS2O(extinction_patience=0)
-    with pytest.raises(ValueError, match=r"PS2O\.link_probability"):
-        PS2O(link_probability=1.5)
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"n_species": 1}, r"PS2O\.n_species: got 1"),
+        ({"extinction_patience": 0}, r"PS2O\.extinction_patience: got 0"),
+        ({"link_probability": 1.5}, r"PS2O\.link_probability"),
+    ],
+)
+def test_invalid_hyper_parameters(changes, message):
+    with pytest.raises(ValueError, match=message):
+        PS2O(**changes)

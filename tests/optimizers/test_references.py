@@ -14,6 +14,7 @@ from optimizers import get_optimizer
 from optimizers.cem import CEM, cem_samples, cem_update
 from optimizers.cma_es import CMAES
 from optimizers.de import DE
+from tests.optimizers.spies import record_calls
 
 LO, HI = np.array([-5.0, 0.0, 10.0]), np.array([5.0, 1.0, 30.0])
 
@@ -61,14 +62,7 @@ def test_cem_update_hand_case():
 
 
 def test_cem_batches_and_warm_start_mean(monkeypatch):
-    means = []
-    real = cem_module.cem_samples
-
-    def spy(mean, std, z):
-        means.append((mean.copy(), std.copy()))
-        return real(mean, std, z)
-
-    monkeypatch.setattr(cem_module, "cem_samples", spy)
+    means = record_calls(monkeypatch, cem_module, "cem_samples", lambda mean, std, z: (mean.copy(), std.copy()))
     rec = Batches(sphere)
     x0 = np.array([0.0, 0.25, 25.0])
     res = CEM().minimize(rec, (LO, HI), rng=0, max_evals=1_000, x0=x0)

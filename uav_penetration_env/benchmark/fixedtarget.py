@@ -395,24 +395,22 @@ def _comparison_frame(comparisons: pd.DataFrame, ref: str) -> pd.DataFrame:
 
 def _comparison_lines(comparisons: pd.DataFrame, ref: str) -> list[str]:
     """The windows-as-units section (none without a shared window)."""
-    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_section
 
     if comparisons.empty:
         return []
-    lines = [
-        f"## Windows as units, against {ref}",
-        "",
+    text = (
         "Each window (one MPC state, all its seeds) is one unit of replication. Fixed target: per window, "
         f"log10(ERT of the other / ERT of {ref}) at f_best + Δ|f_best| (+∞: only {ref} reached it, −∞: only the "
         "other; a window neither reached is left out and counted). Fixed budget: per window, the mean over seeds "
         f"of the other's best-so-far J at {ref}'s evaluation count of the same seed, minus {ref}'s final J. "
         "Median over windows, percentile-bootstrap 95 % interval over windows, two-sided Wilcoxon signed-rank "
         "test over windows; p values are raw (a publication's protocol declares its family and correction). "
-        "Negative: the other is faster / cheaper.",
-        "",
-    ]
+        "Negative: the other is faster / cheaper."
+    )
     body = [_comparison_cells(r) for r in comparisons.itertuples()]
-    return [*lines, markdown_table(COMPARISON_HEADER, body, ["l", "l", "l", "r", "r", "r", "r"]), ""]
+    align = ["l", "l", "l", "r", "r", "r", "r"]
+    return markdown_section(f"Windows as units, against {ref}", text, COMPARISON_HEADER, body, align)
 
 
 def fixed_target_markdown(
@@ -491,7 +489,7 @@ def _ert_lines(table: pd.DataFrame) -> list[str]:
 
 def _trace_lines(traces: pd.DataFrame) -> list[str]:
     """The evaluations and state-machine section."""
-    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_table
+    from uav_penetration_env.benchmark.leaderboard.formatting import markdown_section
 
     body = [
         [str(r.optimizer), str(r.runs), _number(r.nfev_mean), _number(r.stopped_early_share, 3),
@@ -499,7 +497,8 @@ def _trace_lines(traces: pd.DataFrame) -> list[str]:
         for r in traces.itertuples()
     ]  # fmt: skip
     header = ["optimizer", "runs", "evals/run", "stopped early", "switches/run", "reverse/run", "median J"]
-    return ["## Evaluations and the optimisers' state machines", "", markdown_table(header, body, ["l", "r", "r", "r", "r", "r", "r"]), ""]
+    align = ["l", "r", "r", "r", "r", "r", "r"]
+    return markdown_section("Evaluations and the optimisers' state machines", "", header, body, align)
 
 
 

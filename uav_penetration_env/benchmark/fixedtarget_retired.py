@@ -112,26 +112,24 @@ def paired_table(rows: pd.DataFrame, reference: str) -> pd.DataFrame:
 
 def paired_lines(paired: pd.DataFrame, ref: str) -> list[str]:
     """The paired fixed-budget and fixed-target section (none without pairs)."""
-    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_table
+    from uav_penetration_env.benchmark.leaderboard.formatting import format_pvalue, markdown_section
 
     if paired.empty:
         return []
-    lines = [
-        f"## Paired per (window, seed) against {ref}",
-        "",
+    text = (
         f"Fixed budget: the other optimiser's best-so-far J at {ref}'s evaluation count of the same run, "
         f"against {ref}'s final J. Fixed target: evaluations each needed to reach the worse of the two final "
         "costs. Δ = other − reference (positive: the other is costlier / slower); two-sided Wilcoxon "
-        "signed-rank test.",
-        "",
-    ]
+        "signed-rank test."
+    )
     body = [
         [str(r.comparison), str(r.other), _number(r.reference_median, 6), _number(r.other_median, 6),
          _number(r.median_difference, 4), f"{r.reference_better} / {r.other_better} of {r.pairs}", format_pvalue(r.pvalue)]
         for r in paired.itertuples()
     ]  # fmt: skip
     header = ["comparison", "other", f"{ref} median", "other median", "median Δ", f"{ref} better / other better", "p"]
-    return [*lines, markdown_table(header, body, ["l", "l", "r", "r", "r", "r", "r"]), ""]
+    align = ["l", "l", "r", "r", "r", "r", "r"]
+    return markdown_section(f"Paired per (window, seed) against {ref}", text, header, body, align)
 
 
 

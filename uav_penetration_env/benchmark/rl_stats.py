@@ -78,6 +78,13 @@ def _check_level(confidence: float, n_resamples: int) -> None:
         raise ValueError(f"n_resamples: got {n_resamples!r}, expected an integer >= 1")
 
 
+def _bootstrap_scores(scores: ArrayLike, confidence: float, n_resamples: int) -> np.ndarray:
+    """The (runs, tasks) matrix of ``scores`` once it, ``confidence`` and ``n_resamples`` are checked."""
+    matrix = score_matrix(scores)
+    _check_level(confidence, n_resamples)
+    return matrix
+
+
 # --- statistics of a (..., runs, tasks) stack -----------------------------------------------------------
 
 
@@ -165,8 +172,7 @@ def stratified_bootstrap(
     Raises:
         ValueError: bad scores, an unknown statistic name or ``n_resamples < 1``.
     """
-    matrix = score_matrix(scores)
-    _check_level(0.5, n_resamples)
+    matrix = _bootstrap_scores(scores, 0.5, n_resamples)
     function = _statistic(statistic)
     rng = np.random.default_rng(seed)
     parts = [function(stratified_resamples(matrix, rng, n)) for n in _chunks(n_resamples, matrix.shape)]
@@ -239,8 +245,7 @@ def interval_estimate(
     Raises:
         ValueError: bad scores, statistic, confidence or number of resamples.
     """
-    matrix = score_matrix(scores)
-    _check_level(confidence, n_resamples)
+    matrix = _bootstrap_scores(scores, confidence, n_resamples)
     function = _statistic(statistic)
     value = float(function(matrix[None])[0])
     if matrix.shape[0] == 1 or np.all(matrix == matrix[:1]):
@@ -300,8 +305,7 @@ def performance_profile(
     Raises:
         ValueError: bad scores, thresholds, confidence or number of resamples.
     """
-    matrix = score_matrix(scores)
-    _check_level(confidence, n_resamples)
+    matrix = _bootstrap_scores(scores, confidence, n_resamples)
     thresholds = np.array(taus, dtype=np.float64).reshape(-1)
     if thresholds.size == 0 or not np.all(np.isfinite(thresholds)):
         raise ValueError(f"taus: got {np.asarray(taus).tolist()!r}, expected one or more finite thresholds")

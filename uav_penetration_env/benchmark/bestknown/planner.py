@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,37 +38,23 @@ __all__ = ["EpisodeObjective", "SearchResult", "SearchSettings", "Start", "searc
 class SearchSettings:
     """The offline search's settings (docs/best-known.md §1): its budget, seed and optimiser.
 
-    The fields from ``population`` to ``refine_sigmas`` are those of
-    :class:`~optimizers.sep_cma_restarts.SepCMARestarts` (checked there); on the action box a step
-    size is a fraction of each control's limit.
-
     Attributes:
         seconds: wall-clock budget of the search [s] (``None``: evaluations only).
         max_evals: evaluation budget (``None``: seconds only). With both, the first reached stops.
         seed: seed of the search's generator (random starts and every CMA-ES run's seed).
-        population: CMA-ES population (``None``: cmaes' default 4 + floor(3 ln n), 22 for n = 450).
-        start_sigma: initial step size of a run from a given start or the incumbent (normalised).
-            DECISION (docs/best-known.md §1): 0.01 of the action box (0.02 m/s, 0.15 deg per step): a start is a good
-            track, and on the paper scenario a step of 0.05 turned almost every sample of the
-            450 variables into a crash (measured: 20 of 22 samples crashed).
-        random_sigma: initial step size of a run from a random start.
-        random_scale: random starts are uniform in [-random_scale, random_scale] per variable.
-        stall_generations: a run ends after this many generations without improving its best.
-        refine_fraction: the share of the budget kept for the refinement phase.
-        refine_sigmas: step sizes of the refinement runs, cycled.
+        optimizer: the restart schedule (population, step sizes, stall and refinement settings,
+            checked there); on the action box a step size is a fraction of each control's limit.
+            DECISION (docs/best-known.md §1): its default ``start_sigma`` is 0.01 of the action box
+            (0.02 m/s, 0.15 deg per step): a start is a good track, and on the paper scenario a step
+            of 0.05 turned almost every sample of the 450 variables into a crash (measured: 20 of 22
+            samples crashed).
         checkpoint_seconds: wall seconds between checkpoints.
     """
 
     seconds: float | None = 90.0
     max_evals: int | None = None
     seed: int = 0
-    population: int | None = None
-    start_sigma: float = 0.01
-    random_sigma: float = 0.3
-    random_scale: float = 0.5
-    stall_generations: int = 50
-    refine_fraction: float = 0.2
-    refine_sigmas: tuple[float, ...] = (0.005, 0.002, 0.001)
+    optimizer: SepCMARestarts = field(default_factory=SepCMARestarts)
     checkpoint_seconds: float = 5.0
 
     def __post_init__(self) -> None:
@@ -78,27 +64,15 @@ class SearchSettings:
             raise ValueError(f"seconds: got {self.seconds!r}, expected a number of seconds > 0")
         if self.max_evals is not None and self.max_evals < 1:
             raise ValueError(f"max_evals: got {self.max_evals!r}, expected an integer >= 1")
-        self.optimizer()  # checks the optimiser's settings, naming the field
+        if not isinstance(self.optimizer, SepCMARestarts):
+            raise ValueError(f"optimizer: got {self.optimizer!r}, expected a SepCMARestarts")
 
     def key(self) -> dict[str, Any]:
-        """The settings a checkpoint must share to be continued (everything but the budget)."""
-        data = asdict(self)
-        for name in ("seconds", "max_evals", "checkpoint_seconds"):
-            data.pop(name)
-        data["refine_sigmas"] = list(self.refine_sigmas)
-        return data
+        """The settings a checkpoint must share to be continued (everything but the budget).
 
-    def optimizer(self) -> SepCMARestarts:
-        """The search's optimiser with these settings (its step sizes are in action-box units)."""
-        return SepCMARestarts(
-            population=self.population,
-            start_sigma=self.start_sigma,
-            random_sigma=self.random_sigma,
-            random_scale=self.random_scale,
-            stall_generations=self.stall_generations,
-            refine_fraction=self.refine_fraction,
-            refine_sigmas=tuple(self.refine_sigmas),
-        )
+        One flat mapping: the seed, then the optimiser's fields.
+        """
+        return {"seed": self.seed, **asdict(self.optimizer), "refine_sigmas": list(self.optimizer.refine_sigmas)}
 
 
 @dataclass(frozen=True)
@@ -190,7 +164,7 @@ def search(
     if not starts:
         raise ValueError("starts: got none, expected at least one start (e.g. the greedy episode)")
     check_starts(starts, objective.dimension)
-    optimizer = settings.optimizer()
+    optimizer = settings.optimizer
     saver = Checkpoints(
         None if checkpoint is None else Path(checkpoint),
         scenario_hash,

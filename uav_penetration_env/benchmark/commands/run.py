@@ -20,8 +20,6 @@ import threading
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from uav_penetration_env.benchmark.commands.common import (
     CLIError,
     Command,
@@ -50,6 +48,7 @@ from uav_penetration_env.settings_fields import (
 )
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.wording import counted
+from uav_penetration_env.yaml_mapping import read_yaml_mapping
 
 # The MPC settings are config keys too, their defaults the dataclass's (mpc_flags).
 CONFIG_KEYS = [*config_keys(RunSettings), *SETTING_FIELDS]
@@ -78,13 +77,9 @@ def load_config(path: str | None) -> dict[str, Any]:
     if path is None:
         return {}
     try:
-        data = yaml.safe_load(Path(path).read_text()) or {}
-    except OSError as error:
-        raise CLIError(f"--config: cannot read {path} ({error.strerror})") from None
-    except yaml.YAMLError as error:
-        raise CLIError(f"--config: {path} is not valid YAML ({error})") from None
-    if not isinstance(data, dict):
-        raise CLIError(f"--config: {path} must hold a mapping of flag names to values")
+        data = read_yaml_mapping(Path(path), "--config", "flag names")
+    except (OSError, ValueError) as error:
+        raise CLIError(str(error)) from None
     for key in data:
         if key not in CONFIG_KEYS:
             raise CLIError(

@@ -73,6 +73,25 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]], align: 
     return "\n".join([render(cells[0]), "| " + " | ".join(rule) + " |", *(render(c) for c in cells[1:])])
 
 
+def markdown_section(
+    title: str, text: str, header: Sequence[str], rows: Sequence[Sequence[str]], align: Sequence[str]
+) -> list[str]:
+    """The lines of a page section: ``## title``, the paragraph ``text`` (none when empty), the table.
+
+    Args:
+        title: the heading, without ``## ``.
+        text: the paragraph under it (``""``: none).
+        header: the table's column titles (:func:`markdown_table`).
+        rows: its cell texts, one list per row.
+        align: ``"l"`` or ``"r"`` per column.
+
+    Returns:
+        The lines, a blank line after each part.
+    """
+    paragraph = [text, ""] if text else []
+    return [f"## {title}", "", *paragraph, markdown_table(header, rows, align), ""]
+
+
 def compact_names(names: Sequence[str]) -> str:
     """``random-10000 ... random-10049``-style summary of a sorted list of names (at most 6 shown)."""
     names = list(names)
