@@ -98,12 +98,7 @@ def run_campaign(
                 print(f"refused: {refusal(repo)}", file=sys.stderr)
                 return 1
             if part.rebuild_check:  # no stale file may take part in the comparison
-                for folder, first in (
-                    (spec.layout.out, index == 0),
-                    (spec.layout.check, command[0] == "leaderboard"),
-                ):
-                    if first and (repo / folder).is_dir():
-                        shutil.rmtree(repo / folder)
+                _clear_rebuild_folders(spec, repo, first_command=index == 0, leaderboard=command[0] == "leaderboard")
             status = process.run_attempt(repo, part.name, command, log)
             if status != 0:
                 print(
@@ -115,15 +110,28 @@ def run_campaign(
             if not dry_run:
                 return WAITING
             continue
-        if part.rebuild_check and not dry_run:
-            differing = compare_rebuild(repo / spec.layout.out, repo / spec.layout.check)
-            append_attempt(log, {"part": part.name, "command": REBUILD_CHECK, "wall_s": 0.0, "cpu_s": 0.0,
-                                 "status": 1 if differing else 0, "commit": process.commit(repo)})  # fmt: skip
-            if differing:
-                print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
-                if spec.install.rows is not None:
-                    print(f"(the rows are {spec.install.rows}: if the store holds rows the checkpoint lacks, run "
-                          "--checkpoint and commit it before the tables part)", file=sys.stderr)  # fmt: skip
-                return 1
-            print("tables rebuilt from the rows equal the store's (apart from the date line)")
+        if part.rebuild_check and not dry_run and not _rebuild_matches(spec, repo, part, log):
+            return 1
     return 0
+
+
+def _clear_rebuild_folders(spec: CampaignSpec, repo: Path, *, first_command: bool, leaderboard: bool) -> None:
+    """Remove the output folder before a rebuild-checked part's first command, the rebuild folder before its leaderboard."""
+    for folder, now in ((spec.layout.out, first_command), (spec.layout.check, leaderboard)):
+        if now and (repo / folder).is_dir():
+            shutil.rmtree(repo / folder)
+
+
+def _rebuild_matches(spec: CampaignSpec, repo: Path, part: Part, log: Path) -> bool:
+    """Compare a part's tables with those rebuilt from its rows, log the check as an attempt; True when equal."""
+    differing = compare_rebuild(repo / spec.layout.out, repo / spec.layout.check)
+    append_attempt(log, {"part": part.name, "command": REBUILD_CHECK, "wall_s": 0.0, "cpu_s": 0.0,
+                         "status": 1 if differing else 0, "commit": process.commit(repo)})  # fmt: skip
+    if differing:
+        print(f"the tables rebuilt from rows differ: {', '.join(differing)}", file=sys.stderr)
+        if spec.install.rows is not None:
+            print(f"(the rows are {spec.install.rows}: if the store holds rows the checkpoint lacks, run "
+                  "--checkpoint and commit it before the tables part)", file=sys.stderr)  # fmt: skip
+        return False
+    print("tables rebuilt from the rows equal the store's (apart from the date line)")
+    return True
