@@ -262,6 +262,81 @@ def _sift_down(heap, where, key, size, i):
 
 
 @njit(cache=True)
+def _settled_from_the_start(flat, fixed, blocked, cost, move_t):
+    """(N,) the nodes settled before the pass: fixed ones, and those whose every move is forbidden (set to ``inf``)."""
+    nodes, moves = move_t.shape
+    settled = np.zeros(nodes, dtype=np.bool_)
+    for n in range(nodes):
+        if fixed[n]:
+            settled[n] = True
+            continue
+        dead = True
+        for a in range(moves):
+            if not blocked[n, a] and cost[move_t[n, a]] < math.inf:
+                dead = False
+        if dead:
+            settled[n] = True
+            flat[n] = math.inf
+    return settled
+
+
+@njit(cache=True)
+def _settled_corner_sums(flat, settled, corner, weight, share, cap):
+    """Per move: the weighted sum and weight of its settled corners, and the weight it needs settled to count."""
+    rows = corner.shape[0]
+    total = np.zeros(rows)
+    weights = np.zeros(rows)
+    needed = np.zeros(rows)
+    for t in range(rows):
+        for s in range(CORNERS):
+            n = corner[t, s]
+            if n < 0:
+                break
+            if flat[n] != -math.inf:
+                needed[t] += share * weight[t, s]
+            if settled[n] and flat[n] != -math.inf:
+                total[t] += weight[t, s] * (flat[n] if flat[n] < math.inf else cap)
+                weights[t] += weight[t, s]
+    return total, weights, needed
+
+
+@njit(cache=True)
+def _heap_of_finite_keys(key):
+    """An indexed binary min-heap of the nodes with a finite key: (heap, position of each node or -1, size)."""
+    nodes = key.size
+    heap = np.empty(nodes, dtype=np.int64)
+    where = np.full(nodes, -1, dtype=np.int64)
+    size = 0
+    for n in range(nodes):
+        if key[n] < math.inf:
+            heap[size] = n
+            where[n] = size
+            size += 1
+    for i in range(size // 2 - 1, -1, -1):
+        _sift_down(heap, where, key, size, i)
+    return heap, where, size
+
+
+@njit(cache=True)
+def _least_settled_q(n, move_t, blocked, cost, reached, total, weights, needed):
+    """The least q over node ``n``'s moves that reach the goal or have enough settled corner weight (``inf``: none)."""
+    best = math.inf
+    for a in range(move_t.shape[1]):
+        t = move_t[n, a]
+        if blocked[n, a] or cost[t] == math.inf:
+            continue
+        if reached[t]:
+            q = cost[t]
+        elif weights[t] > 1e-12 and weights[t] >= needed[t]:
+            q = cost[t] + total[t] / weights[t]
+        else:
+            continue
+        if q < best:
+            best = q
+    return best
+
+
+@njit(cache=True)
 def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, fixed, users_ptr, users, rev_ptr, rev, share):
     """A label-setting first pass (Dijkstra from the goal outward): V's first guess (in ``table``) and the order nodes settled in.
 
@@ -281,31 +356,8 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
     nodes, moves = move_t.shape
     rows = cost.shape[0]
     cap = grid[G_MISSING]
-    settled = np.zeros(nodes, dtype=np.bool_)
-    for n in range(nodes):
-        if fixed[n]:
-            settled[n] = True
-            continue
-        dead = True
-        for a in range(moves):
-            if not blocked[n, a] and cost[move_t[n, a]] < math.inf:
-                dead = False
-        if dead:
-            settled[n] = True
-            flat[n] = math.inf
-    total = np.zeros(rows)
-    weights = np.zeros(rows)
-    needed = np.zeros(rows)
-    for t in range(rows):
-        for s in range(CORNERS):
-            n = corner[t, s]
-            if n < 0:
-                break
-            if flat[n] != -math.inf:
-                needed[t] += share * weight[t, s]
-            if settled[n] and flat[n] != -math.inf:
-                total[t] += weight[t, s] * (flat[n] if flat[n] < math.inf else cap)
-                weights[t] += weight[t, s]
+    settled = _settled_from_the_start(flat, fixed, blocked, cost, move_t)
+    total, weights, needed = _settled_corner_sums(flat, settled, corner, weight, share, cap)
     key = np.full(nodes, math.inf)
     for t in range(rows):
         if cost[t] == math.inf or not (reached[t] or (weights[t] > 1e-12 and weights[t] >= needed[t])):
@@ -315,16 +367,7 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
             u = users[e] // moves
             if not settled[u] and not blocked.flat[users[e]] and q < key[u]:
                 key[u] = q
-    heap = np.empty(nodes, dtype=np.int64)
-    where = np.full(nodes, -1, dtype=np.int64)
-    size = 0
-    for n in range(nodes):
-        if key[n] < math.inf:
-            heap[size] = n
-            where[n] = size
-            size += 1
-    for i in range(size // 2 - 1, -1, -1):
-        _sift_down(heap, where, key, size, i)
+    heap, where, size = _heap_of_finite_keys(key)
     order = np.empty(nodes, dtype=np.int64)
     count = 0
     for n in range(nodes):
@@ -342,20 +385,7 @@ def settled_values(table, grid, cost, reached, corner, weight, move_t, blocked, 
         settled[n] = True
         order[count] = n
         count += 1
-        best = math.inf
-        for a in range(moves):
-            t = move_t[n, a]
-            if blocked[n, a] or cost[t] == math.inf:
-                continue
-            if reached[t]:
-                q = cost[t]
-            elif weights[t] > 1e-12 and weights[t] >= needed[t]:
-                q = cost[t] + total[t] / weights[t]
-            else:
-                continue
-            if q < best:
-                best = q
-        value = capped(best, cap)
+        value = capped(_least_settled_q(n, move_t, blocked, cost, reached, total, weights, needed), cap)
         flat[n] = value
         for r in range(rev_ptr[n], rev_ptr[n + 1]):
             t = rev[r] // CORNERS
