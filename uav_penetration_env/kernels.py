@@ -886,6 +886,17 @@ def observe_scratch_width(radars: int) -> int:
 
 
 @njit(inline="always", cache=True)
+def terrain_ahead(terrain, p, x, y, z, cos_h, sin_h, ahead, across, params, obs):
+    """The observation's terrain slots: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left)."""
+    for a in range(ahead.shape[0]):
+        for c in range(across.shape[0]):
+            px = x + ahead[a] * cos_h - across[c] * sin_h
+            py = y + ahead[a] * sin_h + across[c] * cos_h
+            height = grid_value(terrain, p, px, py, params)
+            obs[TERRAIN + a * across.shape[0] + c] = (height - z) / 1000.0
+
+
+@njit(inline="always", cache=True)
 def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahead, across, scratch, out):
     """Row ``b`` of :func:`observe_batch`; ``scratch[b]`` (:func:`observe_scratch_width` floats) is its work space.
 
@@ -925,13 +936,7 @@ def observe_row(arrays, b, states, step_fraction, index, per_radar, visible, ahe
     relative = math.atan2(gy, gx) - heading
     obs[GOAL_BEARING] = math.cos(relative)
     obs[GOAL_BEARING + 1] = math.sin(relative)
-    # Terrain ahead: 5 x 5 samples on a heading-aligned grid (ahead-major, across = to the left).
-    for a in range(ahead.shape[0]):
-        for c in range(across.shape[0]):
-            px = x + ahead[a] * cos_h - across[c] * sin_h
-            py = y + ahead[a] * sin_h + across[c] * cos_h
-            height = grid_value(arrays.terrain, p, px, py, params)
-            obs[TERRAIN + a * across.shape[0] + c] = (height - z) / 1000.0
+    terrain_ahead(arrays.terrain, p, x, y, z, cos_h, sin_h, ahead, across, params, obs)
     # The nearest radars (stable order by range; absent slots last), 7 features each.
     distance = work[OBSERVATION_SIZE : OBSERVATION_SIZE + radars]
     taken = work[OBSERVATION_SIZE + radars : OBSERVATION_SIZE + 2 * radars]  # 1.0 once a slot is listed
