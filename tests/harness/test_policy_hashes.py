@@ -60,7 +60,7 @@ def run_hashes(argv: list[str]) -> dict[str, str]:
     args = cli.build_parser().parse_args(["run", *argv])
     args.argv = ["run", *argv]
     settings = run_command.run_settings(args)
-    return {name: policy_hash(policy) for name, policy in run_command.make_policies(settings).items()}
+    return {name: policy_hash(policy) for name, policy in run_command.make_policies(settings.policies, settings.mpc).items()}
 
 
 @pytest.mark.parametrize("argv", list(RUN_HASHES), ids=lambda argv: " ".join(argv) or "no flags")

@@ -17,8 +17,9 @@ import dataclasses
 import signal
 import sys
 import threading
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from uav_penetration_env.benchmark.commands.common import (
     CLIError,
@@ -49,6 +50,9 @@ from uav_penetration_env.settings_fields import (
 from uav_penetration_env.suggest import did_you_mean
 from uav_penetration_env.wording import counted
 from uav_penetration_env.yaml_mapping import read_yaml_mapping
+
+if TYPE_CHECKING:  # the MPC settings module is imported where a planner is built
+    from uav_penetration_env.mpc import MPCSettings
 
 # The MPC settings are config keys too, their defaults the dataclass's (mpc_flags).
 CONFIG_KEYS = [*config_keys(RunSettings), *SETTING_FIELDS]
@@ -116,8 +120,8 @@ def run_settings(args: argparse.Namespace) -> RunSettings:
     return dataclasses.replace(settings, mpc=mpc, explicit=frozenset(explicit))
 
 
-def make_policies(settings: RunSettings) -> dict[str, Any]:
-    """The policies of ``--policies`` by table name; plug-in kinds are checked for their extras here.
+def make_policies(names: Sequence[str], mpc: MPCSettings) -> dict[str, Any]:
+    """The policies ``names`` (``--policies``) by table name, MPC planners with ``mpc``; plug-in kinds checked for their extras.
 
     Raises:
         CLIError: an unknown name, a plug-in whose extra is missing, a bad agent file.
@@ -125,10 +129,10 @@ def make_policies(settings: RunSettings) -> dict[str, Any]:
     from uav_penetration_env.benchmark.policies import make_policy, parse_policy
 
     policies = {}
-    for spec in settings.policies:
+    for spec in names:
         try:
             parsed = parse_policy(spec)  # read once: its label is the table name, its spec builds the policy
-            policies[parsed.label] = make_policy(parsed, settings.mpc)
+            policies[parsed.label] = make_policy(parsed, mpc)
         except KeyError as error:
             raise CLIError(f"--policies: {error.args[0]}") from None
         except PluginUnavailable as error:  # it names the policy and what to install
@@ -214,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
 
     from uav_penetration_env.benchmark.evaluate import evaluate  # the physics and the compiled code
 
-    policies = make_policies(settings)
+    policies = make_policies(settings.policies, settings.mpc)
     reference = run_reference(settings.reference, list(policies))
     scenarios, seeds, include, suite_settings = plan or episode_plan(settings, policies, seeds)
     store_path = Path(settings.store)

@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_penetration_env.benchmark.timing import summarise, time_planners
     from uav_penetration_env.kernels import limit_worker_threads
 
-    policies = make_policies({"policies": args.policies, "mpc": settings})
+    policies = make_policies(args.policies, settings)
     limit_worker_threads(args.threads)
     setups, steps = time_planners(policies, scenarios, seeds, max_steps=args.max_steps)
     table = summarise(setups, steps, reference)
