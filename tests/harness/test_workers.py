@@ -96,13 +96,14 @@ def test_ctrl_c_during_a_run_prints_one_line_and_keeps_the_finished_episodes(tmp
     scenario = tiny_scenario().to_yaml(tmp_path / "tiny.yaml")
     store = tmp_path / "interrupted.sqlite"
     command = [sys.executable, "-m", "uav_penetration_env.benchmark.cli", "run", "--scenarios", str(scenario),
-               "--policies", "pso", "greedy", "--seeds", "64", "--max-evals", "1500", "--jobs", "2",
+               "--policies", "test-slow", "greedy", "--seeds", "24", "--jobs", "2", "--import", "slow_optimizer",
                "--no-report", "--no-progress", "--store", str(store)]  # fmt: skip
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), os.environ.get("PYTHONPATH", "")]))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), str(HERE), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)  # fmt: skip
-    # 128 episodes, interrupted after 2: on a busy machine the poll may see the store late, and a run
-    # of 16 (as before) could end in that gap (exit 0, seen under two busy processes, issue 42).
+    # The slow planner takes 0.2 s a step (24 episodes, seconds each), so the run outlasts the poll that
+    # waits for 2 stored episodes on any machine: a run of fast episodes could end in that gap and exit
+    # 0 (seen under two busy processes with 128 tiny pso episodes, issue 42).
     stored = wait_for_episodes(store, process, at_least=2, seconds=300, poll_s=0.05)
     assert process.poll() is None, f"the run ended before the interruption: {process.stderr.read()[-500:]}"
     os.killpg(process.pid, signal.SIGINT)
