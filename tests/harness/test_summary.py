@@ -246,3 +246,16 @@ def test_the_summary_and_the_html_report_read_one_rule():
     assert report._table_reference(frame, "ihpso") == table_reference(frame, "ihpso") == "greedy"
     unpaired = frame.assign(delta_mean=np.nan)  # the rows cannot tell: the requested name, if a row
     assert table_reference(unpaired, "random") == "random" and table_reference(unpaired, "ihpso") is None
+
+
+def test_only_leaderboards_are_summarised_the_paired_tables_are_listed(tmp_path):
+    import io
+
+    import pandas as pd
+
+    paired = tmp_path / "information.csv"
+    pd.DataFrame({"comparison": ["price of information (P - oracle:P)"], "policy": ["lattice"], "pairs": [2],
+                  "mean_difference": [0.01]}).to_csv(paired, index=False)  # fmt: skip
+    stream = io.StringIO()
+    print_summary([paired], file=stream, width=100)
+    assert stream.getvalue() == f"full table: {paired}\n"

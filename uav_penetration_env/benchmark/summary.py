@@ -173,9 +173,9 @@ def print_summary(
         if path.suffix != ".csv":
             continue
         frame = pd.read_csv(path)
-        if frame.empty or "policy" not in frame or "member" in frame:
-            # the RL table (<stem>-rl.csv) and a table stacking several members' leaderboards
-            # (leaderboard.suite) are listed, not summarised
+        if frame.empty or "total_cost_mean" not in frame or "member" in frame:
+            # only a leaderboard is summarised: the RL table (<stem>-rl.csv), a table stacking several
+            # members' leaderboards (leaderboard.suite) and the paired tables (information.csv) are listed
             continue
         console.print(summary_table(frame, f"{path.stem} (lower total J is better)", reference))
     # Paths are printed whole, never wrapped, so they can be copied (a long path may pass the width).
