@@ -136,7 +136,7 @@ def test_run_suite_refuses_flags_that_change_members(tmp_path, capsys, extra, me
 
 def test_unknown_suite_and_members_without_suite(tmp_path, capsys):
     status, _ = cli.main(["run", "--suite", "uavpen-1", "--store", str(tmp_path / "s.sqlite")]), None
-    assert status == 2 and "unknown suite 'uavpen-1' — did you mean 'uavpen-v1', 'uavpen-heldout-v1'?" in capsys.readouterr().err
+    assert status == 2 and "unknown suite 'uavpen-1' — did you mean 'uavpen-v1', 'uavpen-heldout-v1', 'uavpen-dynamic-v1'?" in capsys.readouterr().err
     assert cli.main(["run", "--members", "x", "--store", str(tmp_path / "s.sqlite")]) == 2
     assert "--members: only with --suite" in capsys.readouterr().err
 
