@@ -99,8 +99,12 @@ def test_ctrl_c_during_a_run_prints_one_line_and_keeps_the_finished_episodes(tmp
                "--policies", "test-slow", "greedy", "--seeds", "24", "--jobs", "2", "--import", "slow_optimizer",
                "--no-report", "--no-progress", "--store", str(store)]  # fmt: skip
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE.parent.parent), str(HERE), os.environ.get("PYTHONPATH", "")]))
+    # A shell's background job (`cmd &` without job control, as CI scripts and nohup start them) runs
+    # with SIGINT ignored, and a child inherits that: the run would then rightly ignore the Ctrl-C.
+    # The child gets the default handling, as a process started from a terminal has it.
     process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)  # fmt: skip
+                               start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # fmt: skip
     # The slow planner takes 0.2 s a step (24 episodes, seconds each), so the run outlasts the poll that
     # waits for 2 stored episodes on any machine: a run of fast episodes could end in that gap and exit
     # 0 (seen under two busy processes with 128 tiny pso episodes, issue 42).
