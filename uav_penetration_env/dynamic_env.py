@@ -23,7 +23,7 @@ import numpy as np
 
 from uav_penetration_env.env import ScenarioLike, UAVPenetrationEnv
 from uav_penetration_env.model import PenetrationModel
-from uav_penetration_env.scenario import Radar
+from uav_penetration_env.scenario import Radar, Scenario
 from uav_penetration_env.threats import ThreatState, draw_threats
 
 MODEL_CACHE_LIMIT = 64  # models of radar sets kept per env (a mobile radar makes one per step)
@@ -183,3 +183,11 @@ class UAVPenetrationDynamicEnv(UAVPenetrationEnv):
                 "expected a static scenario, or reset() and step()"
             )
         return super().set_state(state, step_index)
+
+
+def episode_env(scenario: Scenario) -> UAVPenetrationEnv:
+    """The env a scenario's episode flies: the dynamic env for a dynamic scenario, else the static one.
+
+    The one choice the harness, the suite freeze and the fingerprint replay share.
+    """
+    return UAVPenetrationDynamicEnv(scenario) if scenario.is_dynamic else UAVPenetrationEnv(scenario)

@@ -23,16 +23,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from uav_penetration_env.benchmark.policy_spec import OFFLINE, ORACLE
-from uav_penetration_env.dynamic_env import UAVPenetrationDynamicEnv
+from uav_penetration_env.dynamic_env import episode_env  # noqa: F401  # re-exported: the harness's env choice
 from uav_penetration_env.env import UAVPenetrationEnv
 from uav_penetration_env.model import PenetrationModel
-from uav_penetration_env.scenario import Scenario
 from uav_penetration_env.types import FloatArray
-
-
-def episode_env(scenario: Scenario) -> UAVPenetrationEnv:
-    """The env an episode of ``scenario`` flies: the dynamic env for a dynamic scenario, else the static one."""
-    return UAVPenetrationDynamicEnv(scenario) if scenario.is_dynamic else UAVPenetrationEnv(scenario)
 
 
 def is_oracle(policy: Any) -> bool:

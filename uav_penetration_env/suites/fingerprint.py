@@ -122,11 +122,9 @@ def replay_episode(scenario: Scenario, actions: Controls) -> tuple[float, int, b
         The total cost ΣJ(k) + Σ penalty (= −return) of the steps flown, the number of steps
         flown, and whether the episode ended (goal, failure or K_max) at the last of them.
     """
-    from uav_penetration_env.dynamic_env import UAVPenetrationDynamicEnv
-    from uav_penetration_env.env import UAVPenetrationEnv
+    from uav_penetration_env.dynamic_env import episode_env
 
-    # A dynamic member replays in the dynamic env (its threats drawn from the same reset seed).
-    env = UAVPenetrationDynamicEnv(scenario) if scenario.is_dynamic else UAVPenetrationEnv(scenario)
+    env = episode_env(scenario)  # a dynamic member replays in the dynamic env (threats drawn from the reset seed)
     env.reset(seed=REPLAY_SEED)
     costs, penalties = [], []
     done = False
